@@ -1,0 +1,49 @@
+# snell: `make demo` renders the default scene; `make test` runs every test.
+# Both install the system packages they need (Debian 12: libembree-dev, libclang-dev).
+SHELL := /bin/bash
+CARGO ?= cargo
+DEMO_SCENE ?= scenes/three_spheres.toml
+DEMO_OUT ?= out/demo.png
+APT_PACKAGES := libembree-dev libclang-dev
+
+.PHONY: deps demo test build bench fmt lint clean
+
+deps:
+	@missing=""; \
+	[ -f /usr/include/embree3/rtcore.h ] || missing="$$missing libembree-dev"; \
+	ls /usr/lib/llvm-*/lib/libclang*.so* >/dev/null 2>&1 || ls /usr/lib/x86_64-linux-gnu/libclang*.so* >/dev/null 2>&1 || missing="$$missing libclang-dev"; \
+	if [ -n "$$EMBREE_DIR" ] && [ -f "$$EMBREE_DIR/include/embree3/rtcore.h" ]; then missing=$${missing/libembree-dev/}; fi; \
+	if [ -n "$$(echo $$missing)" ]; then \
+	  echo "snell: installing missing system packages:$$missing"; \
+	  if [ "$$(id -u)" = 0 ]; then \
+	    export DEBIAN_FRONTEND=noninteractive; apt-get update && apt-get install -y $$missing || exit 1; \
+	  elif command -v sudo >/dev/null 2>&1; then \
+	    sudo apt-get update && sudo DEBIAN_FRONTEND=noninteractive apt-get install -y $$missing || exit 1; \
+	  else \
+	    echo "snell: not root and no sudo. Run as root: apt-get update && apt-get install -y$$missing"; exit 1; \
+	  fi; \
+	fi
+
+build: deps
+	$(CARGO) build --release --locked
+
+demo: build
+	@mkdir -p $(dir $(DEMO_OUT))
+	./target/release/snell render $(DEMO_SCENE) -o $(DEMO_OUT) --quiet
+	@echo "snell: demo image written to $(abspath $(DEMO_OUT))"
+
+test: deps
+	$(CARGO) test --workspace --locked
+
+bench: deps
+	$(CARGO) bench --locked
+
+fmt:
+	$(CARGO) fmt --all
+
+lint: deps
+	$(CARGO) fmt --all -- --check
+	$(CARGO) clippy --all-targets --locked -- -D warnings
+
+clean:
+	$(CARGO) clean
