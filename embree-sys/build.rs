@@ -2,6 +2,7 @@
 //! 1. `EMBREE_DIR` (a prefix with `include/` and `lib/`),
 //! 2. pkg-config `embree3`, where an `embree3.pc` exists,
 //! 3. the system default (`/usr/include/embree3`, `-lembree3`).
+//!
 //! Debian 12's `libembree-dev` ships no `.pc` file, so 3 is the usual path.
 use std::env;
 use std::path::{Path, PathBuf};

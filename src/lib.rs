@@ -1,6 +1,20 @@
-//! snell: a ray tracer on Intel Embree 3 for refraction.
+//! snell: a ray tracer on Intel Embree 3 for refraction that other renderers
+//! get wrong or make slow: nested dielectrics with priorities (false hits
+//! skipped inside an Embree filter), curved rays in gradient-index media, and
+//! analytic refraction warps. See DESIGN.md and docs/.
+pub mod camera;
+pub mod dielectric;
 pub mod embree;
+pub mod error;
+pub mod image_io;
+pub mod integrator;
+pub mod optics;
 pub mod provenance;
+pub mod render;
+pub mod sampling;
+pub mod scene;
+
+pub use error::{Error, Result};
 
 /// The header line every benchmark prints first.
 pub fn bench_header() -> String {

@@ -272,6 +272,8 @@ struct UserGeom {
 pub struct SceneBuilder {
     device: Device,
     raw: sys::RTCScene,
+    // Boxed so each UserGeom keeps its address (Embree holds pointers to it) when the Vec grows.
+    #[allow(clippy::vec_box)]
     user: Vec<Box<UserGeom>>,
     count: u32,
 }
@@ -634,6 +636,7 @@ unsafe extern "C" fn user_occluded(args: *const sys::RTCOccludedFunctionNArgumen
 pub struct Scene {
     device: Device,
     raw: sys::RTCScene,
+    #[allow(clippy::vec_box)]
     _user: Vec<Box<UserGeom>>,
 }
 

@@ -1,0 +1,121 @@
+//! Pinhole camera with the conventions of `reference-scenes/scenes.json`:
+//! forward = normalize(target − position); right = normalize(forward × up);
+//! true_up = right × forward; row 0 is the top of the image; `fov_deg` is the
+//! full vertical field of view.
+use crate::error::{Error, Result};
+use glam::Vec3A as V3;
+
+#[derive(Debug, Clone, Copy)]
+pub struct Camera {
+    pub position: V3,
+    forward: V3,
+    right: V3,
+    up: V3,
+    tan_half: f32,
+    aspect: f32,
+    width: f32,
+    height: f32,
+    /// Thin lens: aperture radius (0 = pinhole) and focus distance.
+    lens_radius: f32,
+    focus_distance: f32,
+}
+
+impl Camera {
+    /// `fov_deg` in (0, 180). Fails when position == target or up ∥ forward.
+    #[allow(clippy::too_many_arguments)]
+    pub fn try_new(
+        position: V3,
+        target: V3,
+        up: V3,
+        fov_deg: f32,
+        width: u32,
+        height: u32,
+        lens_radius: f32,
+        focus_distance: f32,
+    ) -> Result<Camera> {
+        let f = target - position;
+        if f.length_squared() == 0.0 || !f.is_finite() {
+            return Err(Error::Invalid("camera target equals position".into()));
+        }
+        let forward = f.normalize();
+        let r = forward.cross(up);
+        if r.length_squared() < 1e-12 {
+            return Err(Error::Invalid(
+                "camera up is parallel to the view direction".into(),
+            ));
+        }
+        if !(fov_deg > 0.0 && fov_deg < 180.0) {
+            return Err(Error::Invalid("fov must be in (0, 180) degrees".into()));
+        }
+        let right = r.normalize();
+        Ok(Camera {
+            position,
+            forward,
+            right,
+            up: right.cross(forward),
+            tan_half: (fov_deg.to_radians() * 0.5).tan(),
+            aspect: width as f32 / height as f32,
+            width: width as f32,
+            height: height as f32,
+            lens_radius,
+            focus_distance,
+        })
+    }
+
+    /// Ray origin and unit direction for film point (x, y) in pixels
+    /// (x in [0, width), y in [0, height)); `lens` in [0,1)² for a thin lens.
+    #[inline]
+    pub fn ray(&self, x: f32, y: f32, lens: (f32, f32)) -> (V3, V3) {
+        let sx = (2.0 * x / self.width - 1.0) * self.tan_half * self.aspect;
+        let sy = (1.0 - 2.0 * y / self.height) * self.tan_half;
+        let d = (self.forward + self.right * sx + self.up * sy).normalize();
+        if self.lens_radius <= 0.0 {
+            return (self.position, d);
+        }
+        // Thin lens: points on the focal plane (distance along forward) stay sharp.
+        let ft = self.focus_distance / d.dot(self.forward);
+        let focus = self.position + d * ft;
+        let r = self.lens_radius * lens.0.sqrt();
+        let phi = 2.0 * std::f32::consts::PI * lens.1;
+        let o = self.position + self.right * (r * phi.cos()) + self.up * (r * phi.sin());
+        (o, (focus - o).normalize())
+    }
+
+    /// The same camera for another film size (vertical fov kept).
+    pub fn with_resolution(&self, width: u32, height: u32) -> Camera {
+        Camera {
+            aspect: width as f32 / height as f32,
+            width: width as f32,
+            height: height as f32,
+            ..*self
+        }
+    }
+
+    pub fn forward(&self) -> V3 {
+        self.forward
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn centre_pixel_looks_at_target_and_corners_follow_convention() {
+        let c = Camera::try_new(V3::new(0.0, 0.0, 4.0), V3::ZERO, V3::Y, 40.0, 640, 480, 0.0, 1.0).unwrap();
+        let (_, d) = c.ray(320.0, 240.0, (0.0, 0.0));
+        assert!((d - V3::new(0.0, 0.0, -1.0)).length() < 1e-6);
+        let (_, d) = c.ray(0.0, 0.0, (0.0, 0.0));
+        assert!(d.x < 0.0 && d.y > 0.0, "row 0 is the top, column 0 the left");
+        let (_, d) = c.ray(320.0, 0.0, (0.0, 0.0));
+        let half = (d.y / -d.z).atan().to_degrees();
+        assert!((half - 20.0).abs() < 1e-4, "vertical fov is full: {half}");
+    }
+
+    #[test]
+    fn degenerate_cameras_are_errors() {
+        assert!(Camera::try_new(V3::ZERO, V3::ZERO, V3::Y, 40.0, 4, 4, 0.0, 1.0).is_err());
+        assert!(Camera::try_new(V3::ZERO, V3::Y, V3::Y, 40.0, 4, 4, 0.0, 1.0).is_err());
+        assert!(Camera::try_new(V3::ZERO, V3::X, V3::Y, 180.0, 4, 4, 0.0, 1.0).is_err());
+    }
+}

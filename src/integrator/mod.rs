@@ -1,0 +1,570 @@
+//! Integrators: an unbiased path tracer (next-event estimation with MIS for
+//! area lights, Russian roulette, smooth dielectrics with exact Fresnel and
+//! TIR, nested priorities) and a Whitted tracer for quick previews.
+//!
+//! Depth follows Mitsuba: `max_depth` counts path segments including the
+//! camera ray (1 = directly visible emitters only, 2 = direct lighting).
+use crate::dielectric::{self, InteriorList, NestedStrategy, TraceCounters};
+use crate::embree::{Hit, Ray};
+use crate::error::Result;
+use crate::optics;
+use crate::sampling::{cosine_hemisphere, power_heuristic, uniform_cone, Rng};
+use crate::scene::build::{IntegratorKind, Shape};
+use crate::scene::{Light, Material, RenderScene};
+use glam::{DVec3, Vec3A as V3};
+use std::f32::consts::{FRAC_1_PI, PI};
+
+/// Per-sample diagnostics, accumulated into AOV layers and statistics.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct SampleStats {
+    pub counters: TraceCounters,
+    pub tir: u32,
+    pub segments: u32,
+    pub shadow_rays: u32,
+    pub nan: u32,
+}
+
+/// Geometry at a hit, in world space.
+#[derive(Debug, Clone, Copy)]
+pub struct SurfacePoint {
+    pub p: V3,
+    /// Unit geometric normal with the shape's convention (see `scene::shapes`).
+    pub ng: V3,
+    /// Unit shading normal on the same side as `ng`.
+    pub ns: V3,
+    pub uv: [f32; 2],
+}
+
+/// Hit point and normals for `hit` along `ray` (unit direction).
+pub fn surface_point(scene: &RenderScene, ray: &Ray, hit: &Hit) -> SurfacePoint {
+    let p = ray.org + ray.dir * hit.t;
+    let rec = &scene.geoms[hit.geom_id as usize];
+    match &rec.shape {
+        Shape::Mesh(m) => {
+            let ng = hit.ng.normalize_or(V3::Y);
+            let (ns, uv) = m.shading(hit.prim_id, hit.u, hit.v);
+            let ns = match ns {
+                Some(n) if n.dot(ng) > 0.0 => n,
+                Some(n) => -n,
+                None => ng,
+            };
+            SurfacePoint { p, ng, ns, uv }
+        }
+        Shape::Analytic(a) => {
+            let pd = DVec3::new(p.x as f64, p.y as f64, p.z as f64);
+            let n = a.normal(hit.prim_id, pd);
+            let ng = V3::new(n.x as f32, n.y as f32, n.z as f32);
+            SurfacePoint {
+                p,
+                ng,
+                ns: ng,
+                uv: a.uv(pd),
+            }
+        }
+    }
+}
+
+/// Origin for a ray leaving `p` to the side `side` (a unit normal pointing to
+/// where the new ray goes): offset by a bound on the f32 error of the hit
+/// point, which scales with the magnitude of its coordinates.
+#[inline]
+pub fn offset_origin(p: V3, side: V3) -> V3 {
+    let err = 64.0 * f32::EPSILON * (p.abs().max_element() + 0.5);
+    p + side * err
+}
+
+/// The light-sampling density (solid angle, including the choice of light)
+/// of reaching light `li` from `from` in direction `wi` to the point `q`.
+fn light_pdf(scene: &RenderScene, li: u32, from: V3, q: V3, wi: V3) -> f32 {
+    let n = scene.lights.len() as f32;
+    match &scene.lights[li as usize] {
+        Light::Rect { normal, area, .. } => {
+            let d2 = (q - from).length_squared();
+            let cos_l = -normal.dot(wi);
+            if cos_l <= 0.0 {
+                0.0
+            } else {
+                d2 / (area * cos_l) / n
+            }
+        }
+        Light::Sphere { center, radius, .. } => {
+            let d2 = (*center - from).length_squared();
+            let r2 = radius * radius;
+            if d2 <= r2 {
+                return 0.0;
+            }
+            let cos_max = (1.0 - r2 / d2).max(0.0).sqrt();
+            1.0 / (2.0 * PI * (1.0 - cos_max)) / n
+        }
+        _ => 0.0,
+    }
+}
+
+/// A light sample seen from `p`: direction, distance, radiance and solid-angle pdf
+/// (0 for delta lights), including the 1/num_lights choice.
+struct LightSample {
+    wi: V3,
+    dist: f32,
+    li: V3,
+    pdf: f32,
+    delta: bool,
+}
+
+fn sample_light(scene: &RenderScene, p: V3, rng: &mut Rng) -> Option<LightSample> {
+    let n = scene.lights.len();
+    if n == 0 {
+        return None;
+    }
+    let idx = ((rng.uniform() * n as f32) as usize).min(n - 1);
+    let (u1, u2) = (rng.uniform(), rng.uniform());
+    let nf = n as f32;
+    match &scene.lights[idx] {
+        Light::Point { position, intensity } => {
+            let d = *position - p;
+            let dist = d.length();
+            (dist > 0.0).then(|| LightSample {
+                wi: d / dist,
+                dist,
+                li: *intensity / (dist * dist) * nf,
+                pdf: 1.0,
+                delta: true,
+            })
+        }
+        Light::Directional {
+            direction,
+            irradiance,
+        } => Some(LightSample {
+            wi: -*direction,
+            dist: f32::INFINITY,
+            li: *irradiance * nf,
+            pdf: 1.0,
+            delta: true,
+        }),
+        Light::Rect {
+            corner,
+            edge_u,
+            edge_v,
+            normal,
+            area,
+            radiance,
+        } => {
+            let q = *corner + *edge_u * u1 + *edge_v * u2;
+            let d = q - p;
+            let dist = d.length();
+            let wi = d / dist;
+            let cos_l = -normal.dot(wi);
+            (cos_l > 0.0 && dist > 0.0).then(|| LightSample {
+                wi,
+                dist,
+                li: *radiance,
+                pdf: dist * dist / (area * cos_l) / nf,
+                delta: false,
+            })
+        }
+        Light::Sphere {
+            center,
+            radius,
+            radiance,
+        } => {
+            let d = *center - p;
+            let d2 = d.length_squared();
+            let r2 = radius * radius;
+            if d2 <= r2 {
+                return None;
+            }
+            let cos_max = (1.0 - r2 / d2).max(0.0).sqrt();
+            let axis = d / d2.sqrt();
+            let wi = uniform_cone(axis, cos_max, u1, u2);
+            // Distance to the sphere along wi (nearest root).
+            let b = d.dot(wi);
+            let disc = (b * b - (d2 - r2)).max(0.0);
+            let dist = b - disc.sqrt();
+            Some(LightSample {
+                wi,
+                dist,
+                li: *radiance,
+                pdf: 1.0 / (2.0 * PI * (1.0 - cos_max)) / nf,
+                delta: false,
+            })
+        }
+    }
+}
+
+fn unoccluded(scene: &RenderScene, from: V3, side: V3, wi: V3, dist: f32, st: &mut SampleStats) -> bool {
+    st.shadow_rays += 1;
+    let o = offset_origin(from, side);
+    let mut r = Ray::new(o, wi);
+    if dist.is_finite() {
+        r.tfar = dist * (1.0 - 1e-4) - 64.0 * f32::EPSILON * (from.abs().max_element() + 0.5);
+        if r.tfar <= 0.0 {
+            return true;
+        }
+    }
+    !scene.embree.occluded(&r)
+}
+
+/// Indices (n1 on the incident side, n2 beyond) at a dielectric hit, and
+/// whether the ray enters; also the interior list a refracted ray carries.
+struct Crossing {
+    n1: f32,
+    n2: f32,
+    /// List after refraction (the reflected ray keeps the current one).
+    refract_list: Option<InteriorList>,
+}
+
+fn crossing(
+    scene: &RenderScene,
+    material: &Material,
+    entering_by_normal: bool,
+    list: &InteriorList,
+    strategy: NestedStrategy,
+) -> Crossing {
+    let rank = |s: u32| scene.solids[s as usize].rank;
+    let ior_of = |l: &InteriorList| {
+        l.top(rank)
+            .map(|s| scene.solids[s as usize].ior)
+            .unwrap_or(scene.ambient_ior)
+    };
+    match *material {
+        Material::Interface { int_ior, ext_ior } => {
+            if entering_by_normal {
+                Crossing {
+                    n1: ext_ior,
+                    n2: int_ior,
+                    refract_list: None,
+                }
+            } else {
+                Crossing {
+                    n1: int_ior,
+                    n2: ext_ior,
+                    refract_list: None,
+                }
+            }
+        }
+        Material::Solid(s) => {
+            let entering = match strategy {
+                NestedStrategy::Toggle => !list.contains(s),
+                _ => entering_by_normal,
+            };
+            let mut after = list.clone();
+            if entering {
+                // Entering O: from the highest in the list (or ambient) to O.
+                let n1 = ior_of(list);
+                after.insert(s);
+                Crossing {
+                    n1,
+                    n2: scene.solids[s as usize].ior,
+                    refract_list: Some(after),
+                }
+            } else {
+                // Leaving O: from O to the highest remaining (or ambient).
+                after.remove(s);
+                Crossing {
+                    n1: scene.solids[s as usize].ior,
+                    n2: ior_of(&after),
+                    refract_list: Some(after),
+                }
+            }
+        }
+        _ => Crossing {
+            n1: 1.0,
+            n2: 1.0,
+            refract_list: None,
+        },
+    }
+}
+
+fn to_d(v: V3) -> DVec3 {
+    DVec3::new(v.x as f64, v.y as f64, v.z as f64)
+}
+fn to_f(v: DVec3) -> V3 {
+    V3::new(v.x as f32, v.y as f32, v.z as f32)
+}
+
+/// Absorption coefficient of the medium a ray inside `list` travels through.
+#[inline]
+fn medium_sigma(scene: &RenderScene, list: &InteriorList) -> Option<V3> {
+    if list.is_empty() {
+        return None;
+    }
+    let rank = |s: u32| scene.solids[s as usize].rank;
+    let s = list.top(rank)?;
+    let sigma = scene.solids[s as usize].sigma_a;
+    (sigma.max_element() > 0.0).then_some(sigma)
+}
+
+/// Radiance along a camera ray (unit `dir`), with `list` the interior list at the camera.
+pub fn radiance(
+    scene: &RenderScene,
+    org: V3,
+    dir: V3,
+    list: InteriorList,
+    rng: &mut Rng,
+    st: &mut SampleStats,
+) -> Result<V3> {
+    match scene.integrator {
+        IntegratorKind::Path => path(scene, org, dir, list, rng, st),
+        IntegratorKind::Whitted => whitted(scene, org, dir, list, rng, st, 1),
+    }
+}
+
+fn path(
+    scene: &RenderScene,
+    org: V3,
+    dir: V3,
+    mut list: InteriorList,
+    rng: &mut Rng,
+    st: &mut SampleStats,
+) -> Result<V3> {
+    let mut l = V3::ZERO;
+    let mut beta = V3::ONE;
+    let mut eta_scale = 1.0f32;
+    let mut ray = Ray::new(org, dir);
+    let mut specular = true;
+    let mut prev_p = org;
+    let mut prev_pdf = 0.0f32;
+    let mut depth = 1u32; // segment index of `ray`
+    loop {
+        st.segments += 1;
+        let sigma = medium_sigma(scene, &list);
+        let hit = dielectric::trace(scene, scene.strategy, &ray, &mut list, &mut st.counters)?;
+        let Some(hit) = hit else {
+            if sigma.is_none() {
+                l += beta * scene.environment.eval(ray.dir);
+            }
+            break;
+        };
+        if let Some(s) = sigma {
+            beta *= (-s * hit.t).exp();
+        }
+        let sp = surface_point(scene, &ray, &hit);
+        let rec = &scene.geoms[hit.geom_id as usize];
+        let front = sp.ng.dot(ray.dir) < 0.0;
+
+        if let Some(em) = &rec.emission {
+            if front {
+                let le = em.eval(sp.p, sp.uv);
+                let w = match rec.light {
+                    Some(li) if !specular => {
+                        let lp = light_pdf(scene, li, prev_p, sp.p, ray.dir);
+                        power_heuristic(prev_pdf, lp)
+                    }
+                    _ => 1.0,
+                };
+                l += beta * le * w;
+            }
+        }
+        if depth >= scene.max_depth {
+            break;
+        }
+        let wo = -ray.dir;
+        match &rec.material {
+            Material::Black => break,
+            Material::Diffuse {
+                reflectance,
+                two_sided,
+            } => {
+                if !front && !two_sided {
+                    break; // one-sided: black from behind
+                }
+                let n = if front { sp.ns } else { -sp.ns };
+                let ng = if front { sp.ng } else { -sp.ng };
+                let albedo = reflectance.eval(sp.p, sp.uv);
+                // Next-event estimation.
+                if let Some(ls) = sample_light(scene, sp.p, rng) {
+                    let cos = n.dot(ls.wi);
+                    if cos > 0.0 && ng.dot(ls.wi) > 0.0 && unoccluded(scene, sp.p, ng, ls.wi, ls.dist, st) {
+                        let f = albedo * FRAC_1_PI;
+                        let w = if ls.delta {
+                            1.0
+                        } else {
+                            power_heuristic(ls.pdf, cos * FRAC_1_PI)
+                        };
+                        l += beta * f * ls.li * (cos * w / ls.pdf);
+                    }
+                }
+                let wi = cosine_hemisphere(n, rng.uniform(), rng.uniform());
+                if ng.dot(wi) <= 0.0 {
+                    break;
+                }
+                beta *= albedo;
+                prev_pdf = n.dot(wi) * FRAC_1_PI;
+                specular = false;
+                prev_p = sp.p;
+                ray = Ray::new(offset_origin(sp.p, ng), wi);
+                let _ = wo;
+            }
+            Material::Mirror { reflectance } => {
+                let n = if front { sp.ns } else { -sp.ns };
+                let wi = to_f(optics::reflect(to_d(ray.dir), to_d(n)).normalize());
+                beta *= *reflectance;
+                specular = true;
+                prev_p = sp.p;
+                let side = if front { sp.ng } else { -sp.ng };
+                ray = Ray::new(offset_origin(sp.p, side), wi);
+            }
+            m @ (Material::Interface { .. } | Material::Solid(_)) => {
+                let c = crossing(scene, m, front, &list, scene.strategy);
+                let d = to_d(ray.dir);
+                let n = to_d(sp.ns);
+                let cos_i = d.dot(n).abs();
+                let fr = optics::fresnel_dielectric(cos_i, c.n1 as f64, c.n2 as f64);
+                let refr = optics::refract(d, n, c.n1 as f64, c.n2 as f64);
+                if refr.is_none() {
+                    st.tir += 1;
+                }
+                let choose_reflect = refr.is_none() || (rng.uniform() as f64) < fr;
+                // The geometric side the incident ray came from.
+                let incident_side = if front { sp.ng } else { -sp.ng };
+                if choose_reflect {
+                    let r = optics::reflect(d, n).normalize();
+                    let mut wi = to_f(r);
+                    if wi.dot(incident_side) <= 0.0 {
+                        // Shading normal pushed the reflection below the surface.
+                        wi = to_f(optics::reflect(d, to_d(incident_side)).normalize());
+                    }
+                    ray = Ray::new(offset_origin(sp.p, incident_side), wi);
+                } else {
+                    let t = refr.expect("checked above").normalize();
+                    let mut wi = to_f(t);
+                    if wi.dot(incident_side) >= 0.0 {
+                        wi = to_f(
+                            optics::refract(d, to_d(incident_side), c.n1 as f64, c.n2 as f64)
+                                .unwrap_or(d)
+                                .normalize(),
+                        );
+                    }
+                    let k = c.n1 / c.n2;
+                    beta *= k * k;
+                    eta_scale /= k * k;
+                    if let Some(nl) = c.refract_list {
+                        list = nl;
+                    }
+                    ray = Ray::new(offset_origin(sp.p, -incident_side), wi);
+                }
+                specular = true;
+                prev_p = sp.p;
+            }
+        }
+        depth += 1;
+        if depth > scene.rr_depth {
+            let q = (beta.max_element() * eta_scale).min(0.95);
+            if rng.uniform() >= q {
+                break;
+            }
+            beta /= q;
+        }
+    }
+    if !l.is_finite() {
+        st.nan += 1;
+        return Ok(V3::ZERO);
+    }
+    Ok(l)
+}
+
+/// Whitted: direct light at diffuse surfaces (one sample per light), perfect
+/// specular recursion for mirrors and both branches of dielectrics.
+fn whitted(
+    scene: &RenderScene,
+    org: V3,
+    dir: V3,
+    mut list: InteriorList,
+    rng: &mut Rng,
+    st: &mut SampleStats,
+    depth: u32,
+) -> Result<V3> {
+    st.segments += 1;
+    let ray = Ray::new(org, dir);
+    let sigma = medium_sigma(scene, &list);
+    let Some(hit) = dielectric::trace(scene, scene.strategy, &ray, &mut list, &mut st.counters)? else {
+        return Ok(if sigma.is_some() {
+            V3::ZERO
+        } else {
+            scene.environment.eval(dir)
+        });
+    };
+    let att = sigma.map(|s| (-s * hit.t).exp()).unwrap_or(V3::ONE);
+    let sp = surface_point(scene, &ray, &hit);
+    let rec = &scene.geoms[hit.geom_id as usize];
+    let front = sp.ng.dot(dir) < 0.0;
+    let mut l = V3::ZERO;
+    if let (Some(em), true) = (&rec.emission, front) {
+        l += em.eval(sp.p, sp.uv);
+    }
+    if depth >= scene.max_depth {
+        return Ok(att * l);
+    }
+    match &rec.material {
+        Material::Black => {}
+        Material::Diffuse {
+            reflectance,
+            two_sided,
+        } => {
+            if front || *two_sided {
+                let n = if front { sp.ns } else { -sp.ns };
+                let ng = if front { sp.ng } else { -sp.ng };
+                let albedo = reflectance.eval(sp.p, sp.uv);
+                for _ in 0..scene.lights.len() {
+                    if let Some(ls) = sample_light(scene, sp.p, rng) {
+                        let cos = n.dot(ls.wi);
+                        if cos > 0.0 && unoccluded(scene, sp.p, ng, ls.wi, ls.dist, st) {
+                            l += albedo * FRAC_1_PI * ls.li * (cos / ls.pdf) / scene.lights.len() as f32;
+                        }
+                    }
+                }
+                // Ambient term from a constant environment (preview only).
+                if let crate::scene::Environment::Constant(c) = scene.environment {
+                    l += albedo * c;
+                }
+            }
+        }
+        Material::Mirror { reflectance } => {
+            let n = if front { sp.ns } else { -sp.ns };
+            let side = if front { sp.ng } else { -sp.ng };
+            let wi = to_f(optics::reflect(to_d(dir), to_d(n)).normalize());
+            l += *reflectance * whitted(scene, offset_origin(sp.p, side), wi, list, rng, st, depth + 1)?;
+        }
+        m @ (Material::Interface { .. } | Material::Solid(_)) => {
+            let c = crossing(scene, m, front, &list, scene.strategy);
+            let d = to_d(dir);
+            let n = to_d(sp.ns);
+            let fr = optics::fresnel_dielectric(d.dot(n).abs(), c.n1 as f64, c.n2 as f64) as f32;
+            let side = if front { sp.ng } else { -sp.ng };
+            let wr = to_f(optics::reflect(d, n).normalize());
+            l += fr
+                * whitted(
+                    scene,
+                    offset_origin(sp.p, side),
+                    wr,
+                    list.clone(),
+                    rng,
+                    st,
+                    depth + 1,
+                )?;
+            if let Some(t) = optics::refract(d, n, c.n1 as f64, c.n2 as f64) {
+                let nl = c.refract_list.unwrap_or(list);
+                let k = c.n1 / c.n2;
+                l += (1.0 - fr)
+                    * k
+                    * k
+                    * whitted(
+                        scene,
+                        offset_origin(sp.p, -side),
+                        to_f(t.normalize()),
+                        nl,
+                        rng,
+                        st,
+                        depth + 1,
+                    )?;
+            } else {
+                st.tir += 1;
+            }
+        }
+    }
+    let out = att * l;
+    if !out.is_finite() {
+        st.nan += 1;
+        return Ok(V3::ZERO);
+    }
+    Ok(out)
+}

@@ -1,0 +1,310 @@
+//! Mesh generators (rect, box, lathe, diamond-square heightfield) and the OBJ loader.
+use super::shapes::Mesh;
+use crate::sampling::Rng;
+use glam::DVec3;
+use std::path::Path;
+
+fn f3(v: DVec3) -> [f32; 3] {
+    [v.x as f32, v.y as f32, v.z as f32]
+}
+
+/// A rectangle as two triangles, counter-clockwise seen from `normal`.
+/// `v_axis = normal × u_axis`; uv spans [0,1]² along (u_axis, v_axis).
+pub fn rect(center: DVec3, normal: DVec3, u_axis: DVec3, size: [f64; 2]) -> Mesh {
+    let v_axis = normal.cross(u_axis);
+    let hu = u_axis * (size[0] * 0.5);
+    let hv = v_axis * (size[1] * 0.5);
+    let p = [
+        center - hu - hv,
+        center + hu - hv,
+        center + hu + hv,
+        center - hu + hv,
+    ];
+    let n = f3(normal);
+    Mesh {
+        positions: p.iter().map(|&q| f3(q)).collect(),
+        indices: vec![[0, 1, 2], [0, 2, 3]],
+        normals: Some(vec![n; 4]),
+        uvs: Some(vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]),
+    }
+}
+
+/// An axis-aligned box, outward normals, flat shaded (no shared vertices across faces).
+pub fn cuboid(center: DVec3, size: DVec3) -> Mesh {
+    let mut m = Mesh {
+        normals: Some(vec![]),
+        uvs: Some(vec![]),
+        ..Default::default()
+    };
+    let h = size * 0.5;
+    for axis in 0..3 {
+        for sign in [-1.0, 1.0] {
+            let mut n = DVec3::ZERO;
+            n[axis] = sign;
+            let mut u = DVec3::ZERO;
+            u[(axis + 1) % 3] = 1.0;
+            let v = n.cross(u);
+            let c = center + n * h[axis];
+            let (su, sv) = (h.dot(u.abs()) * 2.0, h.dot(v.abs()) * 2.0);
+            let r = rect(c, n, u, [su, sv]);
+            let base = m.positions.len() as u32;
+            m.positions.extend(r.positions);
+            m.indices.extend(r.indices.iter().map(|t| t.map(|i| i + base)));
+            m.normals.as_mut().unwrap().extend(r.normals.unwrap());
+            m.uvs.as_mut().unwrap().extend(r.uvs.unwrap());
+        }
+    }
+    m
+}
+
+/// A profile of (radius, height) points revolved around +y, `segments` around.
+/// Consecutive profile points form bands; points on the axis (r = 0) produce
+/// fans, not degenerate triangles. Winding: a profile walked bottom → top on
+/// the outside (increasing y at r > 0) faces away from the axis.
+/// Vertices are shared around and along the profile so the result can be closed.
+pub fn lathe(profile: &[[f64; 2]], segments: u32) -> Mesh {
+    let s = segments as usize;
+    let mut m = Mesh::default();
+    let mut ring_start = Vec::with_capacity(profile.len());
+    for p in profile {
+        ring_start.push(m.positions.len() as u32);
+        if p[0] == 0.0 {
+            m.positions.push([0.0, p[1] as f32, 0.0]);
+        } else {
+            for k in 0..s {
+                let a = std::f64::consts::TAU * k as f64 / s as f64;
+                m.positions
+                    .push([(p[0] * a.cos()) as f32, p[1] as f32, (-p[0] * a.sin()) as f32]);
+            }
+        }
+    }
+    let idx = |ring: usize, k: usize| -> u32 {
+        if profile[ring][0] == 0.0 {
+            ring_start[ring]
+        } else {
+            ring_start[ring] + (k % s) as u32
+        }
+    };
+    for i in 0..profile.len().saturating_sub(1) {
+        let (a_axis, b_axis) = (profile[i][0] == 0.0, profile[i + 1][0] == 0.0);
+        for k in 0..s {
+            let (a0, a1, b0, b1) = (idx(i, k), idx(i, k + 1), idx(i + 1, k), idx(i + 1, k + 1));
+            // Angle increases counter-clockwise seen from +y, so (a0, a1, b1) faces outward
+            // for a profile going up.
+            if !a_axis {
+                m.indices.push([a0, a1, b1]);
+            }
+            if !b_axis {
+                m.indices.push([a0, b1, b0]);
+            }
+            if a_axis && b_axis {
+                break;
+            }
+        }
+    }
+    m
+}
+
+/// Diamond-square terrain: (2^levels + 1)² vertices over `size` (x, z), centred
+/// at the origin, heights in metres, deterministic in `seed`. Faces +y.
+pub fn heightfield(size: [f64; 2], levels: u32, height: f64, roughness: f64, seed: u64) -> Mesh {
+    let n = (1usize << levels) + 1;
+    let mut h = vec![0.0f64; n * n];
+    let mut rng = Rng::new(seed);
+    let mut amp = height;
+    let mut step = n - 1;
+    let mut rnd = |amp: f64| (rng.uniform_f64() * 2.0 - 1.0) * amp;
+    for &(i, j) in &[(0, 0), (0, n - 1), (n - 1, 0), (n - 1, n - 1)] {
+        h[i * n + j] = rnd(amp);
+    }
+    while step > 1 {
+        let half = step / 2;
+        // Diamond step.
+        for i in (half..n).step_by(step) {
+            for j in (half..n).step_by(step) {
+                let avg = (h[(i - half) * n + j - half]
+                    + h[(i - half) * n + j + half]
+                    + h[(i + half) * n + j - half]
+                    + h[(i + half) * n + j + half])
+                    / 4.0;
+                h[i * n + j] = avg + rnd(amp);
+            }
+        }
+        // Square step.
+        for i in (0..n).step_by(half) {
+            let start = if (i / half).is_multiple_of(2) { half } else { 0 };
+            for j in (start..n).step_by(step) {
+                let mut sum = 0.0;
+                let mut cnt = 0.0;
+                if i >= half {
+                    sum += h[(i - half) * n + j];
+                    cnt += 1.0;
+                }
+                if i + half < n {
+                    sum += h[(i + half) * n + j];
+                    cnt += 1.0;
+                }
+                if j >= half {
+                    sum += h[i * n + j - half];
+                    cnt += 1.0;
+                }
+                if j + half < n {
+                    sum += h[i * n + j + half];
+                    cnt += 1.0;
+                }
+                h[i * n + j] = sum / cnt + rnd(amp);
+            }
+        }
+        amp *= roughness;
+        step = half;
+    }
+    let mut m = Mesh::default();
+    let mut uvs = Vec::with_capacity(n * n);
+    for i in 0..n {
+        for j in 0..n {
+            let x = (j as f64 / (n - 1) as f64 - 0.5) * size[0];
+            let z = (i as f64 / (n - 1) as f64 - 0.5) * size[1];
+            m.positions.push([x as f32, h[i * n + j] as f32, z as f32]);
+            uvs.push([j as f32 / (n - 1) as f32, i as f32 / (n - 1) as f32]);
+        }
+    }
+    for i in 0..n - 1 {
+        for j in 0..n - 1 {
+            let a = (i * n + j) as u32;
+            let b = a + 1;
+            let c = a + n as u32;
+            let d = c + 1;
+            // Counter-clockwise seen from +y: (a, c, b) since z grows with i.
+            m.indices.push([a, c, b]);
+            m.indices.push([b, c, d]);
+        }
+    }
+    // Smooth normals by area-weighted face normals.
+    let mut normals = vec![DVec3::ZERO; m.positions.len()];
+    for t in &m.indices {
+        let [a, b, c] = t.map(|i| {
+            let p = m.positions[i as usize];
+            DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64)
+        });
+        let fnrm = (b - a).cross(c - a);
+        for i in t {
+            normals[*i as usize] += fnrm;
+        }
+    }
+    m.normals = Some(normals.iter().map(|n| f3(n.normalize_or(DVec3::Y))).collect());
+    m.uvs = Some(uvs);
+    m
+}
+
+/// Load every model of an OBJ file into one mesh (triangulated). Errors name the file.
+pub fn load_obj(path: &Path, smooth: bool) -> Result<Mesh, String> {
+    let opts = tobj::LoadOptions {
+        triangulate: true,
+        single_index: true,
+        ignore_points: true,
+        ignore_lines: true,
+    };
+    let (models, _) = tobj::load_obj(path, &opts).map_err(|e| format!("cannot load OBJ: {e}"))?;
+    let mut m = Mesh::default();
+    let mut normals = Vec::new();
+    let mut uvs = Vec::new();
+    let mut all_normals = smooth;
+    let mut all_uvs = true;
+    for model in &models {
+        let mm = &model.mesh;
+        let base = m.positions.len() as u32;
+        let nv = mm.positions.len() / 3;
+        for k in 0..nv {
+            m.positions.push([
+                mm.positions[3 * k],
+                mm.positions[3 * k + 1],
+                mm.positions[3 * k + 2],
+            ]);
+        }
+        if mm.normals.len() == nv * 3 {
+            for k in 0..nv {
+                normals.push([mm.normals[3 * k], mm.normals[3 * k + 1], mm.normals[3 * k + 2]]);
+            }
+        } else {
+            all_normals = false;
+        }
+        if mm.texcoords.len() == nv * 2 {
+            for k in 0..nv {
+                uvs.push([mm.texcoords[2 * k], mm.texcoords[2 * k + 1]]);
+            }
+        } else {
+            all_uvs = false;
+        }
+        for t in mm.indices.chunks(3) {
+            if t.len() == 3 {
+                m.indices.push([t[0] + base, t[1] + base, t[2] + base]);
+            }
+        }
+    }
+    if m.indices.is_empty() {
+        return Err("the OBJ file has no faces".into());
+    }
+    if all_normals {
+        m.normals = Some(normals);
+    }
+    if all_uvs {
+        m.uvs = Some(uvs);
+    }
+    for (k, p) in m.positions.iter().enumerate() {
+        if !p.iter().all(|c| c.is_finite()) {
+            return Err(format!("vertex {} has a non-finite coordinate", k + 1));
+        }
+    }
+    Ok(m)
+}
+
+/// First degenerate (zero-area) triangle, as (face index, reason).
+pub fn find_degenerate(m: &Mesh) -> Option<usize> {
+    m.indices.iter().position(|t| {
+        let [a, b, c] = t.map(|i| {
+            let p = m.positions[i as usize];
+            DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64)
+        });
+        let area2 = (b - a).cross(c - a).length();
+        let scale = (b - a).length().max((c - a).length()).max(1e-30);
+        area2.is_nan() || area2 <= 1e-12 * scale * scale
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn box_is_closed_with_positive_volume_after_welding() {
+        let b = cuboid(DVec3::ZERO, DVec3::new(1.0, 2.0, 3.0));
+        b.check_closed().unwrap();
+        assert!((b.signed_volume() - 6.0).abs() < 1e-5);
+        assert!(b.contains(DVec3::new(0.1, 0.2, 0.3)));
+        assert!(!b.contains(DVec3::new(0.6, 0.0, 0.0)));
+    }
+
+    #[test]
+    fn closed_lathe_is_a_solid_and_open_lathe_is_not() {
+        // A cylinder of radius 1, height 1, closed by fans at both ends.
+        let p = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
+        let m = lathe(&p, 64);
+        m.check_closed().unwrap();
+        let v = m.signed_volume();
+        let exact = 0.5 * 64.0 * (std::f64::consts::TAU / 64.0).sin();
+        assert!((v - exact).abs() < 1e-4, "{v} vs {exact}");
+        assert!(find_degenerate(&m).is_none());
+        let open = lathe(&p[1..3], 64);
+        assert!(open.check_closed().is_err());
+    }
+
+    #[test]
+    fn heightfield_is_deterministic_and_faces_up() {
+        let a = heightfield([10.0, 10.0], 4, 1.0, 0.5, 7);
+        let b = heightfield([10.0, 10.0], 4, 1.0, 0.5, 7);
+        assert_eq!(a.positions, b.positions);
+        assert_eq!(a.positions.len(), 17 * 17);
+        let t = a.indices[0].map(|i| DVec3::from_array(a.positions[i as usize].map(|c| c as f64)));
+        assert!((t[1] - t[0]).cross(t[2] - t[0]).y > 0.0);
+    }
+}

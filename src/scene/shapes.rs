@@ -1,0 +1,563 @@
+//! Analytic shapes (Embree user geometry) and triangle meshes, with what the
+//! integrator needs at a hit: shading normal and texture coordinates.
+//!
+//! Normal conventions: a sphere's and a cylinder's normal point away from the
+//! centre/axis (cylinder `normal = "in"` flips it); a disk's and a rect's normal
+//! is the given one; for meshes the geometric normal is (v1−v0)×(v2−v0), i.e.
+//! the side from which the winding is counter-clockwise.
+use crate::embree::{Bounds, Candidate, Candidates, UserShape};
+use glam::{DVec3, Vec3A as V3};
+
+/// Ray–sphere crossings in f64 (the f32 quadratic loses too much at grazing).
+fn sphere_ts(c: DVec3, r: f64, o: DVec3, d: DVec3) -> Option<(f64, f64)> {
+    let oc = o - c;
+    let a = d.length_squared();
+    let b = oc.dot(d);
+    // c' = |oc|² − r², computed as (|oc| − r)(|oc| + r) to limit cancellation.
+    let l = oc.length();
+    let cc = (l - r) * (l + r);
+    let disc = b * b - a * cc;
+    if disc < 0.0 || a == 0.0 {
+        return None;
+    }
+    let s = disc.sqrt();
+    // Numerically stable pair.
+    let q = if b > 0.0 { -(b + s) } else { -b + s };
+    let (t0, t1) = if q == 0.0 { (0.0, 0.0) } else { (q / a, cc / q) };
+    Some((t0.min(t1), t0.max(t1)))
+}
+
+fn to_d(v: V3) -> DVec3 {
+    DVec3::new(v.x as f64, v.y as f64, v.z as f64)
+}
+
+fn to_f(v: DVec3) -> V3 {
+    V3::new(v.x as f32, v.y as f32, v.z as f32)
+}
+
+/// An analytic primitive set. Closed sets of primitives share one geometry.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Analytic {
+    Sphere {
+        center: DVec3,
+        radius: f64,
+    },
+    /// Tube of `radius` from `p0` along unit `axis` for `height`; `inward`
+    /// flips the normal; `caps` adds disks at both ends (prims 1 and 2).
+    Cylinder {
+        p0: DVec3,
+        axis: DVec3,
+        height: f64,
+        radius: f64,
+        inward: bool,
+        caps: bool,
+    },
+    /// Closed thick tube: prim 0 outer wall (out), 1 inner wall (in, towards
+    /// the axis), 2 and 3 annular caps at p0 (−axis) and p0 + h·axis (+axis).
+    Tube {
+        p0: DVec3,
+        axis: DVec3,
+        height: f64,
+        outer: f64,
+        inner: f64,
+    },
+    /// Disk or annulus (inner > 0) with unit `normal`.
+    Disk {
+        center: DVec3,
+        normal: DVec3,
+        radius: f64,
+        inner: f64,
+    },
+}
+
+impl Analytic {
+    /// Crossings of the ray with the infinite cylinder around (p0, axis), clipped to [0, h].
+    fn cyl(p0: DVec3, axis: DVec3, h: f64, r: f64, o: DVec3, d: DVec3, out: &mut Vec<(f64, DVec3)>) {
+        let op = o - p0;
+        let d_perp = d - axis * d.dot(axis);
+        let o_perp = op - axis * op.dot(axis);
+        let a = d_perp.length_squared();
+        if a == 0.0 {
+            return;
+        }
+        let b = o_perp.dot(d_perp);
+        let lo = o_perp.length();
+        let c = (lo - r) * (lo + r);
+        let disc = b * b - a * c;
+        if disc < 0.0 {
+            return;
+        }
+        let s = disc.sqrt();
+        let q = if b > 0.0 { -(b + s) } else { -b + s };
+        let ts = if q == 0.0 { [0.0, 0.0] } else { [q / a, c / q] };
+        for t in ts {
+            let p = op + d * t;
+            let y = p.dot(axis);
+            if (0.0..=h).contains(&y) {
+                let radial = p - axis * y;
+                out.push((t, radial));
+            }
+        }
+    }
+
+    fn disk(center: DVec3, n: DVec3, r: f64, inner: f64, o: DVec3, d: DVec3) -> Option<f64> {
+        let dn = d.dot(n);
+        if dn == 0.0 {
+            return None;
+        }
+        let t = (center - o).dot(n) / dn;
+        let p = o + d * t - center;
+        let q = p.length_squared();
+        (q <= r * r && q >= inner * inner).then_some(t)
+    }
+
+    /// Is `p` strictly inside the solid this shape bounds (spheres, closed
+    /// cylinders, tubes)? `None` for shapes that bound no volume.
+    pub fn contains(&self, p: DVec3) -> Option<bool> {
+        match *self {
+            Analytic::Sphere { center, radius } => Some((p - center).length_squared() < radius * radius),
+            Analytic::Cylinder {
+                p0,
+                axis,
+                height,
+                radius,
+                caps: true,
+                inward: false,
+            } => {
+                let q = p - p0;
+                let y = q.dot(axis);
+                Some(y > 0.0 && y < height && (q - axis * y).length_squared() < radius * radius)
+            }
+            Analytic::Tube {
+                p0,
+                axis,
+                height,
+                outer,
+                inner,
+            } => {
+                let q = p - p0;
+                let y = q.dot(axis);
+                let r2 = (q - axis * y).length_squared();
+                Some(y > 0.0 && y < height && r2 < outer * outer && r2 > inner * inner)
+            }
+            _ => None,
+        }
+    }
+
+    /// Axis-aligned bounds of the whole shape (f64).
+    pub fn aabb(&self) -> (DVec3, DVec3) {
+        let mut lo = DVec3::splat(f64::INFINITY);
+        let mut hi = DVec3::splat(f64::NEG_INFINITY);
+        for p in 0..self.prims() {
+            let b = self.bounds(p);
+            lo = lo.min(DVec3::new(
+                b.lower[0] as f64,
+                b.lower[1] as f64,
+                b.lower[2] as f64,
+            ));
+            hi = hi.max(DVec3::new(
+                b.upper[0] as f64,
+                b.upper[1] as f64,
+                b.upper[2] as f64,
+            ));
+        }
+        (lo, hi)
+    }
+
+    fn prims(&self) -> u32 {
+        match self {
+            Analytic::Sphere { .. } | Analytic::Disk { .. } => 1,
+            Analytic::Cylinder { caps, .. } => {
+                if *caps {
+                    3
+                } else {
+                    1
+                }
+            }
+            Analytic::Tube { .. } => 4,
+        }
+    }
+
+    /// Unit outward (per convention) normal at a point `p` on primitive `prim`.
+    pub fn normal(&self, prim: u32, p: DVec3) -> DVec3 {
+        match *self {
+            Analytic::Sphere { center, .. } => (p - center).normalize_or(DVec3::Y),
+            Analytic::Cylinder { p0, axis, inward, .. } => match prim {
+                0 => {
+                    let q = p - p0;
+                    let radial = (q - axis * q.dot(axis)).normalize_or(DVec3::X);
+                    if inward {
+                        -radial
+                    } else {
+                        radial
+                    }
+                }
+                1 => -axis,
+                _ => axis,
+            },
+            Analytic::Tube { p0, axis, .. } => {
+                let q = p - p0;
+                let radial = (q - axis * q.dot(axis)).normalize_or(DVec3::X);
+                match prim {
+                    0 => radial,
+                    1 => -radial,
+                    2 => -axis,
+                    _ => axis,
+                }
+            }
+            Analytic::Disk { normal, .. } => normal,
+        }
+    }
+
+    /// Texture coordinates in [0,1]² at `p` (sphere: longitude/latitude around y).
+    pub fn uv(&self, p: DVec3) -> [f32; 2] {
+        match *self {
+            Analytic::Sphere { center, radius } => {
+                let q = (p - center) / radius;
+                let u = 0.5 + q.x.atan2(q.z) / std::f64::consts::TAU;
+                let v = q.y.clamp(-1.0, 1.0).acos() / std::f64::consts::PI;
+                [u as f32, v as f32]
+            }
+            _ => [0.0, 0.0],
+        }
+    }
+}
+
+fn cyl_bounds(p0: DVec3, axis: DVec3, h: f64, r: f64) -> Bounds {
+    let p1 = p0 + axis * h;
+    // Extent of a disk of radius r with normal `axis` along each world axis.
+    let e = DVec3::new(
+        r * (1.0 - axis.x * axis.x).max(0.0).sqrt(),
+        r * (1.0 - axis.y * axis.y).max(0.0).sqrt(),
+        r * (1.0 - axis.z * axis.z).max(0.0).sqrt(),
+    );
+    let lo = p0.min(p1) - e;
+    let hi = p0.max(p1) + e;
+    pad(lo, hi)
+}
+
+/// f32 bounds padded by a relative ulp-scale margin so rounding never clips a hit.
+fn pad(lo: DVec3, hi: DVec3) -> Bounds {
+    let m = (lo.abs().max(hi.abs()).max_element() * 1e-6).max(1e-6);
+    Bounds {
+        lower: to_f(lo - DVec3::splat(m)).into(),
+        upper: to_f(hi + DVec3::splat(m)).into(),
+    }
+}
+
+impl UserShape for Analytic {
+    fn prim_count(&self) -> u32 {
+        self.prims()
+    }
+
+    fn bounds(&self, prim: u32) -> Bounds {
+        match *self {
+            Analytic::Sphere { center, radius } => {
+                pad(center - DVec3::splat(radius), center + DVec3::splat(radius))
+            }
+            Analytic::Cylinder {
+                p0,
+                axis,
+                height,
+                radius,
+                ..
+            } => match prim {
+                0 => cyl_bounds(p0, axis, height, radius),
+                1 => cyl_bounds(p0, axis, 0.0, radius),
+                _ => cyl_bounds(p0 + axis * height, axis, 0.0, radius),
+            },
+            Analytic::Tube {
+                p0,
+                axis,
+                height,
+                outer,
+                ..
+            } => match prim {
+                0 | 1 => cyl_bounds(p0, axis, height, outer),
+                2 => cyl_bounds(p0, axis, 0.0, outer),
+                _ => cyl_bounds(p0 + axis * height, axis, 0.0, outer),
+            },
+            Analytic::Disk {
+                center,
+                normal,
+                radius,
+                ..
+            } => cyl_bounds(center, normal, 0.0, radius),
+        }
+    }
+
+    fn intersect(&self, prim: u32, org: V3, dir: V3, out: &mut Candidates) {
+        let o = to_d(org);
+        let d = to_d(dir);
+        let mut push = |t: f64, n: DVec3| {
+            if t.is_finite() {
+                out.push(Candidate {
+                    t: t as f32,
+                    ng: to_f(n).into(),
+                    u: 0.0,
+                    v: 0.0,
+                });
+            }
+        };
+        match *self {
+            Analytic::Sphere { center, radius } => {
+                if let Some((t0, t1)) = sphere_ts(center, radius, o, d) {
+                    push(t0, o + d * t0 - center);
+                    push(t1, o + d * t1 - center);
+                }
+            }
+            Analytic::Cylinder {
+                p0,
+                axis,
+                height,
+                radius,
+                inward,
+                ..
+            } => match prim {
+                0 => {
+                    let mut v = Vec::with_capacity(2);
+                    Self::cyl(p0, axis, height, radius, o, d, &mut v);
+                    for (t, radial) in v {
+                        push(t, if inward { -radial } else { radial });
+                    }
+                }
+                1 => {
+                    if let Some(t) = Self::disk(p0, axis, radius, 0.0, o, d) {
+                        push(t, -axis);
+                    }
+                }
+                _ => {
+                    if let Some(t) = Self::disk(p0 + axis * height, axis, radius, 0.0, o, d) {
+                        push(t, axis);
+                    }
+                }
+            },
+            Analytic::Tube {
+                p0,
+                axis,
+                height,
+                outer,
+                inner,
+            } => {
+                let mut v = Vec::with_capacity(2);
+                match prim {
+                    0 => {
+                        Self::cyl(p0, axis, height, outer, o, d, &mut v);
+                        for (t, radial) in v {
+                            push(t, radial);
+                        }
+                    }
+                    1 => {
+                        Self::cyl(p0, axis, height, inner, o, d, &mut v);
+                        for (t, radial) in v {
+                            push(t, -radial);
+                        }
+                    }
+                    2 => {
+                        if let Some(t) = Self::disk(p0, axis, outer, inner, o, d) {
+                            push(t, -axis);
+                        }
+                    }
+                    _ => {
+                        if let Some(t) = Self::disk(p0 + axis * height, axis, outer, inner, o, d) {
+                            push(t, axis);
+                        }
+                    }
+                }
+            }
+            Analytic::Disk {
+                center,
+                normal,
+                radius,
+                inner,
+            } => {
+                if let Some(t) = Self::disk(center, normal, radius, inner, o, d) {
+                    push(t, normal);
+                }
+            }
+        }
+    }
+}
+
+/// A triangle mesh in world space.
+#[derive(Debug, Clone, Default)]
+pub struct Mesh {
+    pub positions: Vec<[f32; 3]>,
+    pub indices: Vec<[u32; 3]>,
+    /// Per-vertex shading normals (same length as positions) or none (flat).
+    pub normals: Option<Vec<[f32; 3]>>,
+    /// Per-vertex texture coordinates or none.
+    pub uvs: Option<Vec<[f32; 2]>>,
+}
+
+impl Mesh {
+    /// Shading normal and uv at barycentrics (u, v) of triangle `prim`
+    /// (Embree's convention: p = (1−u−v)·v0 + u·v1 + v·v2).
+    pub fn shading(&self, prim: u32, u: f32, v: f32) -> (Option<V3>, [f32; 2]) {
+        let tri = self.indices[prim as usize];
+        let w = 1.0 - u - v;
+        let n = self.normals.as_ref().map(|ns| {
+            let [a, b, c] = tri.map(|i| V3::from(ns[i as usize]));
+            (a * w + b * u + c * v).normalize_or_zero()
+        });
+        let uv = self
+            .uvs
+            .as_ref()
+            .map(|t| {
+                let [a, b, c] = tri.map(|i| t[i as usize]);
+                [a[0] * w + b[0] * u + c[0] * v, a[1] * w + b[1] * u + c[1] * v]
+            })
+            .unwrap_or([u, v]);
+        (n.filter(|n| n.length_squared() > 0.5), uv)
+    }
+
+    /// Axis-aligned bounds.
+    pub fn aabb(&self) -> (DVec3, DVec3) {
+        let mut lo = DVec3::splat(f64::INFINITY);
+        let mut hi = DVec3::splat(f64::NEG_INFINITY);
+        for p in &self.positions {
+            let p = DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64);
+            lo = lo.min(p);
+            hi = hi.max(p);
+        }
+        (lo, hi)
+    }
+
+    /// Signed volume (positive for outward-facing closed meshes).
+    pub fn signed_volume(&self) -> f64 {
+        self.indices
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| {
+                    let p = self.positions[i as usize];
+                    DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64)
+                });
+                a.dot(b.cross(c)) / 6.0
+            })
+            .sum()
+    }
+
+    /// Reverse the winding (and normals) of every triangle.
+    pub fn flip(&mut self) {
+        for t in &mut self.indices {
+            t.swap(1, 2);
+        }
+        if let Some(ns) = &mut self.normals {
+            for n in ns {
+                *n = [-n[0], -n[1], -n[2]];
+            }
+        }
+    }
+
+    /// Closed-solid check: after welding equal positions, every edge must be
+    /// used by exactly two triangles with opposite winding. Returns a
+    /// description of the first violation.
+    pub fn check_closed(&self) -> Result<(), String> {
+        use std::collections::HashMap;
+        let mut weld: HashMap<[u32; 3], u32> = HashMap::new();
+        let ids: Vec<u32> = self
+            .positions
+            .iter()
+            .map(|p| {
+                let key = p.map(|c| if c == 0.0 { 0 } else { c.to_bits() });
+                let n = weld.len() as u32;
+                *weld.entry(key).or_insert(n)
+            })
+            .collect();
+        let mut directed: HashMap<(u32, u32), u32> = HashMap::new();
+        for t in &self.indices {
+            let v = t.map(|i| ids[i as usize]);
+            for k in 0..3 {
+                *directed.entry((v[k], v[(k + 1) % 3])).or_insert(0) += 1;
+            }
+        }
+        for (&(a, b), &count) in &directed {
+            if count != 1 {
+                return Err(format!(
+                    "an edge is used {count} times with the same winding (inconsistent orientation or non-manifold)"
+                ));
+            }
+            if !directed.contains_key(&(b, a)) {
+                return Err("it has an open edge (used by one triangle only): the mesh is not closed".into());
+            }
+        }
+        Ok(())
+    }
+
+    /// Point-in-solid by ray parity (for closed meshes), with a fixed oblique direction.
+    pub fn contains(&self, p: DVec3) -> bool {
+        let d = DVec3::new(0.5773, 0.5774, 0.5773).normalize();
+        let mut crossings = 0;
+        for t in &self.indices {
+            let [a, b, c] = t.map(|i| {
+                let q = self.positions[i as usize];
+                DVec3::new(q[0] as f64, q[1] as f64, q[2] as f64)
+            });
+            // Möller–Trumbore in f64.
+            let e1 = b - a;
+            let e2 = c - a;
+            let pv = d.cross(e2);
+            let det = e1.dot(pv);
+            if det.abs() < 1e-300 {
+                continue;
+            }
+            let inv = 1.0 / det;
+            let tv = p - a;
+            let u = tv.dot(pv) * inv;
+            if !(0.0..=1.0).contains(&u) {
+                continue;
+            }
+            let qv = tv.cross(e1);
+            let v = d.dot(qv) * inv;
+            if v < 0.0 || u + v > 1.0 {
+                continue;
+            }
+            if e2.dot(qv) * inv > 0.0 {
+                crossings += 1;
+            }
+        }
+        crossings % 2 == 1
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sphere_crossings_are_analytic_even_far_away() {
+        let (t0, t1) = sphere_ts(
+            DVec3::new(0.0, 0.0, -1e4),
+            1.0,
+            DVec3::ZERO,
+            DVec3::new(0.0, 0.0, -1.0),
+        )
+        .unwrap();
+        assert!((t0 - (1e4 - 1.0)).abs() < 1e-9 && (t1 - (1e4 + 1.0)).abs() < 1e-9);
+    }
+
+    #[test]
+    fn tube_has_four_crossings_through_the_axis() {
+        let t = Analytic::Tube {
+            p0: DVec3::new(0.0, -1.0, 0.0),
+            axis: DVec3::Y,
+            height: 2.0,
+            outer: 1.0,
+            inner: 0.8,
+        };
+        let mut ts = vec![];
+        for prim in 0..4 {
+            let mut c = Candidates::default();
+            t.intersect(prim, V3::new(0.0, 0.0, 4.0), V3::new(0.0, 0.0, -1.0), &mut c);
+            ts.extend(c.as_slice().iter().map(|c| c.t));
+        }
+        ts.sort_by(f32::total_cmp);
+        let want = [3.0, 3.2, 4.8, 5.0];
+        assert_eq!(ts.len(), 4);
+        for (a, b) in ts.iter().zip(want) {
+            assert!((a - b).abs() < 1e-5);
+        }
+        assert_eq!(t.contains(DVec3::new(0.9, 0.0, 0.0)), Some(true));
+        assert_eq!(t.contains(DVec3::ZERO), Some(false));
+    }
+}
