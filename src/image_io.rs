@@ -82,12 +82,14 @@ pub fn save(
     let bytes = match ext.as_str() {
         "png" => encode_png(width, height, pixels)?,
         "exr" => encode_exr(width, height, pixels, layers, attrs)?,
-        other => return Err(Error::io(
-            path,
-            format!(
+        other => {
+            return Err(Error::io(
+                path,
+                format!(
                 "unknown output extension \".{other}\": expected .png (sRGB 8-bit) or .exr (linear float)"
             ),
-        )),
+            ))
+        }
     };
     write_atomic(path, &bytes)
 }

@@ -27,6 +27,9 @@ pub struct Rendered {
     pub width: u32,
     pub height: u32,
     pub pixels: Vec<V3>,
+    /// Per pixel and channel: estimated variance of the pixel mean (sample
+    /// variance over the pixel's samples / spp). Monte Carlo noise only.
+    pub variance: Vec<V3>,
     pub aovs: Aovs,
     pub stats: RenderStats,
     /// Samples per pixel actually completed (less than requested if interrupted).
@@ -117,6 +120,17 @@ pub struct RenderOptions {
     pub want_aovs: bool,
 }
 
+impl Rendered {
+    /// Image mean of channel `ch` and its Monte Carlo standard error (from the
+    /// per-pixel sample variances, so image content does not count as noise).
+    pub fn mean_and_se(&self, ch: usize) -> (f64, f64) {
+        let n = self.pixels.len() as f64;
+        let m = self.pixels.iter().map(|p| p[ch] as f64).sum::<f64>() / n;
+        let v = self.variance.iter().map(|p| p[ch] as f64).sum::<f64>() / (n * n);
+        (m, v.sqrt())
+    }
+}
+
 /// Set by a Ctrl-C handler to stop at the next tile boundary.
 pub static INTERRUPT: AtomicBool = AtomicBool::new(false);
 
@@ -126,6 +140,7 @@ struct TileOut {
     w: u32,
     h: u32,
     px: Vec<V3>,
+    var: Vec<V3>,
     aov: Option<[Vec<f32>; 4]>,
     stats: RenderStats,
     done: bool,
@@ -136,6 +151,7 @@ fn render_tile(scene: &RenderScene, x0: u32, y0: u32, want_aovs: bool) -> Result
     let h = TILE.min(scene.height - y0);
     let n = (w * h) as usize;
     let mut px = vec![V3::ZERO; n];
+    let mut var = vec![V3::ZERO; n];
     let mut aov = want_aovs.then(|| [vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]]);
     let mut stats = RenderStats::default();
     let spp = scene.spp;
@@ -146,6 +162,7 @@ fn render_tile(scene: &RenderScene, x0: u32, y0: u32, want_aovs: bool) -> Result
             let (x, y) = (x0 + i, y0 + j);
             let pixel = y as u64 * scene.width as u64 + x as u64;
             let mut sum = V3::ZERO;
+            let mut sumsq = V3::ZERO;
             let k = (j * w + i) as usize;
             for s in 0..spp {
                 let mut rng = Rng::for_sample(scene.seed, pixel, s as u64);
@@ -156,6 +173,7 @@ fn render_tile(scene: &RenderScene, x0: u32, y0: u32, want_aovs: bool) -> Result
                 let mut st = SampleStats::default();
                 let l = radiance(scene, o, d, start_list.clone(), &mut rng, &mut st)?;
                 sum += l;
+                sumsq += l * l;
                 stats.add(&st);
                 if let Some(a) = &mut aov {
                     a[0][k] += st.counters.false_hits as f32 * inv;
@@ -166,6 +184,10 @@ fn render_tile(scene: &RenderScene, x0: u32, y0: u32, want_aovs: bool) -> Result
             }
             stats.samples += spp as u64;
             px[k] = sum * inv;
+            if spp > 1 {
+                let s2 = ((sumsq - sum * sum * inv) / (spp - 1) as f32).max(V3::ZERO);
+                var[k] = s2 * inv;
+            }
         }
     }
     Ok(TileOut {
@@ -174,6 +196,7 @@ fn render_tile(scene: &RenderScene, x0: u32, y0: u32, want_aovs: bool) -> Result
         w,
         h,
         px,
+        var,
         aov,
         stats,
         done: true,
@@ -209,6 +232,7 @@ pub fn render(scene: &RenderScene, opts: &RenderOptions) -> Result<Rendered> {
                         w,
                         h,
                         px: vec![V3::ZERO; (w * h) as usize],
+                        var: vec![V3::ZERO; (w * h) as usize],
                         aov: None,
                         stats: RenderStats::default(),
                         done: false,
@@ -231,6 +255,7 @@ pub fn render(scene: &RenderScene, opts: &RenderOptions) -> Result<Rendered> {
     let wall = start.elapsed().as_secs_f64();
     let n = (scene.width * scene.height) as usize;
     let mut pixels = vec![V3::ZERO; n];
+    let mut variance = vec![V3::ZERO; n];
     let mut aovs = Aovs::default();
     if opts.want_aovs {
         aovs = Aovs {
@@ -251,6 +276,7 @@ pub fn render(scene: &RenderScene, opts: &RenderOptions) -> Result<Rendered> {
                 let dst = ((t.y0 + j) * scene.width + t.x0 + i) as usize;
                 let src = (j * t.w + i) as usize;
                 pixels[dst] = t.px[src];
+                variance[dst] = t.var[src];
                 if let Some(a) = &t.aov {
                     aovs.false_hits[dst] = a[0][src];
                     aovs.list_depth[dst] = a[1][src];
@@ -266,6 +292,7 @@ pub fn render(scene: &RenderScene, opts: &RenderOptions) -> Result<Rendered> {
         width: scene.width,
         height: scene.height,
         pixels,
+        variance,
         aovs,
         stats,
         spp_done: scene.spp,

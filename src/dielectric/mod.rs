@@ -16,6 +16,8 @@
 //! Ties are broken by declaration order: of two solids with equal priority the
 //! one declared later in the scene file wins, as if its priority were higher by
 //! an infinitesimal (`Solid::rank`). This makes true/false a total order.
+pub mod audit;
+
 use crate::embree::{FilterHit, Hit, HitFilter, Ray};
 use crate::scene::RenderScene;
 
@@ -164,6 +166,18 @@ pub struct Rejected {
     pub prim: u32,
     pub t: f32,
     pub entering: bool,
+    /// Within `EDGE_EPS` (barycentric) of a mesh edge or vertex, where the
+    /// normal alone cannot tell a crossing from a touch: verified after the query.
+    pub near_edge: bool,
+}
+
+/// Barycentric distance to a triangle edge below which a hit is verified by
+/// point-in-solid tests (Embree's robust mode closes edge leaks, not vertex ones).
+pub const EDGE_EPS: f32 = 2e-4;
+
+#[inline]
+fn near_edge(u: f32, v: f32) -> bool {
+    u.min(v).min(1.0 - u - v) < EDGE_EPS
 }
 
 /// Rejected hits recorded per query before the filter falls back.
@@ -179,7 +193,16 @@ pub struct FalseHitFilter<'a> {
     pub len: usize,
     pub overflow: bool,
     pub calls: u32,
+    /// Accepted hits on solids within the crossing window of the nearest
+    /// accepted t seen so far: after the query these are the true hit and any
+    /// solid surfaces coincident with it.
+    pub near: [Rejected; NEAR_CAPACITY],
+    pub near_len: usize,
+    pub near_t: f32,
 }
+
+/// Coincident accepted crossings tracked per query.
+pub const NEAR_CAPACITY: usize = 4;
 
 impl<'a> FalseHitFilter<'a> {
     pub fn new(scene: &'a RenderScene, p0: u32) -> Self {
@@ -192,10 +215,20 @@ impl<'a> FalseHitFilter<'a> {
                 prim: 0,
                 t: 0.0,
                 entering: false,
+                near_edge: false,
             }; REJECT_CAPACITY],
             len: 0,
             overflow: false,
             calls: 0,
+            near: [Rejected {
+                solid: 0,
+                prim: 0,
+                t: 0.0,
+                entering: false,
+                near_edge: false,
+            }; NEAR_CAPACITY],
+            near_len: 0,
+            near_t: f32::INFINITY,
         }
     }
 }
@@ -206,6 +239,9 @@ impl HitFilter for FalseHitFilter<'_> {
         self.calls += 1;
         let g = h.geom_id as usize;
         if self.rank_by_geom[g] >= self.p0 {
+            if let Some(solid) = self.solid_by_geom[g] {
+                self.note_accepted(solid, h);
+            }
             return true;
         }
         if self.len < REJECT_CAPACITY {
@@ -214,6 +250,7 @@ impl HitFilter for FalseHitFilter<'_> {
                 prim: h.prim_id,
                 t: h.t,
                 entering: h.ng.dot(h.dir) < 0.0,
+                near_edge: near_edge(h.u, h.v),
             };
             self.len += 1;
         } else {
@@ -223,18 +260,90 @@ impl HitFilter for FalseHitFilter<'_> {
     }
 }
 
-/// Two reports of one solid within this distance are the same crossing
-/// (Embree reports shared edges twice, with t differing by an ulp or two).
+impl FalseHitFilter<'_> {
+    /// Keep accepted solid hits within the window of the nearest one so far.
+    #[inline]
+    fn note_accepted(&mut self, solid: u32, h: &FilterHit) {
+        let win = crossing_window(h.org, h.dir, self.near_t.min(h.t));
+        if h.t > self.near_t + win {
+            return;
+        }
+        if h.t < self.near_t {
+            self.near_t = h.t;
+            let keep = self.near_t + win;
+            let mut k = 0;
+            for i in 0..self.near_len {
+                if self.near[i].t <= keep {
+                    self.near[k] = self.near[i];
+                    k += 1;
+                }
+            }
+            self.near_len = k;
+        }
+        let r = Rejected {
+            solid,
+            prim: h.prim_id,
+            t: h.t,
+            entering: h.ng.dot(h.dir) < 0.0,
+            near_edge: near_edge(h.u, h.v),
+        };
+        if self.near_len < NEAR_CAPACITY {
+            self.near[self.near_len] = r;
+            self.near_len += 1;
+        } else {
+            self.overflow = true;
+        }
+    }
+}
+
+/// Solid crossings at the same point as a true hit (coincident faces), beyond
+/// the true hit's own solid: (solid, entering).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Coincident {
+    items: [(u32, bool); NEAR_CAPACITY],
+    len: usize,
+}
+
+impl Coincident {
+    pub fn as_slice(&self) -> &[(u32, bool)] {
+        &self.items[..self.len]
+    }
+    fn push(&mut self, solid: u32, entering: bool) {
+        if self.len < NEAR_CAPACITY && !self.as_slice().iter().any(|c| c.0 == solid) {
+            self.items[self.len] = (solid, entering);
+            self.len += 1;
+        }
+    }
+}
+
+/// The first true hit of a query and the solid surfaces coincident with it.
+#[derive(Debug, Clone, Copy)]
+pub struct TrueHit {
+    pub hit: Hit,
+    pub coincident: Coincident,
+}
+
+/// Two reports within this distance (in units of t) are the same crossing:
+/// Embree reports shared edges twice with t an ulp or two apart, and surfaces
+/// of two solids closer than the spawn offset of `integrator::offset_origin`
+/// (64 ulps of the hit point's magnitude) cannot be told apart by the next ray.
 #[inline]
-pub fn same_crossing_window(t: f32) -> f32 {
-    1e-6 + t.abs() * 8.0 * f32::EPSILON
+pub fn crossing_window(org: glam::Vec3A, dir: glam::Vec3A, t: f32) -> f32 {
+    let dl = dir.length();
+    let t = if t.is_finite() { t } else { 0.0 };
+    64.0 * f32::EPSILON * (org.abs().max_element() + t.abs() * dl + 0.5) / dl
+}
+
+#[inline]
+fn window(r: &Ray, t: f32) -> f32 {
+    crossing_window(r.org, r.dir, t)
 }
 
 /// Apply recorded false hits with `t < t_hit` to `list`. Events are grouped per
 /// solid in t order; within one window a solid's enter and leave cancel (a
 /// tangent touch or a silhouette-edge double report), duplicates of one
 /// direction count once. Returns the number of distinct false crossings.
-pub fn apply_rejected(list: &mut InteriorList, rejected: &mut [Rejected], t_hit: f32) -> u32 {
+pub fn apply_rejected(list: &mut InteriorList, rejected: &mut [Rejected], t_hit: f32, win: f32) -> u32 {
     rejected.sort_unstable_by(|a, b| a.solid.cmp(&b.solid).then(a.t.total_cmp(&b.t)));
     let mut crossings = 0;
     let mut i = 0;
@@ -250,7 +359,7 @@ pub fn apply_rejected(list: &mut InteriorList, rejected: &mut [Rejected], t_hit:
         while j < rejected.len()
             && rejected[j].solid == r.solid
             && rejected[j].t < t_hit
-            && rejected[j].t - rejected[j - 1].t <= same_crossing_window(rejected[j].t)
+            && rejected[j].t - rejected[j - 1].t <= win
         {
             enter |= rejected[j].entering;
             leave |= !rejected[j].entering;
@@ -278,10 +387,57 @@ pub struct TraceCounters {
     pub spills: u64,
 }
 
+/// Is the crossing of `solid` at distance `t` along `ray` a real crossing?
+/// Point-in-solid tests just before and after: `None` for a touch (no change),
+/// `Some(inside_after)` otherwise. Used only near mesh edges and vertices.
+fn verify_crossing(scene: &RenderScene, solid: u32, ray: &Ray, t: f32) -> Option<bool> {
+    let d = glam::DVec3::new(ray.dir.x as f64, ray.dir.y as f64, ray.dir.z as f64).normalize();
+    let o = glam::DVec3::new(ray.org.x as f64, ray.org.y as f64, ray.org.z as f64);
+    let len = (ray.dir.length() as f64) * t as f64;
+    let p = o + d * len;
+    let delta = 2e-5 * (1.0 + p.abs().max_element());
+    let before = scene.solid_contains(solid, p - d * delta);
+    let after = scene.solid_contains(solid, p + d * delta);
+    (before != after).then_some(after)
+}
+
+/// Replace near-edge events by their verified meaning (dropping touches).
+fn verify_rejected(scene: &RenderScene, ray: &Ray, rejected: &mut [Rejected]) -> usize {
+    let mut k = 0;
+    for i in 0..rejected.len() {
+        let mut r = rejected[i];
+        if r.near_edge && (r.solid as usize) < scene.solids.len() {
+            match verify_crossing(scene, r.solid, ray, r.t) {
+                None => continue,
+                Some(inside) => r.entering = inside,
+            }
+        }
+        rejected[k] = r;
+        k += 1;
+    }
+    k
+}
+
+/// A true hit near a mesh edge that only touches its solid is no crossing.
+fn is_touch(scene: &RenderScene, ray: &Ray, h: &Hit) -> bool {
+    match scene.solid_by_geom[h.geom_id as usize] {
+        Some(s)
+            if near_edge(h.u, h.v)
+                && matches!(
+                    scene.geoms[h.geom_id as usize].shape,
+                    crate::scene::build::Shape::Mesh(_)
+                ) =>
+        {
+            verify_crossing(scene, s, ray, h.t).is_none()
+        }
+        _ => false,
+    }
+}
+
 /// Offset for re-casting past a false hit (recast strategies).
 #[inline]
-fn recast_tnear(t: f32) -> f32 {
-    t + same_crossing_window(t)
+fn recast_tnear(r: &Ray, t: f32) -> f32 {
+    t + window(r, t)
 }
 
 /// Find the first true hit along `ray` for a ray inside `list`, updating the
@@ -293,38 +449,91 @@ pub fn trace(
     ray: &Ray,
     list: &mut InteriorList,
     c: &mut TraceCounters,
-) -> crate::error::Result<Option<Hit>> {
+) -> crate::error::Result<Option<TrueHit>> {
     c.queries += 1;
-    // Model only what the scene needs: with an empty list every hit is true,
-    // and without overlapping solids no hit can be false.
-    if list.is_empty() || !scene.has_overlap {
-        return Ok(scene.embree.intersect(ray));
+    let plain = |h: Option<Hit>| {
+        h.map(|hit| TrueHit {
+            hit,
+            coincident: Coincident::default(),
+        })
+    };
+    // Model only what the scene needs: without overlapping solids no hit can
+    // be false and no two solid surfaces coincide.
+    if !scene.has_overlap {
+        return Ok(plain(scene.embree.intersect(ray)));
     }
     let ranks = &scene.rank_by_geom;
     let solid_rank = |s: u32| scene.solids[s as usize].rank;
     match strategy {
         NestedStrategy::Filter => {
+            // With an empty list P0 = 0: nothing is false, but the filter still
+            // finds solid surfaces coincident with the true hit.
             let p0 = list.top(solid_rank).map(solid_rank).unwrap_or(0);
-            let mut filter = FalseHitFilter::new(scene, p0);
-            let hit = scene.embree.intersect_filtered(ray, &mut filter)?;
-            c.filter_calls += filter.calls as u64;
-            if filter.overflow {
+            let mut filter;
+            let mut r = *ray;
+            let hit = loop {
+                filter = FalseHitFilter::new(scene, p0);
+                let hit = scene.embree.intersect_filtered(&r, &mut filter)?;
+                c.filter_calls += filter.calls as u64;
+                if filter.overflow {
+                    break None;
+                }
+                match hit {
+                    Some(h) if is_touch(scene, &r, &h) => {
+                        // Touching a mesh solid at an edge or vertex: not a crossing.
+                        // Apply the false hits before it and continue past it.
+                        let n = verify_rejected(scene, &r, &mut filter.rejected[..filter.len]);
+                        let win = window(&r, h.t);
+                        let limit = h.t + win;
+                        c.false_hits += apply_rejected(list, &mut filter.rejected[..n], limit, win) as u64;
+                        // Other solids' surfaces at the touch point are crossed there.
+                        let touched = scene.solid_by_geom[h.geom_id as usize];
+                        let mut near = filter.near;
+                        let m = verify_rejected(scene, &r, &mut near[..filter.near_len]);
+                        let mut others = [near[0]; NEAR_CAPACITY];
+                        let mut k = 0;
+                        for e in &near[..m] {
+                            if Some(e.solid) != touched && (e.t - h.t).abs() <= win {
+                                others[k] = *e;
+                                k += 1;
+                            }
+                        }
+                        apply_rejected(list, &mut others[..k], limit, win);
+                        r.tnear = recast_tnear(&r, h.t);
+                        c.queries += 1;
+                    }
+                    h => break Some(h),
+                }
+            };
+            let Some(hit) = hit else {
                 // Too many false hits to record: the correct slow path.
                 c.fallbacks += 1;
-                return recast(scene, ray, list, c, false);
-            }
+                return Ok(plain(recast(scene, &r, list, c, false)?));
+            };
             let t_hit = hit.map(|h| h.t).unwrap_or(f32::INFINITY);
-            let n = filter.len;
-            c.false_hits += apply_rejected(list, &mut filter.rejected[..n], t_hit) as u64;
+            let n = verify_rejected(scene, &r, &mut filter.rejected[..filter.len]);
+            // False crossings up to and including those coincident with the true hit.
+            let win = window(&r, if t_hit.is_finite() { t_hit } else { 0.0 });
+            let limit = t_hit + win;
+            c.false_hits += apply_rejected(list, &mut filter.rejected[..n], limit, win) as u64;
             c.max_list_depth = c.max_list_depth.max(list.len() as u64);
             if list.spilled() {
                 c.spills += 1;
             }
             let _ = ranks;
-            Ok(hit)
+            Ok(hit.map(|hit| {
+                let mut coincident = Coincident::default();
+                let own = scene.solid_by_geom[hit.geom_id as usize];
+                for r in &filter.near[..filter.near_len] {
+                    if Some(r.solid) != own && (r.t - hit.t).abs() <= win {
+                        coincident.push(r.solid, r.entering);
+                    }
+                }
+                TrueHit { hit, coincident }
+            }))
         }
-        NestedStrategy::Recast => recast(scene, ray, list, c, false),
-        NestedStrategy::Toggle => recast(scene, ray, list, c, true),
+        NestedStrategy::Recast => Ok(plain(recast(scene, ray, list, c, false)?)),
+        NestedStrategy::Toggle => Ok(plain(recast(scene, ray, list, c, true)?)),
     }
 }
 
@@ -342,6 +551,14 @@ fn recast(
         let Some(h) = scene.embree.intersect(&r) else {
             return Ok(None);
         };
+        if is_touch(scene, &r, &h) {
+            r.tnear = recast_tnear(&r, h.t);
+            c.queries += 1;
+            continue;
+        }
+        if list.is_empty() {
+            return Ok(Some(h));
+        }
         let rank = scene.rank_by_geom[h.geom_id as usize];
         let p0 = list.top(solid_rank).map(solid_rank);
         let is_false = p0.is_some_and(|p| rank < p);
@@ -350,9 +567,14 @@ fn recast(
         }
         c.false_hits += 1;
         let s = scene.solid_by_geom[h.geom_id as usize].expect("ranked geometry is a solid");
+        let entering = if near_edge(h.u, h.v) && !toggle {
+            verify_crossing(scene, s, &r, h.t).unwrap_or(h.ng.dot(r.dir) < 0.0)
+        } else {
+            h.ng.dot(r.dir) < 0.0
+        };
         if toggle {
             list.toggle(s);
-        } else if h.ng.dot(r.dir) < 0.0 {
+        } else if entering {
             list.insert(s);
         } else {
             list.remove(s);
@@ -361,7 +583,7 @@ fn recast(
         if list.spilled() {
             c.spills += 1;
         }
-        r.tnear = recast_tnear(h.t);
+        r.tnear = recast_tnear(&r, h.t);
         c.queries += 1;
     }
     Err(crate::error::Error::Invalid(
@@ -400,6 +622,7 @@ mod tests {
             prim: 0,
             t,
             entering,
+            near_edge: false,
         };
         // Solid 1: entered, reported twice (shared edge) at t ≈ 1.
         // Solid 2: tangent touch at t = 2 (enter + leave in one window).
@@ -413,7 +636,7 @@ mod tests {
             r(3, 3.0, true),
             r(4, 9.0, true),
         ];
-        let n = apply_rejected(&mut l, &mut v, 5.0);
+        let n = apply_rejected(&mut l, &mut v, 5.0, 1e-5);
         assert_eq!(l.sorted(), vec![1]);
         assert_eq!(n, 4);
     }

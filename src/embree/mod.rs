@@ -698,6 +698,9 @@ pub struct FilterHit {
     pub ng: V3,
     pub org: V3,
     pub dir: V3,
+    /// Barycentric coordinates (triangles) or the shape's own (user geometry).
+    pub u: f32,
+    pub v: f32,
 }
 
 /// A Rust intersection filter, run as an Embree context filter. Embree calls it
@@ -774,6 +777,8 @@ unsafe extern "C" fn filter_trampoline<F: HitFilter>(args: *const sys::RTCFilter
                     *hit.add(soa(2, i, n)),
                 ),
                 prim_id: (*hit.add(soa(5, i, n))).to_bits(),
+                u: *hit.add(soa(3, i, n)),
+                v: *hit.add(soa(4, i, n)),
                 geom_id: (*hit.add(soa(6, i, n))).to_bits(),
             }
         };

@@ -218,6 +218,7 @@ fn crossing(
     entering_by_normal: bool,
     list: &InteriorList,
     strategy: NestedStrategy,
+    coincident: &[(u32, bool)],
 ) -> Crossing {
     let rank = |s: u32| scene.solids[s as usize].rank;
     let ior_of = |l: &InteriorList| {
@@ -225,19 +226,31 @@ fn crossing(
             .map(|s| scene.solids[s as usize].ior)
             .unwrap_or(scene.ambient_ior)
     };
+    // Solid surfaces coincident with the true hit are crossed with it.
+    let with_coincident = |mut l: InteriorList| {
+        for &(c, entering) in coincident {
+            if entering {
+                l.insert(c)
+            } else {
+                l.remove(c)
+            }
+        }
+        l
+    };
     match *material {
         Material::Interface { int_ior, ext_ior } => {
+            let refract_list = (!coincident.is_empty()).then(|| with_coincident(list.clone()));
             if entering_by_normal {
                 Crossing {
                     n1: ext_ior,
                     n2: int_ior,
-                    refract_list: None,
+                    refract_list,
                 }
             } else {
                 Crossing {
                     n1: int_ior,
                     n2: ext_ior,
-                    refract_list: None,
+                    refract_list,
                 }
             }
         }
@@ -248,17 +261,26 @@ fn crossing(
             };
             let mut after = list.clone();
             if entering {
-                // Entering O: from the highest in the list (or ambient) to O.
+                // Entering O: from the highest in the list (or ambient) to O
+                // (O is the highest after entering: its hit is true). With
+                // coincident surfaces: to the highest of the list after all of them.
                 let n1 = ior_of(list);
                 after.insert(s);
+                let after = with_coincident(after);
+                let n2 = if coincident.is_empty() {
+                    scene.solids[s as usize].ior
+                } else {
+                    ior_of(&after)
+                };
                 Crossing {
                     n1,
-                    n2: scene.solids[s as usize].ior,
+                    n2,
                     refract_list: Some(after),
                 }
             } else {
                 // Leaving O: from O to the highest remaining (or ambient).
                 after.remove(s);
+                let after = with_coincident(after);
                 Crossing {
                     n1: scene.solids[s as usize].ior,
                     n2: ior_of(&after),
@@ -328,7 +350,7 @@ fn path(
         st.segments += 1;
         let sigma = medium_sigma(scene, &list);
         let hit = dielectric::trace(scene, scene.strategy, &ray, &mut list, &mut st.counters)?;
-        let Some(hit) = hit else {
+        let Some(dielectric::TrueHit { hit, coincident }) = hit else {
             if sigma.is_none() {
                 l += beta * scene.environment.eval(ray.dir);
             }
@@ -404,7 +426,7 @@ fn path(
                 ray = Ray::new(offset_origin(sp.p, side), wi);
             }
             m @ (Material::Interface { .. } | Material::Solid(_)) => {
-                let c = crossing(scene, m, front, &list, scene.strategy);
+                let c = crossing(scene, m, front, &list, scene.strategy, coincident.as_slice());
                 let d = to_d(ray.dir);
                 let n = to_d(sp.ns);
                 let cos_i = d.dot(n).abs();
@@ -476,7 +498,9 @@ fn whitted(
     st.segments += 1;
     let ray = Ray::new(org, dir);
     let sigma = medium_sigma(scene, &list);
-    let Some(hit) = dielectric::trace(scene, scene.strategy, &ray, &mut list, &mut st.counters)? else {
+    let Some(dielectric::TrueHit { hit, coincident }) =
+        dielectric::trace(scene, scene.strategy, &ray, &mut list, &mut st.counters)?
+    else {
         return Ok(if sigma.is_some() {
             V3::ZERO
         } else {
@@ -525,7 +549,7 @@ fn whitted(
             l += *reflectance * whitted(scene, offset_origin(sp.p, side), wi, list, rng, st, depth + 1)?;
         }
         m @ (Material::Interface { .. } | Material::Solid(_)) => {
-            let c = crossing(scene, m, front, &list, scene.strategy);
+            let c = crossing(scene, m, front, &list, scene.strategy, coincident.as_slice());
             let d = to_d(dir);
             let n = to_d(sp.ns);
             let fr = optics::fresnel_dielectric(d.dot(n).abs(), c.n1 as f64, c.n2 as f64) as f32;
@@ -567,4 +591,96 @@ fn whitted(
         return Ok(V3::ZERO);
     }
     Ok(out)
+}
+
+/// One surface event along a deterministic refraction-only path.
+#[derive(Debug, Clone)]
+pub struct PathEvent {
+    pub geom: u32,
+    pub point: V3,
+    /// Distance from the previous event (or the start).
+    pub t: f32,
+    pub n1: f32,
+    pub n2: f32,
+    /// Interior list (sorted solid indices) of the ray leaving this event.
+    pub list_after: Vec<u32>,
+    pub tir: bool,
+}
+
+/// Follow a ray through dielectrics, always refracting (reflecting only under
+/// total internal reflection), stopping at the first non-dielectric surface,
+/// at a miss, or after `max_events`. Deterministic: used by tests and audits to
+/// compare strategies and to check interior lists against point-in-solid tests.
+pub fn refraction_path(
+    scene: &RenderScene,
+    org: V3,
+    dir: V3,
+    start: &[u32],
+    max_events: usize,
+    counters: &mut TraceCounters,
+) -> Result<RefractionPath> {
+    let mut list = InteriorList::from_slice(start);
+    let mut ray = Ray::new(org, dir.normalize());
+    let mut events = Vec::new();
+    for _ in 0..max_events {
+        let Some(dielectric::TrueHit { hit, coincident }) =
+            dielectric::trace(scene, scene.strategy, &ray, &mut list, counters)?
+        else {
+            return Ok(RefractionPath {
+                events,
+                final_list: list.sorted(),
+                escaped: true,
+            });
+        };
+        let sp = surface_point(scene, &ray, &hit);
+        let rec = &scene.geoms[hit.geom_id as usize];
+        let front = sp.ng.dot(ray.dir) < 0.0;
+        let m = &rec.material;
+        if !matches!(m, Material::Interface { .. } | Material::Solid(_)) {
+            return Ok(RefractionPath {
+                events,
+                final_list: list.sorted(),
+                escaped: false,
+            });
+        }
+        let c = crossing(scene, m, front, &list, scene.strategy, coincident.as_slice());
+        let d = to_d(ray.dir);
+        let n = to_d(sp.ng);
+        let incident_side = if front { sp.ng } else { -sp.ng };
+        let (wi, tir) = match optics::refract(d, n, c.n1 as f64, c.n2 as f64) {
+            Some(t) => {
+                if let Some(nl) = c.refract_list.clone() {
+                    list = nl;
+                }
+                (to_f(t.normalize()), false)
+            }
+            None => (to_f(optics::reflect(d, n).normalize()), true),
+        };
+        events.push(PathEvent {
+            geom: hit.geom_id,
+            point: sp.p,
+            t: hit.t,
+            n1: c.n1,
+            n2: c.n2,
+            list_after: list.sorted(),
+            tir,
+        });
+        let side = if tir { incident_side } else { -incident_side };
+        ray = Ray::new(offset_origin(sp.p, side), wi);
+    }
+    Ok(RefractionPath {
+        events,
+        final_list: list.sorted(),
+        escaped: false,
+    })
+}
+
+/// Result of [`refraction_path`].
+#[derive(Debug, Clone)]
+pub struct RefractionPath {
+    pub events: Vec<PathEvent>,
+    /// Interior list after the last event.
+    pub final_list: Vec<u32>,
+    /// The path ended by leaving the scene (no further hit).
+    pub escaped: bool,
 }

@@ -186,6 +186,14 @@ pub(crate) enum Containment {
 }
 
 impl RenderScene {
+    /// Is `p` inside solid `s` (point-in-solid, independent of Embree)?
+    pub fn solid_contains(&self, s: u32, p: DVec3) -> bool {
+        match &self.containment[s as usize] {
+            Containment::Mesh(m) => m.contains(p),
+            Containment::Analytic(a) => a.contains(p).unwrap_or(false),
+        }
+    }
+
     /// Solids containing `p` (independent point-in-solid tests).
     pub fn solids_containing(&self, p: DVec3) -> Vec<u32> {
         self.containment

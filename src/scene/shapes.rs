@@ -27,6 +27,11 @@ fn sphere_ts(c: DVec3, r: f64, o: DVec3, d: DVec3) -> Option<(f64, f64)> {
     Some((t0.min(t1), t0.max(t1)))
 }
 
+/// Two roots this close are one tangent touch, not an entry and an exit.
+fn is_touch(t0: f64, t1: f64) -> bool {
+    (t1 - t0).abs() <= 1e-6 + t0.abs() * 4e-7
+}
+
 fn to_d(v: V3) -> DVec3 {
     DVec3::new(v.x as f64, v.y as f64, v.z as f64)
 }
@@ -90,6 +95,10 @@ impl Analytic {
         let s = disc.sqrt();
         let q = if b > 0.0 { -(b + s) } else { -b + s };
         let ts = if q == 0.0 { [0.0, 0.0] } else { [q / a, c / q] };
+        // Tangent to the cylinder: not a crossing.
+        if is_touch(ts[0], ts[1]) {
+            return;
+        }
         for t in ts {
             let p = op + d * t;
             let y = p.dot(axis);
@@ -289,19 +298,22 @@ impl UserShape for Analytic {
     fn intersect(&self, prim: u32, org: V3, dir: V3, out: &mut Candidates) {
         let o = to_d(org);
         let d = to_d(dir);
+        // u = v = 1/3: analytic hits are never "near a mesh edge" (see dielectric).
         let mut push = |t: f64, n: DVec3| {
             if t.is_finite() {
                 out.push(Candidate {
                     t: t as f32,
                     ng: to_f(n).into(),
-                    u: 0.0,
-                    v: 0.0,
+                    u: 1.0 / 3.0,
+                    v: 1.0 / 3.0,
                 });
             }
         };
         match *self {
             Analytic::Sphere { center, radius } => {
-                if let Some((t0, t1)) = sphere_ts(center, radius, o, d) {
+                // A tangent touch (double root) is not a crossing: report nothing,
+                // so silhouette-grazing rays neither enter nor leave.
+                if let Some((t0, t1)) = sphere_ts(center, radius, o, d).filter(|&(a, b)| !is_touch(a, b)) {
                     push(t0, o + d * t0 - center);
                     push(t1, o + d * t1 - center);
                 }

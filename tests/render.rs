@@ -1,0 +1,303 @@
+//! The renderer end to end: furnace tests, an analytic direct-lighting case,
+//! thread-count independence, reference-scene means, and bad input.
+use glam::Vec3A as V3;
+use snell::render::{render, RenderOptions, Rendered};
+use snell::scene::{load_scene, load_scene_str, BuildOptions};
+use std::path::Path;
+
+fn render_str(text: &str, threads: usize) -> Rendered {
+    let s = load_scene_str("test.toml", text, Path::new("scenes"), &BuildOptions::default())
+        .expect("scene loads");
+    render(
+        &s,
+        &RenderOptions {
+            threads: Some(threads),
+            quiet: true,
+            want_aovs: false,
+        },
+    )
+    .expect("render")
+}
+
+/// Image mean and Monte Carlo standard error of one channel.
+fn mean_se(r: &Rendered, ch: usize) -> (f64, f64) {
+    r.mean_and_se(ch)
+}
+
+const FURNACE: &str = r#"
+ambient_ior = 1.0
+[camera]
+position = [0.0, 0.0, 4.0]
+target = [0.0, 0.0, 0.0]
+fov = 30.0
+[film]
+width = 48
+height = 48
+spp = SPP
+[integrator]
+max_depth = 256
+rr_depth = 5
+[environment]
+type = "constant"
+radiance = [0.5, 0.5, 0.5]
+[[objects]]
+shape = { type = "sphere", center = [0.0, 0.0, 0.0], radius = 1.0 }
+material = MATERIAL
+"#;
+
+#[test]
+fn furnace_diffuse_sphere_of_albedo_one_returns_the_environment() {
+    let text = FURNACE.replace("SPP", "4").replace(
+        "MATERIAL",
+        r#"{ type = "diffuse", reflectance = [1.0, 1.0, 1.0] }"#,
+    );
+    let r = render_str(&text, 2);
+    // A convex albedo-1 sphere: every path escapes after one bounce carrying
+    // weight exactly 1, so every pixel is 0.5 up to f32 rounding.
+    for p in &r.pixels {
+        assert!((p.x - 0.5).abs() < 1e-5 && (p.z - 0.5).abs() < 1e-5, "{p}");
+    }
+}
+
+#[test]
+fn furnace_glass_sphere_returns_the_environment() {
+    for mat in [
+        r#"{ type = "dielectric", ior = 1.5 }"#,
+        r#"{ type = "dielectric", int_ior = 1.5, ext_ior = 1.0 }"#,
+    ] {
+        let text = FURNACE.replace("SPP", "64").replace("MATERIAL", mat);
+        let r = render_str(&text, 2);
+        let (m, se) = mean_se(&r, 1);
+        // Unbiased: the image mean is 0.5 within 5 standard errors (se from
+        // the pixel spread; paths are independent across pixels).
+        assert!((m - 0.5).abs() < 5.0 * se + 1e-4, "{mat}: mean {m} ± {se}");
+        assert_eq!(r.stats.nan, 0);
+    }
+}
+
+#[test]
+fn diffuse_plane_under_directional_light_matches_analytic_radiance() {
+    let text = r#"
+ambient_ior = 1.0
+[camera]
+position = [0.0, 3.0, 3.0]
+target = [0.0, 0.0, 0.0]
+fov = 20.0
+[film]
+width = 16
+height = 16
+spp = 2
+[integrator]
+max_depth = 2
+[[lights]]
+type = "directional"
+direction = [0.6, -0.8, 0.0]
+irradiance = [2.0, 1.0, 0.5]
+[[objects]]
+shape = { type = "rect", center = [0.0, 0.0, 0.0], normal = [0.0, 1.0, 0.0], u_axis = [1.0, 0.0, 0.0], size = [20.0, 20.0] }
+material = { type = "diffuse", reflectance = [0.5, 0.5, 0.5] }
+"#;
+    let r = render_str(text, 1);
+    // L = ρ/π · E · cosθ with cosθ = 0.8.
+    let want = V3::new(2.0, 1.0, 0.5) * (0.5 / std::f32::consts::PI * 0.8);
+    for p in &r.pixels {
+        assert!(
+            (*p - want).abs().max_element() < 1e-5 * want.max_element(),
+            "{p} vs {want}"
+        );
+    }
+}
+
+#[test]
+fn same_image_with_one_or_two_threads_bit_for_bit() {
+    let text = std::fs::read_to_string("scenes/glass_of_water.toml").unwrap();
+    let text = text
+        .replace("width = 640", "width = 40")
+        .replace("height = 480", "height = 30")
+        .replace("spp = 64", "spp = 3");
+    let a = render_str(&text, 1);
+    let b = render_str(&text, 2);
+    assert!(a
+        .pixels
+        .iter()
+        .zip(&b.pixels)
+        .all(|(x, y)| x.to_array().map(f32::to_bits) == y.to_array().map(f32::to_bits)));
+    assert!(a.pixels.iter().any(|p| p.max_element() > 0.0));
+}
+
+/// Image means of the reference scenes at 80×60 against stored high-spp means
+/// (tests/data/reference_means.json; how they were made is recorded there).
+#[test]
+fn reference_scenes_have_no_nan_and_match_stored_means() {
+    let stored: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string("tests/data/reference_means.json").unwrap()).unwrap();
+    for name in ["three_spheres", "glass_of_water", "cylinder_refraction"] {
+        let path = format!("scenes/{name}.toml");
+        let mut s = load_scene(Path::new(&path), &BuildOptions::default()).unwrap();
+        s.set_resolution(80, 60).unwrap();
+        s.spp = 16;
+        s.seed = 12345;
+        let r = render(
+            &s,
+            &RenderOptions {
+                threads: Some(2),
+                quiet: true,
+                want_aovs: false,
+            },
+        )
+        .unwrap();
+        assert_eq!(r.stats.nan, 0, "{name}: NaN/Inf samples");
+        assert!(r.pixels.iter().all(|p| p.is_finite()));
+        for ch in 0..3 {
+            let (m, se) = mean_se(&r, ch);
+            let want = stored[name]["mean"][ch].as_f64().unwrap();
+            let want_se = stored[name]["se"][ch].as_f64().unwrap();
+            let tol = 5.0 * (se * se + want_se * want_se).sqrt() + 1e-4;
+            assert!(
+                (m - want).abs() < tol,
+                "{name} channel {ch}: {m} vs stored {want} (tol {tol})"
+            );
+        }
+    }
+}
+
+const BASE: &str = r#"
+[camera]
+position = [0.0, 1.0, 5.0]
+target = [0.0, 0.5, 0.0]
+fov = 40.0
+[film]
+width = 8
+height = 8
+spp = 1
+[[lights]]
+type = "point"
+position = [0.0, 4.0, 0.0]
+intensity = [10.0, 10.0, 10.0]
+[[objects]]
+name = "ball"
+shape = { type = "sphere", center = [0.0, 0.5, 0.0], radius = 0.5 }
+material = { type = "dielectric", ior = 1.5, priority = 1 }
+"#;
+
+#[test]
+fn bad_scene_files_give_located_errors() {
+    // (what to replace, replacement, expected key path, expected words in the message)
+    let cases: &[(&str, &str, &str, &str)] = &[
+        ("fov = 40.0", "fov = 40.0\nfocal = 3", "camera.focal", "unknown field"),
+        ("fov = 40.0", "fov = 0.0", "camera.fov", "(0, 180)"),
+        ("fov = 40.0", "fov = \"wide\"", "camera.fov", "invalid type"),
+        ("radius = 0.5", "radius = -0.5", "objects[0].shape.radius", "> 0"),
+        ("radius = 0.5", "radius = nan", "objects[0].shape.radius", "> 0"),
+        ("radius = 0.5", "radius = 0.5, colour = 1", "objects[0].shape", "colour"),
+        ("type = \"sphere\"", "type = \"blob\"", "objects[0].shape", "blob"),
+        ("ior = 1.5", "ior = 0.0", "objects[0].material.ior", "> 0"),
+        ("ior = 1.5, priority = 1", "int_ior = 1.5", "objects[0].material", "ext_ior"),
+        ("ior = 1.5, priority = 1", "int_ior = 1.5, ext_ior = 1.0, priority = 2", "objects[0].material.priority", "priority"),
+        ("width = 8", "width = 1000000000", "film.width", "GB"),
+        ("spp = 1", "spp = 1000000000000", "film.spp", "samples per pixel"),
+        ("spp = 1", "spp = 0", "film.spp", "samples per pixel"),
+        ("spp = 1", "spp = 1\nfilter = \"gauss\"", "film.filter", "box"),
+        ("position = [0.0, 1.0, 5.0]", "position = [0.0, 1.0]", "camera.position", "3"),
+        ("position = [0.0, 1.0, 5.0]", "position = [0.0, 0.5, 0.0]", "camera", "target"),
+        ("intensity = [10.0, 10.0, 10.0]", "intensity = [10.0, -1.0, 10.0]", "lights[0].intensity", ">= 0"),
+        ("type = \"point\"", "type = \"laser\"", "lights[0]", "laser"),
+        (
+            "shape = { type = \"sphere\", center = [0.0, 0.5, 0.0], radius = 0.5 }",
+            "shape = { type = \"mesh\", file = \"no_such_mesh.obj\" }",
+            "objects[0].shape.file",
+            "no_such_mesh.obj",
+        ),
+        (
+            "shape = { type = \"sphere\", center = [0.0, 0.5, 0.0], radius = 0.5 }",
+            "shape = { type = \"rect\", center = [0.0, 0.0, 0.0], normal = [0.0, 1.0, 0.0], u_axis = [1.0, 0.0, 0.0], size = [1.0, 1.0] }",
+            "objects[0].shape",
+            "closed",
+        ),
+        (
+            "shape = { type = \"sphere\", center = [0.0, 0.5, 0.0], radius = 0.5 }",
+            "shape = { type = \"rect\", center = [0.0, 0.0, 0.0], normal = [0.0, 1.0, 0.0], u_axis = [0.0, 1.0, 0.0], size = [1.0, 1.0] }",
+            "objects[0].shape.u_axis",
+            "perpendicular",
+        ),
+        (
+            "shape = { type = \"sphere\", center = [0.0, 0.5, 0.0], radius = 0.5 }",
+            "shape = { type = \"heightfield\", size = [1.0, 1.0], levels = 27, height = 1.0, roughness = 0.5 }",
+            "objects[0].shape.levels",
+            "triangles",
+        ),
+        (
+            "shape = { type = \"sphere\", center = [0.0, 0.5, 0.0], radius = 0.5 }",
+            "shape = { type = \"lathe\", profile = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]] }",
+            "objects[0].shape",
+            "closed",
+        ),
+        ("[[objects]]\nname = \"ball\"", "[[objects]]\nname = \"ball\"\ntransform = [{ scale = [1.0, 2.0, 1.0] }]", "objects[0].transform", "uniform"),
+        ("[[objects]]\nname = \"ball\"", "[[objects]]\nname = \"ball\"\ntransform = [{ translate = [1.0, 2.0, 1.0], scale = 2.0 }]", "objects[0].transform[0]", "exactly one"),
+        ("[camera]", "ambient_ior = -1.0\n[camera]", "ambient_ior", "> 0"),
+        ("[film]", "[integrator]\ntype = \"bdpt\"\n[film]", "integrator.type", "path"),
+        ("[film]", "[camera2]\n[film]", "camera2", "unknown field"),
+    ];
+    assert!(cases.len() >= 20);
+    for (from, to, key, words) in cases {
+        assert!(BASE.contains(from), "case setup: {from}");
+        let text = BASE.replacen(from, to, 1);
+        let err = match load_scene_str("bad.toml", &text, Path::new("scenes"), &BuildOptions::default()) {
+            Ok(_) => panic!("accepted bad input: {to}"),
+            Err(e) => e,
+        };
+        let msg = err.to_string();
+        match &err {
+            snell::Error::Input {
+                file, key: k, line, ..
+            } => {
+                assert_eq!(file, "bad.toml");
+                assert!(k.starts_with(key), "key path for {to}: {msg}");
+                assert!(*line >= 1);
+            }
+            other => panic!("not an input error for {to}: {other}"),
+        }
+        assert!(msg.contains(words), "message for {to} lacks \"{words}\": {msg}");
+    }
+}
+
+#[test]
+fn empty_scene_and_inside_out_mesh_are_errors_and_flip_is_offered() {
+    let text = "[camera]\nposition = [0.0, 0.0, 1.0]\ntarget = [0.0, 0.0, 0.0]\nfov = 40.0\n";
+    let e = load_scene_str("e.toml", text, Path::new("."), &BuildOptions::default())
+        .err()
+        .unwrap();
+    assert!(e.to_string().contains("empty"), "{e}");
+
+    let dir = std::env::temp_dir().join(format!("snell-inside-out-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    // A tetrahedron wound inward.
+    std::fs::write(
+        dir.join("tet.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 4\nf 1 3 4\nf 2 3 4\n",
+    )
+    .unwrap();
+    let scene = |flip: bool| {
+        format!(
+            "{text}[[objects]]\nname = \"tet\"\nflip_inside_out = {flip}\nshape = {{ type = \"mesh\", file = \"tet.obj\" }}\nmaterial = {{ type = \"dielectric\", ior = 1.5 }}\n"
+        )
+    };
+    // This tetrahedron's windings are inconsistent: it is not a valid solid at all.
+    let e = load_scene_str("t.toml", &scene(false), &dir, &BuildOptions::default())
+        .err()
+        .unwrap();
+    assert!(e.to_string().contains("not a closed solid"), "{e}");
+    // Consistently inward.
+    std::fs::write(
+        dir.join("tet.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 4 2\nf 1 3 4\nf 2 4 3\n",
+    )
+    .unwrap();
+    let e = load_scene_str("t.toml", &scene(false), &dir, &BuildOptions::default())
+        .err()
+        .unwrap();
+    assert!(e.to_string().contains("inside out"), "{e}");
+    let s = load_scene_str("t.toml", &scene(true), &dir, &BuildOptions::default()).unwrap();
+    assert_eq!(s.warnings.len(), 1);
+    let _ = std::fs::remove_dir_all(&dir);
+}
