@@ -56,6 +56,37 @@ enum Cmd {
         #[arg(long)]
         stats_json: Option<PathBuf>,
     },
+    /// Benchmarks that print ratios measured in one run, with provenance.
+    Bench {
+        #[command(subcommand)]
+        which: BenchCmd,
+    },
+}
+
+#[derive(Subcommand)]
+enum BenchCmd {
+    /// Bare Embree rays/s: no filter, accept-all filter, recording filter (one thread).
+    Embree {
+        #[arg(long, default_value_t = 1_000_000)]
+        rays: usize,
+        #[arg(long, default_value_t = 5)]
+        reps: usize,
+    },
+    /// Nested-dielectric strategies on every nested and reference scene: trace-only and full render.
+    Nested {
+        /// Write one JSON object per run (a JSON array) to this file.
+        #[arg(long)]
+        json: Option<PathBuf>,
+        #[arg(long, default_value_t = 5)]
+        reps: usize,
+        #[arg(long, default_value_t = 1)]
+        threads: usize,
+        /// Only these scenes (names in scenes/, without .toml).
+        #[arg(long, value_delimiter = ',')]
+        scenes: Vec<String>,
+        #[arg(long, default_value = "scenes")]
+        scenes_dir: PathBuf,
+    },
 }
 
 fn main() -> ExitCode {
@@ -71,6 +102,66 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> snell::Result<()> {
     match cli.cmd {
+        Cmd::Bench {
+            which: BenchCmd::Embree { rays, reps },
+        } => {
+            println!("{}", snell::bench_header());
+            let f = snell::bench::embree_bare(rays, reps)?;
+            println!(
+                "bare Embree, 1 thread, {} incoherent rays against two overlapping meshes ({} triangles), median of {reps}:",
+                f.rays, f.triangles
+            );
+            println!("  no filter          {:8.3} Mrays/s  1.000", f.no_filter);
+            println!(
+                "  accept-all filter  {:8.3} Mrays/s  {:.3}",
+                f.accept_all,
+                f.accept_all / f.no_filter
+            );
+            println!(
+                "  recording filter   {:8.3} Mrays/s  {:.3}",
+                f.recording,
+                f.recording / f.no_filter
+            );
+            Ok(())
+        }
+        Cmd::Bench {
+            which:
+                BenchCmd::Nested {
+                    json,
+                    reps,
+                    threads,
+                    scenes,
+                    scenes_dir,
+                },
+        } => {
+            println!("{}", snell::bench_header());
+            let mut opts = snell::bench::NestedBenchOptions {
+                reps,
+                threads,
+                scenes_dir,
+                ..Default::default()
+            };
+            if !scenes.is_empty() {
+                opts.scenes = scenes;
+            }
+            let runs = snell::bench::nested(&opts, |m| eprintln!("{m}"))?;
+            print!("{}", snell::bench::nested_ratios(&runs));
+            if let Some(p) = json {
+                let prov = snell::provenance::json();
+                let v: Vec<serde_json::Value> = runs
+                    .iter()
+                    .map(|r| {
+                        let mut o = serde_json::to_value(r).unwrap_or_default();
+                        o["provenance"] = prov.clone();
+                        o
+                    })
+                    .collect();
+                let text =
+                    serde_json::to_string_pretty(&v).map_err(|e| snell::Error::Invalid(e.to_string()))?;
+                snell::image_io::write_atomic(&p, text.as_bytes())?;
+            }
+            Ok(())
+        }
         Cmd::Render {
             scene,
             output,

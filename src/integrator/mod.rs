@@ -605,6 +605,9 @@ pub struct PathEvent {
     /// Interior list (sorted solid indices) of the ray leaving this event.
     pub list_after: Vec<u32>,
     pub tir: bool,
+    /// The ray leaving this event (origin offset off the surface, unit direction).
+    pub next_org: V3,
+    pub next_dir: V3,
 }
 
 /// Follow a ray through dielectrics, always refracting (reflecting only under
@@ -664,6 +667,8 @@ pub fn refraction_path(
             n2: c.n2,
             list_after: list.sorted(),
             tir,
+            next_org: offset_origin(sp.p, if tir { incident_side } else { -incident_side }),
+            next_dir: wi,
         });
         let side = if tir { incident_side } else { -incident_side };
         ray = Ray::new(offset_origin(sp.p, side), wi);

@@ -1,0 +1,359 @@
+//! Benchmarks that report ratios measured in one run, with provenance:
+//! - `embree_bare`: Embree's own speed on incoherent rays against two
+//!   overlapping ~20k-triangle meshes, with no filter, an accept-all filter and
+//!   a recording filter (the physical limit for everything else).
+//! - `nested`: every nested-dielectric strategy on every nested scene and the
+//!   no-overlap reference scenes, trace-only (a fixed set of rays taken from
+//!   real refraction paths) and full render, repeats interleaved.
+use crate::dielectric::{self, InteriorList, NestedStrategy, TraceCounters};
+use crate::embree::{BuildQuality, Device, FilterHit, HitFilter, Ray, SceneBuilder, SceneFlags};
+use crate::error::Result;
+use crate::integrator::refraction_path;
+use crate::render::{render, RenderOptions};
+use crate::sampling::{uniform_sphere, Rng};
+use crate::scene::{load_scene, meshgen, BuildOptions, RenderScene};
+use glam::Vec3A as V3;
+use std::path::Path;
+use std::time::Instant;
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// Figures of the bare-Embree benchmark (Mrays/s, one thread).
+#[derive(Debug, Clone)]
+pub struct BareFigures {
+    pub triangles: usize,
+    pub rays: usize,
+    pub no_filter: f64,
+    pub accept_all: f64,
+    pub recording: f64,
+}
+
+struct AcceptAll;
+impl HitFilter for AcceptAll {
+    #[inline]
+    fn accept(&mut self, _: &FilterHit) -> bool {
+        true
+    }
+}
+
+struct Recording {
+    hits: [(u32, f32); 32],
+    n: usize,
+}
+impl HitFilter for Recording {
+    #[inline]
+    fn accept(&mut self, h: &FilterHit) -> bool {
+        if self.n < 32 {
+            self.hits[self.n] = (h.geom_id, h.t);
+            self.n += 1;
+        }
+        true
+    }
+}
+
+/// Bare Embree on `n_rays` incoherent rays, single thread, `reps` interleaved repeats.
+pub fn embree_bare(n_rays: usize, reps: usize) -> Result<BareFigures> {
+    // Two overlapping spheres of ~20k triangles each (lathe, 100 × 100).
+    let profile: Vec<[f64; 2]> = (0..=100)
+        .map(|i| {
+            let a = std::f64::consts::PI * i as f64 / 100.0;
+            [
+                a.sin().abs().max(if i == 0 || i == 100 { 0.0 } else { 1e-9 }),
+                -a.cos(),
+            ]
+        })
+        .collect();
+    let mut profile = profile;
+    profile[0][0] = 0.0;
+    profile[100][0] = 0.0;
+    let sphere = meshgen::lathe(&profile, 100);
+    let shifted: Vec<[f32; 3]> = sphere
+        .positions
+        .iter()
+        .map(|p| [p[0] + 0.6, p[1], p[2]])
+        .collect();
+    let device = Device::new("threads=1")?;
+    let build = |flags: SceneFlags| -> Result<crate::embree::Scene> {
+        let mut b = SceneBuilder::new(&device, flags, BuildQuality::Medium)?;
+        b.add_triangles(&sphere.positions, &sphere.indices)?;
+        b.add_triangles(&shifted, &sphere.indices)?;
+        Ok(b.commit()?)
+    };
+    let plain = build(SceneFlags::default())?;
+    let filtered = build(SceneFlags {
+        context_filter: true,
+        robust: false,
+    })?;
+    let mut rng = Rng::new(42);
+    let rays: Vec<Ray> = (0..n_rays)
+        .map(|_| {
+            let o = V3::new(
+                rng.uniform() * 3.0 - 1.2,
+                rng.uniform() * 3.0 - 1.5,
+                rng.uniform() * 3.0 - 1.5,
+            );
+            Ray::new(o, uniform_sphere(rng.uniform(), rng.uniform()))
+        })
+        .collect();
+    let (mut a, mut b, mut c) = (vec![], vec![], vec![]);
+    let mut sink = 0u64;
+    for _ in 0..reps {
+        let t = Instant::now();
+        for r in &rays {
+            sink += plain.intersect(r).map(|h| h.geom_id as u64).unwrap_or(7);
+        }
+        a.push(n_rays as f64 / t.elapsed().as_secs_f64() / 1e6);
+        let t = Instant::now();
+        for r in &rays {
+            sink += filtered
+                .intersect_filtered(r, &mut AcceptAll)?
+                .map(|h| h.geom_id as u64)
+                .unwrap_or(7);
+        }
+        b.push(n_rays as f64 / t.elapsed().as_secs_f64() / 1e6);
+        let t = Instant::now();
+        for r in &rays {
+            let mut rec = Recording {
+                hits: [(0, 0.0); 32],
+                n: 0,
+            };
+            sink += filtered
+                .intersect_filtered(r, &mut rec)?
+                .map(|h| h.geom_id as u64)
+                .unwrap_or(7);
+            sink += rec.n as u64;
+        }
+        c.push(n_rays as f64 / t.elapsed().as_secs_f64() / 1e6);
+    }
+    std::hint::black_box(sink);
+    Ok(BareFigures {
+        triangles: sphere.indices.len() * 2,
+        rays: n_rays,
+        no_filter: median(a),
+        accept_all: median(b),
+        recording: median(c),
+    })
+}
+
+/// The nested scenes and the no-overlap references.
+pub const NESTED_SCENES: [&str; 5] = [
+    "nested_spheres_a",
+    "nested_spheres_b",
+    "glass_of_water_nested",
+    "glass_ice_bubbles",
+    "deep_nesting",
+];
+pub const REFERENCE_SCENES: [&str; 3] = ["three_spheres", "glass_of_water", "cylinder_refraction"];
+
+/// A fixed ray with the interior list at its origin.
+#[derive(Clone)]
+pub struct ListedRay {
+    pub ray: Ray,
+    pub list: Vec<u32>,
+}
+
+/// Rays of real refraction paths through `scene` (always refracting, from a
+/// `w`×`h` grid of camera rays): the camera rays and every continuation.
+pub fn path_rays(scene: &RenderScene, w: u32, h: u32) -> Result<Vec<ListedRay>> {
+    let mut out = Vec::new();
+    let mut c = TraceCounters::default();
+    let cam = scene.camera.with_resolution(w, h);
+    for y in 0..h {
+        for x in 0..w {
+            let (o, d) = cam.ray(x as f32 + 0.5, y as f32 + 0.5, (0.5, 0.5));
+            out.push(ListedRay {
+                ray: Ray::new(o, d),
+                list: scene.camera_interior.clone(),
+            });
+            let p = refraction_path(scene, o, d, &scene.camera_interior, 24, &mut c)?;
+            for e in &p.events {
+                out.push(ListedRay {
+                    ray: Ray::new(e.next_org, e.next_dir),
+                    list: e.list_after.clone(),
+                });
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// One measured run.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct NestedRun {
+    pub scene: String,
+    pub strategy: String,
+    pub mode: String,
+    pub rays_per_s: f64,
+    pub false_hits_per_ray: f64,
+    pub wall_s: f64,
+    pub median_of: usize,
+    pub rays: u64,
+    pub samples_per_s: Option<f64>,
+}
+
+fn trace_only(
+    scene: &RenderScene,
+    strategy: NestedStrategy,
+    rays: &[ListedRay],
+) -> Result<(f64, TraceCounters)> {
+    let mut c = TraceCounters::default();
+    let t = Instant::now();
+    let mut sink = 0u64;
+    for r in rays {
+        let mut list = InteriorList::from_slice(&r.list);
+        let h = dielectric::trace(scene, strategy, &r.ray, &mut list, &mut c)?;
+        sink += h.map(|h| h.hit.geom_id as u64).unwrap_or(3) + list.len() as u64;
+    }
+    std::hint::black_box(sink);
+    Ok((t.elapsed().as_secs_f64(), c))
+}
+
+/// Options of the nested benchmark.
+#[derive(Debug, Clone)]
+pub struct NestedBenchOptions {
+    pub scenes_dir: std::path::PathBuf,
+    pub reps: usize,
+    pub trace_grid: (u32, u32),
+    pub render: (u32, u32, u32),
+    pub threads: usize,
+    pub scenes: Vec<String>,
+}
+
+impl Default for NestedBenchOptions {
+    fn default() -> Self {
+        NestedBenchOptions {
+            scenes_dir: "scenes".into(),
+            reps: 5,
+            trace_grid: (160, 120),
+            render: (160, 120, 8),
+            threads: 1,
+            scenes: NESTED_SCENES
+                .iter()
+                .chain(REFERENCE_SCENES.iter())
+                .map(|s| s.to_string())
+                .collect(),
+        }
+    }
+}
+
+/// Run the nested benchmark; returns every run (medians over interleaved repeats).
+pub fn nested(opts: &NestedBenchOptions, mut progress: impl FnMut(&str)) -> Result<Vec<NestedRun>> {
+    let strategies = [
+        NestedStrategy::Filter,
+        NestedStrategy::Recast,
+        NestedStrategy::Toggle,
+        NestedStrategy::Off,
+    ];
+    let mut runs = Vec::new();
+    for name in &opts.scenes {
+        let path = opts.scenes_dir.join(format!("{name}.toml"));
+        let scenes: Vec<RenderScene> = strategies
+            .iter()
+            .map(|&s| {
+                let mut sc = load_scene(
+                    Path::new(&path),
+                    &BuildOptions {
+                        nested: s,
+                        ..Default::default()
+                    },
+                )?;
+                sc.set_resolution(opts.render.0, opts.render.1)?;
+                sc.spp = opts.render.2;
+                sc.seed = 1;
+                Ok(sc)
+            })
+            .collect::<Result<_>>()?;
+        let rays = path_rays(&scenes[0], opts.trace_grid.0, opts.trace_grid.1)?;
+        progress(&format!("{name}: {} trace rays", rays.len()));
+        let mut trace_t = vec![vec![]; strategies.len()];
+        let mut trace_c = vec![TraceCounters::default(); strategies.len()];
+        let mut render_t = vec![vec![]; strategies.len()];
+        let mut render_stats = vec![None; strategies.len()];
+        for _ in 0..opts.reps {
+            for (k, &s) in strategies.iter().enumerate() {
+                let (t, c) = trace_only(&scenes[k], s, &rays)?;
+                trace_t[k].push(t);
+                trace_c[k] = c;
+            }
+            for (k, _) in strategies.iter().enumerate() {
+                let r = render(
+                    &scenes[k],
+                    &RenderOptions {
+                        threads: Some(opts.threads),
+                        quiet: true,
+                        want_aovs: false,
+                    },
+                )?;
+                render_t[k].push(r.stats.wall_s);
+                render_stats[k] = Some(r.stats);
+            }
+        }
+        for (k, s) in strategies.iter().enumerate() {
+            let wall = median(trace_t[k].clone());
+            runs.push(NestedRun {
+                scene: name.clone(),
+                strategy: s.name().into(),
+                mode: "trace".into(),
+                rays_per_s: rays.len() as f64 / wall,
+                false_hits_per_ray: trace_c[k].false_hits as f64 / rays.len() as f64,
+                wall_s: wall,
+                median_of: opts.reps,
+                rays: rays.len() as u64,
+                samples_per_s: None,
+            });
+            let wall = median(render_t[k].clone());
+            let st = render_stats[k].expect("at least one repeat");
+            runs.push(NestedRun {
+                scene: name.clone(),
+                strategy: s.name().into(),
+                mode: "render".into(),
+                rays_per_s: st.rays as f64 / wall,
+                false_hits_per_ray: st.false_hits as f64 / st.queries.max(1) as f64,
+                wall_s: wall,
+                median_of: opts.reps,
+                rays: st.rays,
+                samples_per_s: Some(st.samples as f64 / wall),
+            });
+        }
+    }
+    Ok(runs)
+}
+
+/// Ratio table: filter/recast and filter/off, per scene and mode.
+pub fn nested_ratios(runs: &[NestedRun]) -> String {
+    let mut out = String::from(
+        "scene                   mode    filter Mrays/s  recast  toggle  off   filter/recast  filter/off  false hits/ray\n",
+    );
+    let mut scenes: Vec<&str> = runs.iter().map(|r| r.scene.as_str()).collect();
+    scenes.dedup();
+    for s in scenes {
+        for mode in ["trace", "render"] {
+            // Render speed is compared by wall time (the same samples for all).
+            let get = |st: &str| {
+                runs.iter()
+                    .find(|r| r.scene == s && r.mode == mode && r.strategy == st)
+                    .map(|r| (r.rays_per_s, r.wall_s, r.false_hits_per_ray))
+            };
+            let (Some(f), Some(rc), Some(tg), Some(off)) =
+                (get("filter"), get("recast"), get("toggle"), get("off"))
+            else {
+                continue;
+            };
+            out.push_str(&format!(
+                "{s:<23} {mode:<7} {:>13.3} {:>7.3} {:>7.3} {:>6.3} {:>14.3} {:>11.3} {:>15.3}\n",
+                f.0 / 1e6,
+                rc.0 / 1e6,
+                tg.0 / 1e6,
+                off.0 / 1e6,
+                rc.1 / f.1,
+                off.1 / f.1,
+                f.2
+            ));
+        }
+    }
+    out.push_str("(ratios are speed ratios: time of the other strategy / time of filter; > 1 means filter is faster)\n");
+    out
+}
