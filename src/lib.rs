@@ -7,6 +7,7 @@ pub mod camera;
 pub mod dielectric;
 pub mod embree;
 pub mod error;
+pub mod fuzz;
 pub mod image_io;
 pub mod integrator;
 pub mod optics;

@@ -56,10 +56,45 @@ enum Cmd {
         #[arg(long)]
         stats_json: Option<PathBuf>,
     },
+    /// Audits: `snell audit nested SCENE --rays N` compares interior lists with point-in-solid tests.
+    Audit {
+        #[command(subcommand)]
+        which: AuditCmd,
+    },
+    /// Mutation-fuzz the scene loader and renderer with the shipped scenes as seeds.
+    Fuzz {
+        #[arg(long, default_value_t = 100_000)]
+        cases: u64,
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        #[arg(long, default_value = "scenes")]
+        scenes_dir: PathBuf,
+    },
     /// Benchmarks that print ratios measured in one run, with provenance.
     Bench {
         #[command(subcommand)]
         which: BenchCmd,
+    },
+}
+
+#[derive(Subcommand)]
+enum AuditCmd {
+    /// Cast N rays (a share exactly at mesh vertices and edges and at analytic
+    /// silhouettes); on every segment between true hits compare the medium the
+    /// interior list claims with a point-in-solid test; report per strategy.
+    Nested {
+        scene: PathBuf,
+        #[arg(long, default_value_t = 1_000_000)]
+        rays: u64,
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Strategies to audit.
+        #[arg(long, value_delimiter = ',', default_value = "filter,recast,toggle")]
+        nested: Vec<NestedStrategy>,
+        #[arg(long)]
+        threads: Option<usize>,
+        #[arg(long)]
+        json: Option<PathBuf>,
     },
 }
 
@@ -102,6 +137,101 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> snell::Result<()> {
     match cli.cmd {
+        Cmd::Fuzz {
+            cases,
+            seed,
+            scenes_dir,
+        } => {
+            let seeds = snell::fuzz::shipped_scenes(&scenes_dir);
+            if seeds.is_empty() {
+                return Err(snell::Error::Invalid(format!(
+                    "no .toml scenes in {}",
+                    scenes_dir.display()
+                )));
+            }
+            let t = std::time::Instant::now();
+            let rep = snell::fuzz::run(
+                &seeds,
+                &scenes_dir,
+                cases,
+                seed,
+                std::time::Duration::from_secs(1),
+            );
+            println!(
+                "{} cases in {:.1} s: {} rendered, {} located errors, {} other errors, {} panics, {} slower than 1 s; slowest {:.3} s ({})",
+                rep.cases,
+                t.elapsed().as_secs_f64(),
+                rep.rendered,
+                rep.errors - rep.unlocated_errors.len() as u64,
+                rep.unlocated_errors.len(),
+                rep.panics.len(),
+                rep.slow.len(),
+                rep.slowest.0,
+                rep.slowest.1
+            );
+            for p in rep.panics.iter().take(5) {
+                println!("PANIC {p}");
+            }
+            for e in rep.unlocated_errors.iter().take(5) {
+                println!("UNLOCATED {e}");
+            }
+            if rep.panics.is_empty() && rep.unlocated_errors.is_empty() && rep.slow.is_empty() {
+                Ok(())
+            } else {
+                Err(snell::Error::Invalid(
+                    "the fuzzer found problems (see above)".into(),
+                ))
+            }
+        }
+        Cmd::Audit {
+            which:
+                AuditCmd::Nested {
+                    scene,
+                    rays,
+                    seed,
+                    nested,
+                    threads,
+                    json,
+                },
+        } => {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads.unwrap_or(0))
+                .build()
+                .map_err(|e| snell::Error::Invalid(e.to_string()))?;
+            println!("{}", snell::bench_header());
+            let mut out = Vec::new();
+            for strategy in nested {
+                let s = load_scene(
+                    &scene,
+                    &BuildOptions {
+                        nested: strategy,
+                        ..Default::default()
+                    },
+                )?;
+                let t = std::time::Instant::now();
+                let r = pool.install(|| snell::dielectric::audit::audit_scene(&s, rays, seed))?;
+                println!(
+                    "{:<7} {} rays ({} at vertices/edges, {} at silhouettes), {} segments: {} mismatches, {} left non-empty, {} wrong rays ({:.4}%) [{:.1} s]",
+                    strategy.name(),
+                    r.rays,
+                    r.vertex_edge_rays,
+                    r.silhouette_rays,
+                    r.segments,
+                    r.mismatches,
+                    r.left_nonempty,
+                    r.wrong_rays,
+                    100.0 * r.wrong_rays as f64 / r.rays.max(1) as f64,
+                    t.elapsed().as_secs_f64()
+                );
+                out.push(serde_json::json!({"scene": scene.display().to_string(), "strategy": strategy.name(), "report": r, "provenance": snell::provenance::json()}));
+            }
+            if let Some(p) = json {
+                let text =
+                    serde_json::to_string_pretty(&out).map_err(|e| snell::Error::Invalid(e.to_string()))?;
+                snell::image_io::write_atomic(&p, text.as_bytes())?;
+            }
+            Ok(())
+        }
         Cmd::Bench {
             which: BenchCmd::Embree { rays, reps },
         } => {
@@ -202,6 +332,14 @@ fn run(cli: Cli) -> snell::Result<()> {
             if width.is_some() || height.is_some() {
                 s.set_resolution(width.unwrap_or(s.width), height.unwrap_or(s.height))?;
             }
+            // Ctrl-C stops at the next tile boundary and the image so far is
+            // written, clearly named; a second Ctrl-C exits at once.
+            let _ = ctrlc::set_handler(|| {
+                if snell::render::INTERRUPT.swap(true, std::sync::atomic::Ordering::SeqCst) {
+                    std::process::exit(130);
+                }
+                eprintln!("\ninterrupted: finishing the tiles in progress (Ctrl-C again to exit at once)");
+            });
             let r = render(
                 &s,
                 &RenderOptions {
@@ -210,7 +348,28 @@ fn run(cli: Cli) -> snell::Result<()> {
                     want_aovs: !aov.is_empty(),
                 },
             )?;
-            let layers: Vec<(&str, &[f32])> = aov
+            let output = if r.complete {
+                output
+            } else {
+                let stem = output
+                    .file_stem()
+                    .map(|s| s.to_string_lossy().to_string())
+                    .unwrap_or_default();
+                let ext = output
+                    .extension()
+                    .map(|s| s.to_string_lossy().to_string())
+                    .unwrap_or_default();
+                let p = output.with_file_name(format!("{stem}.partial.{ext}"));
+                eprintln!(
+                    "interrupted: {} of {} tiles done ({} spp each, the rest black); writing {}",
+                    r.tiles_done,
+                    r.tiles_total,
+                    r.spp_done,
+                    p.display()
+                );
+                p
+            };
+            let mut layers: Vec<(&str, &[f32])> = aov
                 .iter()
                 .map(|a| {
                     let v: &[f32] = match a.as_str() {
@@ -222,8 +381,13 @@ fn run(cli: Cli) -> snell::Result<()> {
                     (a.as_str(), v)
                 })
                 .collect();
+            if !r.complete {
+                layers.push(("spp", &r.pixel_spp));
+            }
             let attrs = [
                 ("spp", r.spp_done.to_string()),
+                ("complete", r.complete.to_string()),
+                ("tiles_done", format!("{}/{}", r.tiles_done, r.tiles_total)),
                 ("provenance", snell::provenance::line()),
             ];
             let is_exr = output.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
@@ -236,7 +400,7 @@ fn run(cli: Cli) -> snell::Result<()> {
                 &attrs,
             )?;
             if !is_exr {
-                for (name, vals) in &layers {
+                for (name, vals) in layers.iter().filter(|l| l.0 != "spp") {
                     let max = vals.iter().cloned().fold(0.0f32, f32::max).max(1e-9);
                     let px: Vec<glam::Vec3A> = vals.iter().map(|v| glam::Vec3A::splat(v / max)).collect();
                     let p = output.with_extension(format!("{name}.png"));

@@ -32,9 +32,14 @@ pub struct Rendered {
     pub variance: Vec<V3>,
     pub aovs: Aovs,
     pub stats: RenderStats,
-    /// Samples per pixel actually completed (less than requested if interrupted).
+    /// Samples per pixel requested (every pixel of a completed tile has them).
     pub spp_done: u32,
+    /// False when interrupted: tiles not started are black.
     pub complete: bool,
+    /// Samples per pixel actually taken, per pixel (spp or 0 when interrupted).
+    pub pixel_spp: Vec<f32>,
+    pub tiles_done: u32,
+    pub tiles_total: u32,
 }
 
 /// Totals over a render.
@@ -267,9 +272,12 @@ pub fn render(scene: &RenderScene, opts: &RenderOptions) -> Result<Rendered> {
     }
     let mut stats = RenderStats::default();
     let mut complete = true;
+    let mut pixel_spp = vec![0.0f32; n];
+    let mut tiles_done = 0;
     for r in results {
         let t = r?;
         complete &= t.done;
+        tiles_done += t.done as u32;
         stats.merge(&t.stats);
         for j in 0..t.h {
             for i in 0..t.w {
@@ -277,6 +285,7 @@ pub fn render(scene: &RenderScene, opts: &RenderOptions) -> Result<Rendered> {
                 let src = (j * t.w + i) as usize;
                 pixels[dst] = t.px[src];
                 variance[dst] = t.var[src];
+                pixel_spp[dst] = if t.done { scene.spp as f32 } else { 0.0 };
                 if let Some(a) = &t.aov {
                     aovs.false_hits[dst] = a[0][src];
                     aovs.list_depth[dst] = a[1][src];
@@ -297,6 +306,9 @@ pub fn render(scene: &RenderScene, opts: &RenderOptions) -> Result<Rendered> {
         stats,
         spp_done: scene.spp,
         complete,
+        pixel_spp,
+        tiles_done,
+        tiles_total: total as u32,
     })
 }
 

@@ -50,3 +50,123 @@ fn medium(scene: &RenderScene, solids: &[u32]) -> Option<u32> {
         .copied()
         .max_by_key(|&s| scene.solids[s as usize].rank)
 }
+
+/// Totals of an audit run.
+#[derive(Debug, Clone, Copy, Default, serde::Serialize)]
+pub struct AuditReport {
+    pub rays: u64,
+    pub vertex_edge_rays: u64,
+    pub silhouette_rays: u64,
+    pub segments: u64,
+    pub mismatches: u64,
+    pub left_nonempty: u64,
+    /// Rays with at least one mismatch or a non-empty list after leaving everything.
+    pub wrong_rays: u64,
+}
+
+/// Audit `n` rays: a third aimed exactly at mesh vertices and edge midpoints,
+/// a third grazing analytic silhouettes, the rest random rays through the
+/// solids' bounds. Deterministic in `seed`; parallel over chunks.
+pub fn audit_scene(scene: &RenderScene, n: u64, seed: u64) -> Result<AuditReport> {
+    use crate::sampling::{uniform_sphere, Rng};
+    use crate::scene::build::Shape;
+    use crate::scene::shapes::Analytic;
+    use rayon::prelude::*;
+    let mut targets: Vec<V3> = Vec::new();
+    let mut spheres: Vec<(V3, f32)> = Vec::new();
+    for s in &scene.solids {
+        match &scene.geoms[s.geom as usize].shape {
+            Shape::Mesh(m) => {
+                for t in &m.indices {
+                    let p = t.map(|i| V3::from(m.positions[i as usize]));
+                    targets.extend_from_slice(&p);
+                    targets.push((p[0] + p[1]) * 0.5);
+                    targets.push((p[1] + p[2]) * 0.5);
+                }
+            }
+            Shape::Analytic(Analytic::Sphere { center, radius }) => spheres.push((
+                V3::new(center.x as f32, center.y as f32, center.z as f32),
+                *radius as f32,
+            )),
+            Shape::Analytic(_) => {}
+        }
+    }
+    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+    for s in &scene.solids {
+        lo = lo.min(s.aabb.0);
+        hi = hi.max(s.aabb.1);
+    }
+    if scene.solids.is_empty() {
+        return Ok(AuditReport::default());
+    }
+    let centre = (lo + hi) * 0.5;
+    let radius = ((hi - lo).length() * 0.5 + 1.0) as f32;
+    let c = V3::new(centre.x as f32, centre.y as f32, centre.z as f32);
+    let chunk = 4096u64;
+    let chunks: Vec<u64> = (0..n.div_ceil(chunk)).collect();
+    let parts: Vec<Result<AuditReport>> = chunks
+        .par_iter()
+        .map(|&k| {
+            let mut rep = AuditReport::default();
+            let mut counters = TraceCounters::default();
+            for i in k * chunk..((k + 1) * chunk).min(n) {
+                let mut rng = Rng::for_sample(seed, k, i);
+                let eye = c + uniform_sphere(rng.uniform(), rng.uniform()) * radius * 2.0;
+                let kind = i % 3;
+                let target = match kind {
+                    0 if !targets.is_empty() => {
+                        rep.vertex_edge_rays += 1;
+                        targets[(rng.next_u32() as usize) % targets.len()]
+                    }
+                    1 if !spheres.is_empty() => {
+                        // A point on the silhouette circle of a sphere seen from the eye.
+                        rep.silhouette_rays += 1;
+                        let (sc, sr) = spheres[(rng.next_u32() as usize) % spheres.len()];
+                        let to = sc - eye;
+                        let d = to.length();
+                        let axis = to / d;
+                        let (t1, t2) = crate::sampling::basis(axis);
+                        let phi = rng.uniform() * std::f32::consts::TAU;
+                        let sin_a = sr / d;
+                        let cos_a = (1.0 - sin_a * sin_a).max(0.0).sqrt();
+                        let dir = axis * cos_a + (t1 * phi.cos() + t2 * phi.sin()) * sin_a;
+                        eye + dir * (d * cos_a)
+                    }
+                    _ => {
+                        let u = V3::new(rng.uniform(), rng.uniform(), rng.uniform());
+                        let l = V3::new(lo.x as f32, lo.y as f32, lo.z as f32);
+                        let h = V3::new(hi.x as f32, hi.y as f32, hi.z as f32);
+                        l + (h - l) * u
+                    }
+                };
+                let dir = (target - eye).normalize_or_zero();
+                if dir == V3::ZERO {
+                    continue;
+                }
+                let a = audit_ray(scene, eye, dir, &mut counters)?;
+                if (a.mismatches > 0 || a.left_nonempty) && std::env::var_os("SNELL_AUDIT_VERBOSE").is_some()
+                {
+                    eprintln!("wrong ray: eye {eye:?} dir {dir:?} kind {kind} {a:?}");
+                }
+                rep.rays += 1;
+                rep.segments += a.segments as u64;
+                rep.mismatches += a.mismatches as u64;
+                rep.left_nonempty += a.left_nonempty as u64;
+                rep.wrong_rays += (a.mismatches > 0 || a.left_nonempty) as u64;
+            }
+            Ok(rep)
+        })
+        .collect();
+    let mut total = AuditReport::default();
+    for p in parts {
+        let p = p?;
+        total.rays += p.rays;
+        total.vertex_edge_rays += p.vertex_edge_rays;
+        total.silhouette_rays += p.silhouette_rays;
+        total.segments += p.segments;
+        total.mismatches += p.mismatches;
+        total.left_nonempty += p.left_nonempty;
+        total.wrong_rays += p.wrong_rays;
+    }
+    Ok(total)
+}

@@ -296,6 +296,18 @@ fn crossing(
     }
 }
 
+/// A true hit that leaves solid O while O is not in the list means its entry
+/// was never seen (a ray through a mesh vertex, where Embree's robust mode can
+/// leak): the ray was inside O, so O goes into the list before the crossing.
+/// Sound by the orientation check at load (normals point out of every solid).
+fn repair_missed_entry(list: &mut InteriorList, m: &Material, front: bool, strategy: NestedStrategy) {
+    if let Material::Solid(s) = *m {
+        if !front && strategy != NestedStrategy::Toggle && !list.contains(s) {
+            list.insert(s);
+        }
+    }
+}
+
 fn to_d(v: V3) -> DVec3 {
     DVec3::new(v.x as f64, v.y as f64, v.z as f64)
 }
@@ -426,6 +438,7 @@ fn path(
                 ray = Ray::new(offset_origin(sp.p, side), wi);
             }
             m @ (Material::Interface { .. } | Material::Solid(_)) => {
+                repair_missed_entry(&mut list, m, front, scene.strategy);
                 let c = crossing(scene, m, front, &list, scene.strategy, coincident.as_slice());
                 let d = to_d(ray.dir);
                 let n = to_d(sp.ns);
@@ -549,6 +562,7 @@ fn whitted(
             l += *reflectance * whitted(scene, offset_origin(sp.p, side), wi, list, rng, st, depth + 1)?;
         }
         m @ (Material::Interface { .. } | Material::Solid(_)) => {
+            repair_missed_entry(&mut list, m, front, scene.strategy);
             let c = crossing(scene, m, front, &list, scene.strategy, coincident.as_slice());
             let d = to_d(dir);
             let n = to_d(sp.ns);
@@ -646,6 +660,7 @@ pub fn refraction_path(
                 escaped: false,
             });
         }
+        repair_missed_entry(&mut list, m, front, scene.strategy);
         let c = crossing(scene, m, front, &list, scene.strategy, coincident.as_slice());
         let d = to_d(ray.dir);
         let n = to_d(sp.ng);

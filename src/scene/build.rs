@@ -865,6 +865,17 @@ impl Builder<'_> {
                 )))
             }
         };
+        // Embree works in f32: everything must stay finite (and sane) there.
+        let (lo, hi) = match &shape {
+            Shape::Mesh(m) => m.aabb(),
+            Shape::Analytic(a) => a.aabb(),
+        };
+        if !(lo.is_finite() && hi.is_finite()) || lo.abs().max(hi.abs()).max_element() > 1e15 {
+            return Err(self.err(
+                &sk,
+                "the shape's coordinates are not finite or exceed 1e15 m (Embree works in f32)",
+            ));
+        }
         if let Shape::Mesh(m) = &shape {
             if let Some(face) = meshgen::find_degenerate(m) {
                 return Err(self.err(&sk, format!("triangle {} is degenerate (zero area)", face + 1)));

@@ -1,0 +1,234 @@
+//! A mutation fuzzer for scene files on stable Rust: byte-level and
+//! token-level mutations of the shipped scenes and OBJ files. Every case must
+//! end in a built scene (rendered at a tiny size) or a clear error; a panic, a
+//! non-located scene error or a case slower than the limit is a finding.
+//! `snell fuzz --cases N` runs it; `tests/fuzz_smoke.rs` runs a few thousand.
+use crate::render::{render, RenderOptions};
+use crate::sampling::Rng;
+use crate::scene::{load_scene_str, BuildOptions};
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+/// Replacement tokens that probe numeric and structural edge cases.
+const TOKENS: &[&str] = &[
+    "-1",
+    "0",
+    "0.0",
+    "-0.0",
+    "1e300",
+    "-1e300",
+    "1e-300",
+    "nan",
+    "inf",
+    "-inf",
+    "1000000000",
+    "18446744073709551615",
+    "\"\"",
+    "\"x\"",
+    "[]",
+    "[1]",
+    "[1, 2]",
+    "{}",
+    "true",
+    "[[1,2],[3]]",
+    "\"sphere\"",
+    "\"mesh\"",
+    "\"dielectric\"",
+    "999999999999",
+    "0.5",
+    "[0.0, 0.0, 0.0]",
+    "[1e30, 1e30, 1e30]",
+];
+
+/// Outcome counts of a fuzz run.
+#[derive(Debug, Clone, Default)]
+pub struct FuzzReport {
+    pub cases: u64,
+    pub rendered: u64,
+    pub errors: u64,
+    pub panics: Vec<String>,
+    pub unlocated_errors: Vec<String>,
+    pub slow: Vec<(String, f64)>,
+    pub slowest: (f64, String),
+}
+
+/// Mutate `text` once, deterministically from `rng`.
+pub fn mutate(text: &str, rng: &mut Rng) -> String {
+    let bytes = text.as_bytes();
+    let pick = |rng: &mut Rng, n: usize| if n == 0 { 0 } else { rng.next_u32() as usize % n };
+    match rng.next_u32() % 6 {
+        0 => {
+            // Flip a byte.
+            let mut b = bytes.to_vec();
+            if !b.is_empty() {
+                let i = pick(rng, b.len());
+                b[i] ^= 1 << (rng.next_u32() % 7);
+            }
+            String::from_utf8_lossy(&b).into_owned()
+        }
+        1 => {
+            // Replace a number or word token with an edge-case token.
+            let spans: Vec<(usize, usize)> = token_spans(text);
+            if spans.is_empty() {
+                return text.to_string();
+            }
+            let (s, e) = spans[pick(rng, spans.len())];
+            format!("{}{}{}", &text[..s], TOKENS[pick(rng, TOKENS.len())], &text[e..])
+        }
+        2 => {
+            // Delete a line.
+            let lines: Vec<&str> = text.lines().collect();
+            let k = pick(rng, lines.len());
+            lines
+                .iter()
+                .enumerate()
+                .filter(|(i, _)| *i != k)
+                .map(|(_, l)| *l)
+                .collect::<Vec<_>>()
+                .join("\n")
+        }
+        3 => {
+            // Duplicate a line.
+            let lines: Vec<&str> = text.lines().collect();
+            let k = pick(rng, lines.len());
+            let mut out: Vec<&str> = lines.clone();
+            if !lines.is_empty() {
+                out.insert(k, lines[k]);
+            }
+            out.join("\n")
+        }
+        4 => {
+            // Truncate.
+            let mut k = pick(rng, text.len());
+            while !text.is_char_boundary(k) {
+                k -= 1;
+            }
+            text[..k].to_string()
+        }
+        _ => {
+            // Rename a key.
+            let spans = token_spans(text);
+            if spans.is_empty() {
+                return text.to_string();
+            }
+            let (s, e) = spans[pick(rng, spans.len())];
+            format!("{}{}x{}", &text[..s], &text[s..e], &text[e..])
+        }
+    }
+}
+
+fn token_spans(text: &str) -> Vec<(usize, usize)> {
+    let mut v = Vec::new();
+    let b = text.as_bytes();
+    let mut i = 0;
+    while i < b.len() {
+        if b[i].is_ascii_alphanumeric() || b[i] == b'-' || b[i] == b'.' || b[i] == b'_' {
+            let s = i;
+            while i < b.len()
+                && (b[i].is_ascii_alphanumeric() || b[i] == b'-' || b[i] == b'.' || b[i] == b'_')
+            {
+                i += 1;
+            }
+            v.push((s, i));
+        } else {
+            i += 1;
+        }
+    }
+    v
+}
+
+/// Run `cases` mutated scene documents (1–3 mutations each) of the seeds.
+/// OBJ files in `scene_dir` are mutated too, written to a temporary directory
+/// beside copies of the scenes that reference them.
+pub fn run(
+    seeds: &[(String, String)],
+    scene_dir: &Path,
+    cases: u64,
+    seed: u64,
+    limit: Duration,
+) -> FuzzReport {
+    let mut rep = FuzzReport::default();
+    let prev = std::panic::take_hook();
+    std::panic::set_hook(Box::new(|_| {}));
+    for i in 0..cases {
+        let mut rng = Rng::for_sample(seed, i, 0);
+        let (name, base) = &seeds[(rng.next_u32() as usize) % seeds.len()];
+        let mut text = base.clone();
+        for _ in 0..1 + rng.next_u32() % 3 {
+            text = mutate(&text, &mut rng);
+        }
+        let t = Instant::now();
+        let outcome = catch_unwind(AssertUnwindSafe(|| {
+            match load_scene_str(name, &text, scene_dir, &BuildOptions::default()) {
+                Ok(mut s) => {
+                    // Render tiny: the point is that it runs, not what it shows.
+                    let (w, h) = (4.min(s.width), 3.min(s.height));
+                    if s.set_resolution(w, h).is_err() {
+                        return Err("resolution".to_string());
+                    }
+                    s.spp = 1;
+                    render(
+                        &s,
+                        &RenderOptions {
+                            threads: Some(1),
+                            quiet: true,
+                            want_aovs: false,
+                        },
+                    )
+                    .map(|_| true)
+                    .map_err(|e| e.to_string())
+                }
+                Err(crate::Error::Input { .. }) => Ok(false),
+                Err(e) => Err(e.to_string()),
+            }
+        }));
+        let el = t.elapsed().as_secs_f64();
+        rep.cases += 1;
+        if el > rep.slowest.0 {
+            rep.slowest = (el, format!("case {i} ({name})"));
+        }
+        if el > limit.as_secs_f64() {
+            rep.slow.push((format!("case {i} ({name})"), el));
+        }
+        match outcome {
+            Ok(Ok(true)) => rep.rendered += 1,
+            Ok(Ok(false)) => rep.errors += 1,
+            Ok(Err(msg)) => {
+                // Errors that are not located input errors (e.g. an Embree error).
+                rep.errors += 1;
+                rep.unlocated_errors.push(format!("case {i} ({name}): {msg}"));
+            }
+            Err(p) => {
+                let msg = p
+                    .downcast_ref::<&str>()
+                    .map(|s| s.to_string())
+                    .or_else(|| p.downcast_ref::<String>().cloned())
+                    .unwrap_or_default();
+                rep.panics
+                    .push(format!("case {i} ({name}): {msg}\n--- document ---\n{text}"));
+            }
+        }
+    }
+    std::panic::set_hook(prev);
+    rep
+}
+
+/// The shipped scenes as fuzz seeds (name, text).
+pub fn shipped_scenes(dir: &Path) -> Vec<(String, String)> {
+    let mut v: Vec<(String, String)> = std::fs::read_dir(dir)
+        .map(|rd| {
+            rd.filter_map(|e| e.ok())
+                .map(|e| e.path())
+                .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+                .filter_map(|p| {
+                    std::fs::read_to_string(&p)
+                        .ok()
+                        .map(|t| (p.display().to_string(), t))
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    v.sort();
+    v
+}
