@@ -331,12 +331,12 @@ pub struct TrueHit {
 /// Two reports within this distance (in units of t) are the same crossing:
 /// Embree reports shared edges twice with t an ulp or two apart, and surfaces
 /// of two solids closer than the spawn offset of `integrator::offset_origin`
-/// (64 ulps of the hit point's magnitude) cannot be told apart by the next ray.
+/// (twice its size here) cannot be told apart by the next ray.
 #[inline]
 pub fn crossing_window(org: glam::Vec3A, dir: glam::Vec3A, t: f32) -> f32 {
     let dl = dir.length();
     let t = if t.is_finite() { t } else { 0.0 };
-    64.0 * f32::EPSILON * (org.abs().max_element() + t.abs() * dl + 0.5) / dl
+    2.0 * crate::integrator::OFFSET_ULPS * f32::EPSILON * (org.abs().max_element() + t.abs() * dl + 0.5) / dl
 }
 
 #[inline]

@@ -36,11 +36,17 @@ pub struct SurfacePoint {
 }
 
 /// Hit point and normals for `hit` along `ray` (unit direction).
+///
+/// The point is reconstructed on the surface rather than taken as org + t·dir
+/// (pbrt's approach): from the barycentrics in f64 for triangles, by exact
+/// projection for analytic shapes. Its error is then a few ulps of its own
+/// coordinates, whatever the ray's length, which bounds `offset_origin`.
 pub fn surface_point(scene: &RenderScene, ray: &Ray, hit: &Hit) -> SurfacePoint {
     let p = ray.org + ray.dir * hit.t;
     let rec = &scene.geoms[hit.geom_id as usize];
     match &rec.shape {
         Shape::Mesh(m) => {
+            let p = m.point(hit.prim_id, hit.u, hit.v);
             let ng = hit.ng.normalize_or(V3::Y);
             let (ns, uv) = m.shading(hit.prim_id, hit.u, hit.v);
             let ns = match ns {
@@ -51,7 +57,8 @@ pub fn surface_point(scene: &RenderScene, ray: &Ray, hit: &Hit) -> SurfacePoint 
             SurfacePoint { p, ng, ns, uv }
         }
         Shape::Analytic(a) => {
-            let pd = DVec3::new(p.x as f64, p.y as f64, p.z as f64);
+            let pd = a.project(hit.prim_id, DVec3::new(p.x as f64, p.y as f64, p.z as f64));
+            let p = V3::new(pd.x as f32, pd.y as f32, pd.z as f32);
             let n = a.normal(hit.prim_id, pd);
             let ng = V3::new(n.x as f32, n.y as f32, n.z as f32);
             SurfacePoint {
@@ -64,12 +71,17 @@ pub fn surface_point(scene: &RenderScene, ray: &Ray, hit: &Hit) -> SurfacePoint 
     }
 }
 
+/// Relative size of the spawn offset, in units of f32 epsilon times the hit
+/// point's largest coordinate: a bound on the error of `surface_point` (a few
+/// ulps from reconstruction and rounding to f32) with a safety factor of 2.
+pub const OFFSET_ULPS: f32 = 8.0;
+
 /// Origin for a ray leaving `p` to the side `side` (a unit normal pointing to
-/// where the new ray goes): offset by a bound on the f32 error of the hit
-/// point, which scales with the magnitude of its coordinates.
+/// where the new ray goes): offset along the normal by the error bound of the
+/// hit point, which scales with the magnitude of its coordinates.
 #[inline]
 pub fn offset_origin(p: V3, side: V3) -> V3 {
-    let err = 64.0 * f32::EPSILON * (p.abs().max_element() + 0.5);
+    let err = OFFSET_ULPS * f32::EPSILON * (p.abs().max_element() + 0.5);
     p + side * err
 }
 
@@ -195,7 +207,7 @@ fn unoccluded(scene: &RenderScene, from: V3, side: V3, wi: V3, dist: f32, st: &m
     let o = offset_origin(from, side);
     let mut r = Ray::new(o, wi);
     if dist.is_finite() {
-        r.tfar = dist * (1.0 - 1e-4) - 64.0 * f32::EPSILON * (from.abs().max_element() + 0.5);
+        r.tfar = dist * (1.0 - 1e-4) - 2.0 * OFFSET_ULPS * f32::EPSILON * (from.abs().max_element() + 0.5);
         if r.tfar <= 0.0 {
             return true;
         }

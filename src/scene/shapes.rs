@@ -218,6 +218,57 @@ impl Analytic {
         }
     }
 
+    /// Snap a point near primitive `prim` onto it exactly (f64).
+    pub fn project(&self, prim: u32, p: DVec3) -> DVec3 {
+        let radial = |p0: DVec3, axis: DVec3, r: f64| {
+            let q = p - p0;
+            let y = q.dot(axis);
+            let rad = q - axis * y;
+            let l = rad.length();
+            if l > 0.0 {
+                p0 + axis * y + rad * (r / l)
+            } else {
+                p
+            }
+        };
+        let plane = |c: DVec3, n: DVec3| p - n * (p - c).dot(n);
+        match *self {
+            Analytic::Sphere { center, radius } => {
+                let q = p - center;
+                let l = q.length();
+                if l > 0.0 {
+                    center + q * (radius / l)
+                } else {
+                    p
+                }
+            }
+            Analytic::Cylinder {
+                p0,
+                axis,
+                height,
+                radius,
+                ..
+            } => match prim {
+                0 => radial(p0, axis, radius),
+                1 => plane(p0, axis),
+                _ => plane(p0 + axis * height, axis),
+            },
+            Analytic::Tube {
+                p0,
+                axis,
+                height,
+                outer,
+                inner,
+            } => match prim {
+                0 => radial(p0, axis, outer),
+                1 => radial(p0, axis, inner),
+                2 => plane(p0, axis),
+                _ => plane(p0 + axis * height, axis),
+            },
+            Analytic::Disk { center, normal, .. } => plane(center, normal),
+        }
+    }
+
     /// Texture coordinates in [0,1]² at `p` (sphere: longitude/latitude around y).
     pub fn uv(&self, p: DVec3) -> [f32; 2] {
         match *self {
@@ -421,6 +472,19 @@ impl Mesh {
             })
             .unwrap_or([u, v]);
         (n.filter(|n| n.length_squared() > 0.5), uv)
+    }
+
+    /// The point at barycentrics (u, v) of triangle `prim`, in f64 then rounded.
+    pub fn point(&self, prim: u32, u: f32, v: f32) -> V3 {
+        let tri = self.indices[prim as usize];
+        let (u, v) = (u.clamp(0.0, 1.0) as f64, v.clamp(0.0, 1.0) as f64);
+        let w = (1.0 - u - v).max(0.0);
+        let [a, b, c] = tri.map(|i| {
+            let q = self.positions[i as usize];
+            DVec3::new(q[0] as f64, q[1] as f64, q[2] as f64)
+        });
+        let p = a * w + b * u + c * v;
+        V3::new(p.x as f32, p.y as f32, p.z as f32)
     }
 
     /// Axis-aligned bounds.
