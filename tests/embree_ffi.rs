@@ -268,3 +268,36 @@ fn panic_in_filter_becomes_an_error_and_the_process_goes_on() {
     // Queries still work afterwards.
     assert_eq!(s.intersect(&ray).unwrap().geom_id, 0);
 }
+
+#[test]
+fn invalid_rays_never_reach_embree() {
+    // Debian's Embree asserts on invalid rays and aborts; the wrapper refuses them.
+    let s = tri_scene(SceneFlags::default());
+    for r in [
+        Ray::new(V3::new(f32::NAN, 0.0, 0.0), V3::new(0.0, 0.0, -1.0)),
+        Ray::new(V3::ZERO, V3::new(0.0, f32::INFINITY, -1.0)),
+        Ray {
+            org: V3::ZERO,
+            dir: V3::new(0.0, 0.0, -1.0),
+            tnear: -1.0,
+            tfar: 10.0,
+        },
+        Ray {
+            org: V3::ZERO,
+            dir: V3::new(0.0, 0.0, -1.0),
+            tnear: 5.0,
+            tfar: 1.0,
+        },
+        Ray {
+            org: V3::ZERO,
+            dir: V3::new(0.0, 0.0, -1.0),
+            tnear: 0.0,
+            tfar: f32::NAN,
+        },
+    ] {
+        assert!(!r.is_valid());
+        assert!(s.intersect(&r).is_none());
+        assert!(!s.occluded(&r));
+    }
+    assert!(Ray::new(V3::ZERO, V3::new(0.0, 0.0, -1.0)).is_valid());
+}

@@ -235,6 +235,9 @@ fn bad_scene_files_give_located_errors() {
         ("[[objects]]\nname = \"ball\"", "[[objects]]\nname = \"ball\"\ntransform = [{ scale = [1.0, 2.0, 1.0] }]", "objects[0].transform", "uniform"),
         ("[[objects]]\nname = \"ball\"", "[[objects]]\nname = \"ball\"\ntransform = [{ translate = [1.0, 2.0, 1.0], scale = 2.0 }]", "objects[0].transform[0]", "exactly one"),
         ("[camera]", "ambient_ior = -1.0\n[camera]", "ambient_ior", "> 0"),
+        // Fuzzer finding: a light at 1e300 made an invalid (non-finite) shadow ray,
+        // and Debian's Embree aborts on those. Rejected at load now.
+        ("position = [0.0, 4.0, 0.0]", "position = [0.0, 1e300, 0.0]", "lights[0].position", "1e15"),
         ("[film]", "[integrator]\ntype = \"bdpt\"\n[film]", "integrator.type", "path"),
         ("[film]", "[camera2]\n[film]", "camera2", "unknown field"),
     ];

@@ -665,6 +665,18 @@ pub struct Ray {
 }
 
 impl Ray {
+    /// What Embree's `ray.valid()` demands (Debian's build asserts on it and
+    /// aborts): finite origin and direction, 0 <= tnear, tnear <= tfar, no NaN.
+    #[inline]
+    pub fn is_valid(&self) -> bool {
+        self.org.is_finite()
+            && self.dir.is_finite()
+            && self.tnear >= 0.0
+            && self.tnear.is_finite()
+            && !self.tfar.is_nan()
+            && self.tnear <= self.tfar
+    }
+
     pub fn new(org: V3, dir: V3) -> Ray {
         Ray {
             org,
@@ -842,6 +854,9 @@ impl Scene {
 
     /// Nearest hit along `ray`, no filter.
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        if !ray.is_valid() {
+            return None; // an invalid ray would abort the process inside Embree
+        }
         let mut ctx = init_context(None);
         let mut rh = to_rayhit(ray);
         // SAFETY: committed scene; `ctx` and `rh` are valid, properly initialised
@@ -852,6 +867,9 @@ impl Scene {
 
     /// Is anything hit along `ray` in `[tnear, tfar]`? No filter.
     pub fn occluded(&self, ray: &Ray) -> bool {
+        if !ray.is_valid() {
+            return false;
+        }
         let mut ctx = init_context(None);
         let mut r = to_rayhit(ray).ray;
         // SAFETY: as in `intersect`.
@@ -866,6 +884,9 @@ impl Scene {
         ray: &Ray,
         filter: &mut F,
     ) -> Result<Option<Hit>, EmbreeError> {
+        if !ray.is_valid() {
+            return Ok(None); // an invalid ray would abort the process inside Embree
+        }
         let mut ctx = FilterContext {
             base: init_context(Some(filter_trampoline::<F>)),
             filter,
@@ -883,6 +904,9 @@ impl Scene {
 
     /// Occlusion with `filter` (see `intersect_filtered`).
     pub fn occluded_filtered<F: HitFilter>(&self, ray: &Ray, filter: &mut F) -> Result<bool, EmbreeError> {
+        if !ray.is_valid() {
+            return Ok(false);
+        }
         let mut ctx = FilterContext {
             base: init_context(Some(filter_trampoline::<F>)),
             filter,

@@ -263,10 +263,11 @@ impl Builder<'_> {
     }
 
     fn finite3(&self, key: &str, v: Vec3) -> Result<DVec3> {
-        if v.iter().all(|c| c.is_finite()) {
+        // Finite, and representable with room to spare in f32 (Embree's precision).
+        if v.iter().all(|c| c.is_finite() && c.abs() <= 1e15) {
             Ok(v3(v))
         } else {
-            Err(self.err(key, format!("expected finite numbers, got {v:?}")))
+            Err(self.err(key, format!("expected finite numbers within ±1e15, got {v:?}")))
         }
     }
 
@@ -279,7 +280,7 @@ impl Builder<'_> {
     }
 
     fn positive(&self, key: &str, x: f64) -> Result<f64> {
-        if x.is_finite() && x > 0.0 {
+        if x.is_finite() && x > 0.0 && x <= 1e15 {
             Ok(x)
         } else {
             Err(self.err(key, format!("expected a finite number > 0, got {x}")))
@@ -287,7 +288,7 @@ impl Builder<'_> {
     }
 
     fn color(&self, key: &str, c: Vec3) -> Result<V3> {
-        if c.iter().all(|x| x.is_finite() && *x >= 0.0) {
+        if c.iter().all(|x| x.is_finite() && *x >= 0.0 && *x <= 1e15) {
             Ok(f(v3(c)))
         } else {
             Err(self.err(key, format!("expected three finite values >= 0, got {c:?}")))
