@@ -1,0 +1,126 @@
+//! The `snell` binary end to end: version/provenance, render with AOVs and
+//! stats, clear errors for bad input and unwritable outputs.
+use std::path::PathBuf;
+use std::process::Command;
+
+fn snell() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_snell"))
+}
+
+fn tmpdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("snell-cli-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+#[test]
+fn version_prints_provenance() {
+    let out = snell().arg("--version").output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success());
+    assert!(text.contains("commit ") && text.contains("Embree 3."), "{text}");
+    assert!(text.contains("rustc") && text.contains("profile"), "{text}");
+}
+
+#[test]
+fn render_writes_exr_with_aovs_and_stats_json() {
+    let d = tmpdir("render");
+    let exr = d.join("n.exr");
+    let stats = d.join("s.json");
+    let out = snell()
+        .args(["render", "scenes/nested_spheres_a.toml", "-o"])
+        .arg(&exr)
+        .args([
+            "--width",
+            "32",
+            "--height",
+            "24",
+            "--spp",
+            "2",
+            "--threads",
+            "2",
+            "--quiet",
+        ])
+        .args(["--aov", "false_hits,list_depth,tir,fallbacks", "--stats-json"])
+        .arg(&stats)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let img = snell::scene::texture::load_image(&exr).unwrap();
+    assert_eq!((img.width, img.height), (32, 24));
+    let s: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+    for key in [
+        "wall_s",
+        "samples_per_s",
+        "rays_per_s",
+        "rays",
+        "false_hits_per_ray",
+        "filter_calls_per_ray",
+        "max_list_depth",
+        "fallbacks",
+    ] {
+        assert!(s.get(key).is_some(), "stats lack {key}: {s}");
+    }
+    assert!(s["provenance"]["embree_version"]
+        .as_str()
+        .unwrap()
+        .starts_with('3'));
+    assert!(s["false_hits_per_ray"].as_f64().unwrap() > 0.0);
+    // No temporary files are left behind.
+    let left: Vec<_> = std::fs::read_dir(&d)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .map(|e| e.file_name())
+        .collect();
+    assert_eq!(left.len(), 2, "{left:?}");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn bad_scene_and_unwritable_output_are_clear_errors() {
+    let d = tmpdir("bad");
+    let bad = d.join("bad.toml");
+    std::fs::write(
+        &bad,
+        "[camera]\nposition = [0.0, 0.0, 1.0]\ntarget = [0.0, 0.0, 0.0]\nfov = 400.0\n",
+    )
+    .unwrap();
+    let out = snell()
+        .args(["render"])
+        .arg(&bad)
+        .args(["-o"])
+        .arg(d.join("x.png"))
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("bad.toml:4:") && err.contains("camera.fov"), "{err}");
+    assert!(!err.contains("panicked"));
+
+    let out = snell()
+        .args([
+            "render",
+            "scenes/three_spheres.toml",
+            "-o",
+            "/nonexistent-snell-dir/x.png",
+        ])
+        .args(["--width", "8", "--height", "6", "--spp", "1", "--quiet"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("/nonexistent-snell-dir/x.png") && err.contains("does not exist"),
+        "{err}"
+    );
+
+    let out = snell()
+        .args(["render", "scenes/three_spheres.toml", "-o"])
+        .arg(d.join("x.tiff"))
+        .args(["--width", "8", "--height", "6", "--spp", "1", "--quiet"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("expected .png"));
+    let _ = std::fs::remove_dir_all(&d);
+}
