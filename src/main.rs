@@ -6,22 +6,21 @@ use snell::scene::{load_scene, BuildOptions};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-fn long_version() -> &'static str {
-    Box::leak(
-        format!(
-            "{}\ncommit {}\nEmbree {}\n{}\nprofile {}",
-            env!("CARGO_PKG_VERSION"),
-            snell::provenance::GIT_COMMIT,
-            snell::provenance::EMBREE_VERSION,
-            snell::provenance::RUSTC_VERSION,
-            snell::provenance::PROFILE
-        )
-        .into_boxed_str(),
-    )
-}
+/// `snell --version`: the build's provenance (commit, Embree, rustc, profile).
+const LONG_VERSION: &str = concat!(
+    env!("CARGO_PKG_VERSION"),
+    "\ncommit ",
+    env!("SNELL_GIT_COMMIT"),
+    "\nEmbree ",
+    env!("SNELL_EMBREE_VERSION"),
+    "\n",
+    env!("SNELL_RUSTC_VERSION"),
+    "\nprofile ",
+    env!("SNELL_PROFILE")
+);
 
 #[derive(Parser)]
-#[command(name = "snell", version = long_version(), about = "Refraction ray tracer on Intel Embree 3")]
+#[command(name = "snell", version = LONG_VERSION, about = "Refraction ray tracer on Intel Embree 3")]
 struct Cli {
     #[command(subcommand)]
     cmd: Cmd,

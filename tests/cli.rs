@@ -124,3 +124,40 @@ fn bad_scene_and_unwritable_output_are_clear_errors() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("expected .png"));
     let _ = std::fs::remove_dir_all(&d);
 }
+
+#[test]
+fn ctrl_c_stops_at_a_tile_boundary_and_writes_a_partial_image() {
+    let d = tmpdir("sigint");
+    let out = d.join("big.exr");
+    let mut child = snell()
+        .args(["render", "scenes/glass_ice_bubbles.toml", "-o"])
+        .arg(&out)
+        .args([
+            "--spp",
+            "4096",
+            "--width",
+            "64",
+            "--height",
+            "48",
+            "--threads",
+            "1",
+            "--quiet",
+        ])
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    let st = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(st.success());
+    let status = child.wait().unwrap();
+    assert!(status.success(), "the interrupted render exits cleanly");
+    let partial = d.join("big.partial.exr");
+    assert!(partial.exists(), "the image so far is written, clearly named");
+    assert!(!out.exists(), "the complete name is not used for a partial image");
+    let img = snell::scene::texture::load_image(&partial).unwrap();
+    assert_eq!((img.width, img.height), (64, 48));
+    let _ = std::fs::remove_dir_all(&d);
+}
