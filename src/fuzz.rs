@@ -151,16 +151,58 @@ pub fn run(
     let mut rep = FuzzReport::default();
     let prev = std::panic::take_hook();
     std::panic::set_hook(Box::new(|_| {}));
+    // OBJ seeds: every scene that loads meshes, with one of its OBJ files mutated
+    // in a private directory (the other files copied beside it).
+    let objs: Vec<(String, String)> = std::fs::read_dir(scene_dir)
+        .map(|rd| {
+            rd.filter_map(|e| e.ok())
+                .map(|e| e.path())
+                .filter(|p| p.extension().is_some_and(|x| x == "obj"))
+                .filter_map(|p| {
+                    let name = p.file_name()?.to_string_lossy().to_string();
+                    std::fs::read_to_string(&p).ok().map(|t| (name, t))
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    let mesh_scenes: Vec<&(String, String)> = seeds.iter().filter(|(_, t)| t.contains(".obj\"")).collect();
+    let obj_dir = std::env::temp_dir().join(format!("snell-fuzz-{}-{seed}", std::process::id()));
+    let have_obj_dir =
+        !objs.is_empty() && !mesh_scenes.is_empty() && std::fs::create_dir_all(&obj_dir).is_ok();
+    if have_obj_dir {
+        for (n, t) in &objs {
+            let _ = std::fs::write(obj_dir.join(n), t);
+        }
+    }
     for i in 0..cases {
         let mut rng = Rng::for_sample(seed, i, 0);
-        let (name, base) = &seeds[(rng.next_u32() as usize) % seeds.len()];
-        let mut text = base.clone();
-        for _ in 0..1 + rng.next_u32() % 3 {
-            text = mutate(&text, &mut rng);
-        }
+        let mutate_obj = have_obj_dir && rng.next_u32() % 4 == 0;
+        let (name, base, dir, restore) = if mutate_obj {
+            let (sname, stext) = mesh_scenes[(rng.next_u32() as usize) % mesh_scenes.len()];
+            let (oname, otext) = &objs[(rng.next_u32() as usize) % objs.len()];
+            let mut m = otext.clone();
+            for _ in 0..1 + rng.next_u32() % 3 {
+                m = mutate(&m, &mut rng);
+            }
+            let _ = std::fs::write(obj_dir.join(oname), m);
+            (
+                format!("{sname} with mutated {oname}"),
+                stext.clone(),
+                obj_dir.as_path(),
+                Some((oname, otext)),
+            )
+        } else {
+            let (name, base) = &seeds[(rng.next_u32() as usize) % seeds.len()];
+            let mut text = base.clone();
+            for _ in 0..1 + rng.next_u32() % 3 {
+                text = mutate(&text, &mut rng);
+            }
+            (name.clone(), text, scene_dir, None)
+        };
+        let (name, text) = (&name, base);
         let t = Instant::now();
         let outcome = catch_unwind(AssertUnwindSafe(|| {
-            match load_scene_str(name, &text, scene_dir, &BuildOptions::default()) {
+            match load_scene_str(name, &text, dir, &BuildOptions::default()) {
                 Ok(mut s) => {
                     // Render tiny: the point is that it runs, not what it shows.
                     let (w, h) = (4.min(s.width), 3.min(s.height));
@@ -184,6 +226,9 @@ pub fn run(
             }
         }));
         let el = t.elapsed().as_secs_f64();
+        if let Some((oname, otext)) = restore {
+            let _ = std::fs::write(obj_dir.join(oname), otext);
+        }
         rep.cases += 1;
         if el > rep.slowest.0 {
             rep.slowest = (el, format!("case {i} ({name})"));
@@ -211,6 +256,9 @@ pub fn run(
         }
     }
     std::panic::set_hook(prev);
+    if have_obj_dir {
+        let _ = std::fs::remove_dir_all(&obj_dir);
+    }
     rep
 }
 
