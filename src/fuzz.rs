@@ -176,7 +176,7 @@ pub fn run(
     }
     for i in 0..cases {
         let mut rng = Rng::for_sample(seed, i, 0);
-        let mutate_obj = have_obj_dir && rng.next_u32() % 4 == 0;
+        let mutate_obj = have_obj_dir && rng.next_u32().is_multiple_of(4);
         let (name, base, dir, restore) = if mutate_obj {
             let (sname, stext) = mesh_scenes[(rng.next_u32() as usize) % mesh_scenes.len()];
             let (oname, otext) = &objs[(rng.next_u32() as usize) % objs.len()];
