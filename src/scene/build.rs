@@ -706,7 +706,7 @@ impl Builder<'_> {
         let pt = |p: DVec3| xf.transform_point3(p);
         let dir = |d: DVec3| lin.mul_vec3(d).normalize();
         let mut closed_mesh = false;
-        let shape = match &o.shape {
+        let mut shape = match &o.shape {
             ShapeDesc::Sphere(s) => analytic(Analytic::Sphere {
                 center: pt(self.finite3(&format!("{sk}.center"), s.center)?),
                 radius: self.positive(&format!("{sk}.radius"), s.radius)? * scale,
@@ -921,6 +921,7 @@ impl Builder<'_> {
                         }
                     };
                     // A priority solid must be closed and outward facing.
+                    let mut flipped = None;
                     let containment = match &shape {
                         Shape::Analytic(a) => {
                             if a.contains(DVec3::ZERO).is_none() {
@@ -943,34 +944,27 @@ impl Builder<'_> {
                                 )
                             })?;
                             let vol = m.signed_volume();
-                            if vol <= 0.0 {
-                                if o.flip_inside_out {
-                                    warnings.push(format!(
-                                        "{}: {k}: \"{name}\" was inside out (negative volume); flipped",
-                                        self.src.file
-                                    ));
-                                    let mut fm = (**m).clone();
-                                    fm.flip();
-                                    let fm = Arc::new(fm);
-                                    return self.finish_solid(
-                                        name,
-                                        Shape::Mesh(fm.clone()),
-                                        o,
-                                        &k,
-                                        dd.priority,
-                                        ior,
-                                        sigma_a,
-                                        Containment::Mesh(fm),
-                                    );
-                                }
+                            if vol <= 0.0 && !o.flip_inside_out {
                                 return Err(self.err(
                                     &sk,
                                     format!("dielectric solid \"{name}\" is inside out (signed volume {vol:.3e} <= 0); set flip_inside_out = true to flip it"),
                                 ));
                             }
-                            Containment::Mesh(m.clone())
+                            if vol <= 0.0 {
+                                warnings.push(format!(
+                                    "{}: {k}: \"{name}\" was inside out (negative volume); flipped",
+                                    self.src.file
+                                ));
+                                let mut fm = (**m).clone();
+                                fm.flip();
+                                flipped = Some(Arc::new(fm));
+                            }
+                            Containment::Mesh(flipped.clone().unwrap_or_else(|| m.clone()))
                         }
                     };
+                    if let Some(fm) = flipped {
+                        shape = Shape::Mesh(fm);
+                    }
                     let aabb = match &shape {
                         Shape::Analytic(a) => a.aabb(),
                         Shape::Mesh(m) => m.aabb(),
@@ -1018,42 +1012,6 @@ impl Builder<'_> {
             emission,
             light: None,
             solid,
-        })
-    }
-
-    #[allow(clippy::too_many_arguments)]
-    fn finish_solid(
-        &self,
-        name: String,
-        shape: Shape,
-        o: &ObjectDesc,
-        k: &str,
-        priority: Option<i64>,
-        ior: f64,
-        sigma_a: V3,
-        containment: Containment,
-    ) -> Result<Pending> {
-        let aabb = match &shape {
-            Shape::Analytic(a) => a.aabb(),
-            Shape::Mesh(m) => m.aabb(),
-        };
-        let emission = match &o.emission {
-            Some(e) => Some(self.texture(&format!("{k}.emission.radiance"), &e.radiance)?),
-            None => None,
-        };
-        Ok(Pending {
-            name,
-            shape,
-            material: Material::Black,
-            emission,
-            light: None,
-            solid: Some(PendingSolid {
-                priority: priority.unwrap_or(0),
-                ior,
-                sigma_a,
-                containment,
-                aabb,
-            }),
         })
     }
 
