@@ -15,6 +15,7 @@ pub mod provenance;
 pub mod render;
 pub mod sampling;
 pub mod scene;
+pub mod warp;
 
 pub use error::{Error, Result};
 

@@ -1,0 +1,275 @@
+//! Parallel-plate refraction warp (Mukai et al., eq. 5), exact and robust.
+//!
+//! The plate: a point on its near face `Q`, a unit normal `N` pointing away
+//! from the eye, thickness `W` and index `n` (ambient index 1). For a target
+//! `A` behind the plate, the eye ray that refracts through the plate onto `A`
+//! leaves the eye at angle θ to `N` in the plane of the eye, `N` and `A`.
+//!
+//! Derivation (departures from the paper noted):
+//! - With `D` the lateral distance from the eye to `A` (perpendicular to `N`)
+//!   and `h` the normal distance travelled in air (before and after the
+//!   plate), the path satisfies `D = h·tanθ + W·tanφ`, `sinφ = sinθ/n`.
+//!   We solve it in `u = tanθ ∈ [0, ∞)`, where it reads
+//!   `f(u) = h·u + W·u/√(n² + (n²−1)u²) − D = 0`: strictly increasing and
+//!   concave, so Newton started right of the root converges monotonically;
+//!   a bracket [lo, hi] guards every step. The paper steps in θ, which loses
+//!   precision near grazing (θ → 90°, tanθ → ∞); `u` does not.
+//! - The straight eye ray at angle θ reaches lateral `D` when displaced
+//!   towards the eye along `N` by `L = W(1 − tanφ/tanθ)`. The paper's
+//!   `W{1 − tanφ·tan(π/2 − θ)}` is the same quantity but 0/0 on the axis. In
+//!   `u` it is `L = W(1 − 1/√(n² + (n²−1)u²))`: exact on the axis
+//!   (`W(1 − 1/n)`), exactly 0 for `n = 1`, no cancellation at grazing.
+//! - The warped vertex is `A − L·N`.
+use glam::DVec3;
+
+/// A glass plate with parallel faces.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Plate {
+    /// A point on the face nearer the eye (metres).
+    pub near_face_point: DVec3,
+    /// Unit normal pointing away from the eye.
+    pub normal: DVec3,
+    /// Thickness W > 0 (metres).
+    pub thickness: f64,
+    /// Index n > 0 of the glass (the surroundings have index 1).
+    pub ior: f64,
+}
+
+/// Why a point has no warped image.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PlateStatus {
+    /// The point is between the eye and the plate: it is seen directly.
+    InFront,
+    /// The point is inside the glass.
+    InsideGlass,
+    /// The eye is not in front of the near face.
+    EyeNotInFront,
+    /// The solver did not converge (should not happen; reported, not hidden).
+    NotConverged,
+}
+
+/// The warp of one point.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlateImage {
+    /// Where the vertex must move so that a straight eye ray sees it where refraction would.
+    pub position: DVec3,
+    /// Unit direction of that eye ray.
+    pub eye_dir: DVec3,
+    /// Angle of incidence θ at the near face (radians).
+    pub theta: f64,
+    /// tanθ, the variable actually solved for (exact where θ → 90°).
+    pub slope: f64,
+    /// Shift towards the eye along the normal (metres).
+    pub shift: f64,
+    pub iterations: u32,
+}
+
+impl Plate {
+    /// Validated construction: finite values, non-zero normal (normalised), W > 0, n > 0.
+    pub fn try_new(near_face_point: DVec3, normal: DVec3, thickness: f64, ior: f64) -> Result<Plate, String> {
+        if !near_face_point.is_finite() {
+            return Err("near_face_point: expected finite coordinates".into());
+        }
+        if !normal.is_finite() || normal.length() < 1e-300 {
+            return Err("normal: expected a finite, non-zero vector".into());
+        }
+        if !(thickness.is_finite() && thickness > 0.0) {
+            return Err(format!("thickness: expected a finite value > 0, got {thickness}"));
+        }
+        if !(ior.is_finite() && ior > 0.0) {
+            return Err(format!("ior: expected a finite value > 0, got {ior}"));
+        }
+        Ok(Plate {
+            near_face_point,
+            normal: normal.normalize(),
+            thickness,
+            ior,
+        })
+    }
+
+    /// `L(u)`: the shift along the normal for eye-ray slope `u = tanθ`.
+    pub fn shift(&self, u: f64) -> f64 {
+        let n2 = self.ior * self.ior;
+        self.thickness * (1.0 - 1.0 / (n2 + (n2 - 1.0) * u * u).sqrt())
+    }
+
+    /// The warped image of `target` seen from `eye`.
+    pub fn warp(&self, eye: DVec3, target: DVec3) -> Result<PlateImage, PlateStatus> {
+        let n = self.normal;
+        let e = (eye - self.near_face_point).dot(n);
+        let a = (target - self.near_face_point).dot(n);
+        let w = self.thickness;
+        if e >= 0.0 {
+            return Err(PlateStatus::EyeNotInFront);
+        }
+        // Points within rounding of the exit face count as on it.
+        let tol = 1e-12 * (w + (target - self.near_face_point).length());
+        if a <= 0.0 {
+            return Err(PlateStatus::InFront);
+        }
+        if a < w - tol {
+            return Err(PlateStatus::InsideGlass);
+        }
+        let a = a.max(w);
+        let rel = target - eye;
+        let lateral = rel - n * rel.dot(n);
+        let d = lateral.length();
+        let h = (a - e) - w; // normal distance travelled in air, > 0 (eye strictly in front)
+        let n2 = self.ior * self.ior;
+        let k = n2 - 1.0;
+        let f = |u: f64| h * u + w * u / (n2 + k * u * u).sqrt() - d;
+        let df = |u: f64| h + w * n2 / (n2 + k * u * u).powf(1.5);
+        // Bracket: f(0) = −D <= 0; since the glass term is >= 0 (n >= 1) or
+        // bounded by W·u/√(n² + (n²−1)u²) <= W·u/n·… we use hi = D/h, which has
+        // f(hi) >= 0 when n >= 1, and grow it otherwise.
+        let (mut lo, mut hi) = (0.0f64, d / h);
+        let mut guard = 0;
+        while f(hi) < 0.0 && guard < 200 {
+            hi = hi * 2.0 + 1.0;
+            guard += 1;
+        }
+        let mut u = hi; // right of the root: Newton is monotone on a concave f
+        let mut it = 0;
+        let mut converged = d == 0.0;
+        if d == 0.0 {
+            u = 0.0;
+        }
+        while !converged && it < 200 {
+            it += 1;
+            let fu = f(u);
+            if fu > 0.0 {
+                hi = hi.min(u);
+            } else {
+                lo = lo.max(u);
+            }
+            let mut next = u - fu / df(u);
+            if !(next > lo && next < hi) {
+                next = 0.5 * (lo + hi); // bisection fallback
+            }
+            if (next - u).abs() <= 1e-15 * next.abs().max(1e-300) || hi - lo <= 1e-15 * hi.abs() {
+                u = next;
+                converged = true;
+            } else {
+                u = next;
+            }
+        }
+        if !converged {
+            return Err(PlateStatus::NotConverged);
+        }
+        let shift = self.shift(u);
+        let position = target - n * shift;
+        let eye_dir = (position - eye).normalize();
+        Ok(PlateImage {
+            position,
+            eye_dir,
+            theta: u.atan(),
+            slope: u,
+            shift,
+            iterations: it,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Independent check: trace the straight eye ray's direction through the
+    /// plate with Snell's law and return where it crosses the target's plane.
+    fn forward(p: &Plate, eye: DVec3, dir: DVec3, target: DVec3) -> DVec3 {
+        let n = p.normal;
+        // Enter the near face.
+        let t0 = (p.near_face_point - eye).dot(n) / dir.dot(n);
+        let p0 = eye + dir * t0;
+        let d1 = crate::optics::refract(dir, n, 1.0, p.ior).unwrap();
+        let t1 = p.thickness / d1.dot(n);
+        let p1 = p0 + d1 * t1;
+        let d2 = crate::optics::refract(d1, n, p.ior, 1.0).unwrap();
+        let t2 = (target - p1).dot(n) / d2.dot(n);
+        p1 + d2 * t2
+    }
+
+    fn plate(w: f64, n: f64, normal: DVec3) -> Plate {
+        Plate::try_new(DVec3::new(0.0, 0.0, -1.0), normal, w, n).unwrap()
+    }
+
+    #[test]
+    fn refracted_path_lands_on_the_target() {
+        let eye = DVec3::ZERO;
+        for normal in [DVec3::new(0.0, 0.0, -1.0), DVec3::new(0.3, -0.1, -1.0)] {
+            let p = plate(0.2, 1.5, normal);
+            for target in [
+                DVec3::new(0.5, 0.2, -3.0),
+                DVec3::new(-2.0, 1.0, -2.5),
+                DVec3::new(10.0, 0.0, -4.0),
+            ] {
+                let img = p.warp(eye, target).unwrap();
+                let hit = forward(&p, eye, img.eye_dir, target);
+                assert!(
+                    (hit - target).length() < 1e-9 * target.length(),
+                    "{target}: {hit}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn on_axis_and_just_off_axis() {
+        let p = plate(0.2, 1.5, DVec3::new(0.0, 0.0, -1.0));
+        let img = p.warp(DVec3::ZERO, DVec3::new(0.0, 0.0, -3.0)).unwrap();
+        assert_eq!(img.shift, 0.2 * (1.0 - 1.0 / 1.5));
+        assert_eq!(img.theta, 0.0);
+        let img2 = p.warp(DVec3::ZERO, DVec3::new(1e-12, 0.0, -3.0)).unwrap();
+        assert!((img2.shift - img.shift).abs() < 1e-15);
+        let hit = forward(&p, DVec3::ZERO, img2.eye_dir, DVec3::new(1e-12, 0.0, -3.0));
+        assert!((hit.x - 1e-12).abs() < 1e-21, "{}", hit.x);
+    }
+
+    #[test]
+    fn thin_plate_grazing_angles_and_index_one() {
+        let p = plate(1e-6, 1.5, DVec3::new(0.0, 0.0, -1.0));
+        let t = DVec3::new(0.7, 0.0, -2.0);
+        let img = p.warp(DVec3::ZERO, t).unwrap();
+        assert!((forward(&p, DVec3::ZERO, img.eye_dir, t) - t).length() < 1e-12);
+        // Within 2e-6 rad of 90°: lateral distance / depth = tan(90° − 2e-6).
+        let p = plate(0.2, 1.5, DVec3::new(0.0, 0.0, -1.0));
+        let depth = 3.0;
+        let t = DVec3::new(depth / 2e-6, 0.0, -depth);
+        let img = p.warp(DVec3::ZERO, t).unwrap();
+        assert!(std::f64::consts::FRAC_PI_2 - img.theta < 3e-6);
+        // A forward trace is ill-conditioned here (dD/dθ = h/cos²θ ≈ 1e12), so
+        // check eq. 5 itself: D = h·tanθ + W·tanφ to 1e-13 relative.
+        let (u, h, d) = (img.slope, depth - 0.2, t.x);
+        let sin_t = u / (1.0 + u * u).sqrt();
+        let tan_phi = (sin_t / 1.5) / (1.0 - (sin_t / 1.5).powi(2)).sqrt();
+        let res = h * u + 0.2 * tan_phi - d;
+        assert!(res.abs() < 1e-13 * d, "residual {res}");
+        let p1 = plate(0.2, 1.0, DVec3::new(0.0, 0.0, -1.0));
+        let img = p1.warp(DVec3::ZERO, DVec3::new(0.3, 0.1, -2.0)).unwrap();
+        assert_eq!(img.shift, 0.0);
+        assert_eq!(img.position, DVec3::new(0.3, 0.1, -2.0));
+    }
+
+    #[test]
+    fn exit_face_front_and_inside() {
+        let p = plate(0.2, 1.5, DVec3::new(0.0, 0.0, -1.0));
+        // On the exit face (z = −1.2): no air after the plate.
+        let t = DVec3::new(0.4, 0.0, -1.2);
+        let img = p.warp(DVec3::ZERO, t).unwrap();
+        assert!((forward(&p, DVec3::ZERO, img.eye_dir, t) - t).length() < 1e-12);
+        assert_eq!(
+            p.warp(DVec3::ZERO, DVec3::new(0.0, 0.0, -0.5)),
+            Err(PlateStatus::InFront)
+        );
+        assert_eq!(
+            p.warp(DVec3::ZERO, DVec3::new(0.0, 0.0, -1.1)),
+            Err(PlateStatus::InsideGlass)
+        );
+        assert_eq!(
+            p.warp(DVec3::new(0.0, 0.0, -5.0), DVec3::new(0.0, 0.0, -6.0)),
+            Err(PlateStatus::EyeNotInFront)
+        );
+        assert!(Plate::try_new(DVec3::ZERO, DVec3::ZERO, 0.1, 1.5).is_err());
+        assert!(Plate::try_new(DVec3::ZERO, DVec3::Z, -0.1, 1.5).is_err());
+    }
+}
