@@ -1,0 +1,597 @@
+//! Hollow-cylinder refraction warp, exact in 3-D (Mukai et al. work in 2-D).
+//!
+//! Reduction (a departure from the paper, which ignores the vertical
+//! component): refraction at a vertical cylinder conserves `β = n·d_v` (the
+//! index times the direction's component along the axis), because the normal
+//! is horizontal. The horizontal projection then refracts like a 2-D ray with
+//! effective indices `m = √(n² − β²)` (air: `√(1 − β²)`), and a horizontal
+//! run `ℓ` in a medium climbs `ℓ·β/m`. In a rotationally symmetric medium the
+//! 2-D "angular momentum" `m·b` (index × impact parameter) is conserved, so
+//! the family of a ray follows from its impact parameter `b` in air:
+//! `|b| < r` through the hollow (`through4`); `r < |b| < r·m_g/m_a` total
+//! internal reflection at the inner wall (`tir2`); `r·m_g/m_a < |b| < R`
+//! through the wall only (`wall2`, impossible when `r·m_g/m_a ≥ R`, e.g.
+//! R = 1, r = 0.8, n = 1.5); a target in the hollow is reached by `hollow2`.
+//! For a target P the unknowns are `b` and `β`: for fixed β every image is a
+//! root of the signed distance of P from the final 2-D ray, found by sampling
+//! the family's `b` interval (denser near its edges) and bisection; β is then
+//! corrected by a secant iteration on the climb until both equations hold.
+use glam::{DVec2, DVec3};
+
+/// A thick glass tube, infinitely tall.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HollowCylinder {
+    pub axis_point: DVec3,
+    /// Unit axis direction.
+    pub axis_direction: DVec3,
+    pub outer_radius: f64,
+    pub inner_radius: f64,
+    pub ior: f64,
+}
+
+/// How the eye ray reaches the target.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Family {
+    /// No refraction.
+    Direct,
+    /// Outer in, inner out, inner in, outer out.
+    Through4,
+    /// Outer in, total internal reflection at the inner wall, outer out.
+    Tir2,
+    /// Through the glass wall only.
+    Wall2,
+    /// Outer in, inner out: the target is in the hollow.
+    Hollow2,
+}
+
+impl Family {
+    pub fn refractions(self) -> u32 {
+        match self {
+            Family::Direct => 0,
+            Family::Through4 => 4,
+            _ => 2,
+        }
+    }
+}
+
+/// One image of a target.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct CylImage {
+    pub family: Family,
+    /// Unit direction of the straight eye ray that sees the target.
+    pub direction: DVec3,
+    /// eye + direction·|target − eye|: where the vertex must move.
+    pub position: DVec3,
+    pub refractions: u32,
+    /// +1 upright, −1 mirrored (horizontally), relative to a direct view.
+    pub parity: i8,
+}
+
+/// Why a target has no images.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CylStatus {
+    EyeNotOutside,
+    InsideGlass,
+}
+
+struct Frame {
+    u: DVec3,
+    w: DVec3,
+    a: DVec3,
+    c: DVec3,
+}
+
+impl Frame {
+    fn to2(&self, p: DVec3) -> (DVec2, f64) {
+        let q = p - self.c;
+        (DVec2::new(q.dot(self.u), q.dot(self.w)), q.dot(self.a))
+    }
+}
+
+fn refract2(d: DVec2, n: DVec2, m1: f64, m2: f64) -> Option<DVec2> {
+    let t = crate::optics::refract(d.extend(0.0), n.extend(0.0), m1, m2)?;
+    Some(t.truncate().normalize())
+}
+
+fn reflect2(d: DVec2, n: DVec2) -> DVec2 {
+    (d - 2.0 * d.dot(n) * n).normalize()
+}
+
+/// Roots s of |x + s·h| = c (h unit), ascending.
+fn circle(x: DVec2, h: DVec2, c: f64) -> Option<(f64, f64)> {
+    let b = x.dot(h);
+    let q = x.length_squared() - c * c;
+    let disc = b * b - q;
+    if disc < 0.0 {
+        return None;
+    }
+    let s = disc.sqrt();
+    let t0 = if b > 0.0 { -(b + s) } else { -b + s };
+    // Stable pair: t0 and q/t0.
+    let (a0, a1) = if t0 == 0.0 { (-b, -b) } else { (t0, q / t0) };
+    Some((a0.min(a1), a0.max(a1)))
+}
+
+/// The final 2-D ray of a family for impact parameter `b`, with horizontal
+/// lengths in air and glass up to its origin. `None` if the family does not
+/// apply to this `b`.
+struct Path2 {
+    origin: DVec2,
+    dir: DVec2,
+    air: f64,
+    glass: f64,
+}
+
+impl HollowCylinder {
+    pub fn try_new(
+        axis_point: DVec3,
+        axis_direction: DVec3,
+        outer: f64,
+        inner: f64,
+        ior: f64,
+    ) -> Result<Self, String> {
+        if !axis_point.is_finite() || !axis_direction.is_finite() || axis_direction.length() < 1e-300 {
+            return Err("axis: expected a finite point and a non-zero direction".into());
+        }
+        if !(outer.is_finite() && inner.is_finite() && inner > 0.0 && inner < outer) {
+            return Err(format!(
+                "radii: expected 0 < inner_radius < outer_radius, got {inner}, {outer}"
+            ));
+        }
+        if !(ior.is_finite() && ior >= 1.0) {
+            return Err(format!("ior: expected a finite value >= 1, got {ior}"));
+        }
+        Ok(HollowCylinder {
+            axis_point,
+            axis_direction: axis_direction.normalize(),
+            outer_radius: outer,
+            inner_radius: inner,
+            ior,
+        })
+    }
+
+    fn frame(&self) -> Frame {
+        let a = self.axis_direction;
+        let (u, w) = crate::sampling::basis(glam::Vec3A::new(a.x as f32, a.y as f32, a.z as f32));
+        // Re-orthonormalise in f64.
+        let u = (DVec3::new(u.x as f64, u.y as f64, u.z as f64)
+            - a * a.dot(DVec3::new(u.x as f64, u.y as f64, u.z as f64)))
+        .normalize();
+        let _ = w;
+        Frame {
+            u,
+            w: a.cross(u),
+            a,
+            c: self.axis_point,
+        }
+    }
+
+    /// Horizontal eye direction for impact parameter b (b = e × h, |b| < |e|).
+    fn dir_for(e: DVec2, b: f64) -> DVec2 {
+        let rho = e.length();
+        let inward = -e / rho;
+        let perp = DVec2::new(-inward.y, inward.x);
+        let s = (b / rho).clamp(-1.0, 1.0);
+        // e × (inward·c + perp·x) = rho·x·(−inward × perp)… solve for x giving b.
+        let x = -s; // because e × perp = −rho (see test below)
+        (inward * (1.0 - x * x).max(0.0).sqrt() + perp * x).normalize()
+    }
+
+    fn path(&self, fam: Family, e: DVec2, b: f64, beta: f64, target_in_hollow: bool) -> Option<Path2> {
+        let (big, small) = (self.outer_radius, self.inner_radius);
+        let ma = (1.0 - beta * beta).sqrt();
+        let mg = (self.ior * self.ior - beta * beta).sqrt();
+        let h0 = Self::dir_for(e, b);
+        let (s0, _) = circle(e, h0, big)?;
+        if s0 <= 0.0 {
+            return None;
+        }
+        let q1 = e + h0 * s0;
+        let h1 = refract2(h0, q1 / big, ma, mg)?;
+        let mut air = s0;
+        let mut glass = 0.0;
+        let inner_hit = circle(q1, h1, small).filter(|&(t0, _)| t0 > 1e-12);
+        match (fam, inner_hit) {
+            (Family::Wall2, None) => {
+                let (_, s1) = circle(q1, h1, big)?;
+                let q2 = q1 + h1 * s1;
+                glass += s1;
+                let h2 = refract2(h1, q2 / big, mg, ma)?;
+                Some(Path2 {
+                    origin: q2,
+                    dir: h2,
+                    air,
+                    glass,
+                })
+            }
+            (Family::Wall2, Some(_)) | (_, None) => None,
+            (fam, Some((t_in, _))) => {
+                let q2 = q1 + h1 * t_in;
+                glass += t_in;
+                let n_in = q2 / small; // points into the glass
+                match refract2(h1, n_in, mg, ma) {
+                    None => {
+                        if fam != Family::Tir2 {
+                            return None;
+                        }
+                        let h2 = reflect2(h1, n_in);
+                        let (_, s2) = circle(q2, h2, big)?;
+                        let q3 = q2 + h2 * s2;
+                        glass += s2;
+                        let h3 = refract2(h2, q3 / big, mg, ma)?;
+                        Some(Path2 {
+                            origin: q3,
+                            dir: h3,
+                            air,
+                            glass,
+                        })
+                    }
+                    Some(h2) => match fam {
+                        Family::Hollow2 if target_in_hollow => Some(Path2 {
+                            origin: q2,
+                            dir: h2,
+                            air,
+                            glass,
+                        }),
+                        Family::Through4 if !target_in_hollow => {
+                            let (_, s2) = circle(q2, h2, small)?;
+                            let q3 = q2 + h2 * s2;
+                            air += s2;
+                            let h3 = refract2(h2, q3 / small, ma, mg)?;
+                            let (_, s3) = circle(q3, h3, big)?;
+                            let q4 = q3 + h3 * s3;
+                            glass += s3;
+                            let h4 = refract2(h3, q4 / big, mg, ma)?;
+                            Some(Path2 {
+                                origin: q4,
+                                dir: h4,
+                                air,
+                                glass,
+                            })
+                        }
+                        _ => None,
+                    },
+                }
+            }
+        }
+    }
+
+    /// All images of `target` seen from `eye`.
+    pub fn images(&self, eye: DVec3, target: DVec3) -> Result<Vec<CylImage>, CylStatus> {
+        let f = self.frame();
+        let (e, ev) = f.to2(eye);
+        let (p, pv) = f.to2(target);
+        let (big, small) = (self.outer_radius, self.inner_radius);
+        if e.length() <= big {
+            return Err(CylStatus::EyeNotOutside);
+        }
+        let rp = p.length();
+        if rp > small && rp < big {
+            return Err(CylStatus::InsideGlass);
+        }
+        let in_hollow = rp <= small;
+        let dv = pv - ev;
+        let dist = (target - eye).length();
+        let mut out = Vec::new();
+        // Direct: the horizontal segment e → p must miss the outer circle.
+        if !in_hollow {
+            let seg = p - e;
+            let l = seg.length();
+            let blocked = l > 0.0 && circle(e, seg / l, big).is_some_and(|(t0, t1)| t1 > 0.0 && t0 < l);
+            if !blocked {
+                let d = (target - eye) / dist;
+                out.push(CylImage {
+                    family: Family::Direct,
+                    direction: d,
+                    position: target,
+                    refractions: 0,
+                    parity: 1,
+                });
+            }
+        }
+        let families: &[Family] = if in_hollow {
+            &[Family::Hollow2]
+        } else {
+            &[Family::Through4, Family::Tir2, Family::Wall2]
+        };
+        let rho = e.length();
+        let bmax = big.min(rho) * (1.0 - 1e-15);
+        for &fam in families {
+            // For a first β take the straight elevation; refine per root below.
+            let beta0 = dv / dist;
+            let g = |b: f64, beta: f64| -> Option<(f64, f64)> {
+                let path = self.path(fam, e, b, beta, in_hollow)?;
+                let rel = p - path.origin;
+                let along = rel.dot(path.dir);
+                if along <= 0.0 {
+                    return None;
+                }
+                Some((path.dir.perp_dot(rel), along))
+            };
+            // Sample b over (−bmax, bmax), densely near ±r, ±r·mg/ma and ±R.
+            let mut samples: Vec<f64> = (0..=800).map(|i| -bmax + 2.0 * bmax * i as f64 / 800.0).collect();
+            let ma = (1.0 - beta0 * beta0).sqrt();
+            let mg = (self.ior * self.ior - beta0 * beta0).sqrt();
+            for edge in [small, small * mg / ma, bmax] {
+                for k in 1..=60 {
+                    let off = edge * 10f64.powf(-(k as f64) / 4.0);
+                    for s in [-1.0, 1.0] {
+                        for x in [edge - off, edge + off] {
+                            if x.abs() < bmax {
+                                samples.push(s * x);
+                            }
+                        }
+                    }
+                }
+            }
+            samples.sort_by(f64::total_cmp);
+            let mut roots = Vec::new();
+            for w in samples.windows(2) {
+                if let (Some((ga, _)), Some((gb, _))) = (g(w[0], beta0), g(w[1], beta0)) {
+                    if ga == 0.0 || ga.signum() != gb.signum() {
+                        roots.push((w[0], w[1]));
+                    }
+                }
+            }
+            for (lo0, hi0) in roots {
+                let Some(img) = self.refine(fam, e, p, dv, dist, eye, &f, lo0, hi0, beta0, in_hollow) else {
+                    continue;
+                };
+                if !out.iter().any(|o: &CylImage| {
+                    o.family == img.family && (o.direction - img.direction).length() < 1e-9
+                }) {
+                    out.push(img);
+                }
+            }
+        }
+        Ok(out)
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn refine(
+        &self,
+        fam: Family,
+        e: DVec2,
+        p: DVec2,
+        dv: f64,
+        dist: f64,
+        eye: DVec3,
+        f: &Frame,
+        lo0: f64,
+        hi0: f64,
+        beta0: f64,
+        in_hollow: bool,
+    ) -> Option<CylImage> {
+        let gval = |b: f64, beta: f64| -> Option<f64> {
+            let path = self.path(fam, e, b, beta, in_hollow)?;
+            let rel = p - path.origin;
+            (rel.dot(path.dir) > 0.0).then(|| path.dir.perp_dot(rel))
+        };
+        // Bisection in b for fixed β inside a bracket; widen the bracket when β moved.
+        let solve_b = |beta: f64, lo: f64, hi: f64| -> Option<f64> {
+            let (mut lo, mut hi) = (lo, hi);
+            let mut glo = gval(lo, beta)?;
+            let ghi = gval(hi, beta)?;
+            if glo.signum() == ghi.signum() && glo != 0.0 {
+                return None;
+            }
+            for _ in 0..200 {
+                let mid = 0.5 * (lo + hi);
+                if mid == lo || mid == hi {
+                    break;
+                }
+                let gm = gval(mid, beta)?;
+                if gm.signum() == glo.signum() {
+                    lo = mid;
+                    glo = gm;
+                } else {
+                    hi = mid;
+                }
+            }
+            Some(0.5 * (lo + hi))
+        };
+        let climb = |b: f64, beta: f64| -> Option<f64> {
+            let path = self.path(fam, e, b, beta, in_hollow)?;
+            let ma = (1.0 - beta * beta).sqrt();
+            let mg = (self.ior * self.ior - beta * beta).sqrt();
+            let last = (p - path.origin).dot(path.dir);
+            Some(beta * ((path.air + last) / ma + path.glass / mg))
+        };
+        let mut beta = beta0;
+        let mut b = solve_b(beta, lo0, hi0)?;
+        let width = (hi0 - lo0).max(1e-9);
+        let mut prev: Option<(f64, f64)> = None;
+        for _ in 0..100 {
+            let r = climb(b, beta)? - dv;
+            if r.abs() <= 1e-13 * dist {
+                break;
+            }
+            // Secant on β (Newton-like from a finite difference at the start).
+            let next = match prev {
+                Some((pb, pr)) if (r - pr) != 0.0 => beta - r * (beta - pb) / (r - pr),
+                _ => beta - r / (dist.max(1e-300)),
+            };
+            prev = Some((beta, r));
+            beta = next.clamp(-0.999_999_999, 0.999_999_999);
+            // Track the root near the previous b.
+            let mut k = 1.0;
+            let mut found = None;
+            while k < 1e6 && found.is_none() {
+                found = solve_b(
+                    beta,
+                    (b - width * k).max(-e.length()),
+                    (b + width * k).min(e.length()),
+                );
+                k *= 4.0;
+            }
+            b = found?;
+        }
+        let r = climb(b, beta)? - dv;
+        if r.abs() > 1e-9 * dist || gval(b, beta)?.abs() > 1e-9 * dist {
+            return None;
+        }
+        let h = Self::dir_for(e, b);
+        let dir = (f.u * h.x + f.w * h.y) * (1.0 - beta * beta).sqrt() + f.a * beta;
+        // Parity: orientation of b → crossing position against a straight view.
+        let db = 1e-7 * self.outer_radius;
+        let dg = gval(b + db, beta).zip(gval(b - db, beta)).map(|(x, y)| x - y)?;
+        let straight = |bb: f64| Self::dir_for(e, bb).perp_dot(p - e);
+        let ds = straight(b + db) - straight(b - db);
+        let parity = if dg.signum() == ds.signum() { 1 } else { -1 };
+        Some(CylImage {
+            family: fam,
+            direction: dir.normalize(),
+            position: eye + dir.normalize() * dist,
+            refractions: fam.refractions(),
+            parity,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Independent 3-D check: follow the eye ray through the tube with vector
+    /// Snell (TIR reflects), and return the distance from the target to the
+    /// final ray.
+    fn trace(c: &HollowCylinder, eye: DVec3, d: DVec3, target: DVec3) -> f64 {
+        let a = c.axis_direction;
+        let radial = |p: DVec3| {
+            let q = p - c.axis_point;
+            (q - a * q.dot(a)).normalize()
+        };
+        let hit = |o: DVec3, d: DVec3, r: f64, far: bool| -> Option<f64> {
+            let q = o - c.axis_point;
+            let qp = q - a * q.dot(a);
+            let dp = d - a * d.dot(a);
+            let (aa, bb, cc) = (dp.dot(dp), qp.dot(dp), qp.dot(qp) - r * r);
+            let disc = bb * bb - aa * cc;
+            if disc < 0.0 {
+                return None;
+            }
+            let (t0, t1) = ((-bb - disc.sqrt()) / aa, (-bb + disc.sqrt()) / aa);
+            let t = if far {
+                t1
+            } else if t0 > 1e-9 {
+                t0
+            } else {
+                t1
+            };
+            (t > 1e-9).then_some(t)
+        };
+        let (big, small, n) = (c.outer_radius, c.inner_radius, c.ior);
+        let mut o = eye;
+        let mut d = d;
+        let mut index = 1.0;
+        // Up to six interface events: decide by geometry which circle comes next.
+        for _ in 0..6 {
+            let q = o - c.axis_point;
+            let rho = (q - a * q.dot(a)).length();
+            let next = if rho > big * (1.0 + 1e-12) {
+                hit(o, d, big, false).map(|t| (t, big, 1.0, n))
+            } else if rho < small * (1.0 + 1e-12) && index == 1.0 {
+                hit(o, d, small, true).map(|t| (t, small, 1.0, n))
+            } else {
+                // In glass: inner (near root) or outer (far root).
+                match hit(o, d, small, false) {
+                    Some(t) if rho > small * (1.0 + 1e-12) => Some((t, small, n, 1.0)),
+                    _ => hit(o, d, big, true).map(|t| (t, big, n, 1.0)),
+                }
+            };
+            let Some((t, _r, n1, n2)) = next else { break };
+            let p = o + d * t;
+            // Stop if the target lies on this segment.
+            let rel = target - o;
+            let along = rel.dot(d);
+            if along > 0.0 && along < t && (rel - d * along).length() < 1e-6 {
+                return (rel - d * along).length();
+            }
+            let nrm = radial(p);
+            match crate::optics::refract(d, nrm, n1, n2) {
+                Some(t2) => {
+                    d = t2.normalize();
+                    index = n2;
+                }
+                None => d = crate::optics::reflect(d, nrm).normalize(),
+            }
+            o = p;
+        }
+        let rel = target - o;
+        (rel - d * rel.dot(d)).length()
+    }
+
+    fn tube(inner: f64) -> HollowCylinder {
+        HollowCylinder::try_new(DVec3::ZERO, DVec3::Y, 1.0, inner, 1.5).unwrap()
+    }
+
+    #[test]
+    fn impact_parameter_direction_convention() {
+        let e = DVec2::new(0.0, 4.0);
+        for b in [-0.9, -0.1, 0.0, 0.5] {
+            let h = HollowCylinder::dir_for(e, b);
+            assert!((e.perp_dot(h) - b).abs() < 1e-12, "{b}: {}", e.perp_dot(h));
+        }
+    }
+
+    #[test]
+    fn every_image_retraces_to_its_target() {
+        let eye = DVec3::new(0.0, 0.0, 4.0);
+        let mut counts = vec![];
+        for inner in [0.8, 0.5] {
+            let c = tube(inner);
+            for target in [
+                DVec3::new(0.5, 0.0, -2.5),
+                DVec3::new(0.0, 0.5, -4.0),
+                DVec3::new(0.2, -0.7, -3.0),
+                DVec3::new(1.3, 0.3, -3.0),
+                DVec3::new(0.1, 0.2, 0.3),
+                DVec3::new(3.0, 0.4, -3.0),
+            ] {
+                let imgs = c.images(eye, target).unwrap();
+                for im in &imgs {
+                    let miss = trace(&c, eye, im.direction, target);
+                    assert!(
+                        miss < 1e-9 * 8.0,
+                        "r={inner} {target} {:?}: misses by {miss}",
+                        im.family
+                    );
+                }
+                counts.push((inner, target, imgs.iter().map(|i| i.family).collect::<Vec<_>>()));
+            }
+        }
+        for c in &counts {
+            eprintln!("{c:?}");
+        }
+        // Behind the tube, on the axis plane: seen through the hollow (and not directly).
+        let c = tube(0.8);
+        let imgs = c.images(eye, DVec3::new(0.0, 0.5, -4.0)).unwrap();
+        assert!(imgs.iter().any(|i| i.family == Family::Through4));
+        assert!(!imgs.iter().any(|i| i.family == Family::Direct));
+        assert!((1..=3).contains(&imgs.len()), "{imgs:?}");
+        // Far to the side the target is also seen directly, with parity +1.
+        let imgs = c.images(eye, DVec3::new(3.0, 0.4, -3.0)).unwrap();
+        assert!(imgs.iter().any(|i| i.family == Family::Direct && i.parity == 1));
+        // No wall-only path for R=1, r=0.8, n=1.5 (n·r > R); r = 0.5 allows it.
+        let all08: Vec<Family> = counts
+            .iter()
+            .filter(|c| c.0 == 0.8)
+            .flat_map(|c| c.2.clone())
+            .collect();
+        assert!(!all08.contains(&Family::Wall2));
+        let imgs = tube(0.5).images(eye, DVec3::new(0.5, 0.0, -2.5)).unwrap();
+        assert!(imgs.len() <= 4);
+        // A target in the hollow is seen through the outer and inner walls.
+        let imgs = c.images(eye, DVec3::new(0.1, 0.2, 0.3)).unwrap();
+        assert!(!imgs.is_empty() && imgs.iter().all(|i| i.family == Family::Hollow2));
+        assert_eq!(
+            c.images(eye, DVec3::new(0.9, 0.0, 0.0)),
+            Err(CylStatus::InsideGlass)
+        );
+        assert_eq!(
+            c.images(DVec3::new(0.0, 0.0, 0.5), DVec3::new(0.0, 0.0, -3.0)),
+            Err(CylStatus::EyeNotOutside)
+        );
+    }
+}
