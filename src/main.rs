@@ -60,6 +60,12 @@ enum Cmd {
         #[command(subcommand)]
         which: AuditCmd,
     },
+    /// Warp points through a plate or a hollow cylinder (JSON in, JSON out).
+    WarpPoints {
+        queries: PathBuf,
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+    },
     /// Mutation-fuzz the scene loader and renderer with the shipped scenes as seeds.
     Fuzz {
         #[arg(long, default_value_t = 100_000)]
@@ -136,6 +142,16 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> snell::Result<()> {
     match cli.cmd {
+        Cmd::WarpPoints { queries, output } => {
+            let text = std::fs::read_to_string(&queries).map_err(|e| snell::Error::io(&queries, e))?;
+            let out = snell::warp::points::warp_points_json(&queries.display().to_string(), &text)
+                .map_err(snell::Error::Invalid)?;
+            match output {
+                Some(p) => snell::image_io::write_atomic(&p, out.as_bytes())?,
+                None => println!("{out}"),
+            }
+            Ok(())
+        }
         Cmd::Fuzz {
             cases,
             seed,

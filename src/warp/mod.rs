@@ -5,6 +5,7 @@
 //! are still to come (issue 7).
 pub mod cylinder;
 pub mod plate;
+pub mod points;
 
 pub use cylinder::{CylImage, CylStatus, Family, HollowCylinder};
 pub use plate::{Plate, PlateImage, PlateStatus};
