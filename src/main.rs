@@ -4,6 +4,14 @@ use snell::dielectric::NestedStrategy;
 use snell::render::{render, RenderOptions};
 use snell::scene::{load_scene, BuildOptions};
 use std::path::PathBuf;
+
+/// Print to stdout, ignoring a closed pipe (`snell … | head` must not panic).
+macro_rules! say {
+    ($($t:tt)*) => {{
+        use std::io::Write;
+        let _ = writeln!(std::io::stdout(), $($t)*);
+    }};
+}
 use std::process::ExitCode;
 
 /// `snell --version`: the build's provenance (commit, Embree, rustc, profile).
@@ -148,7 +156,7 @@ fn run(cli: Cli) -> snell::Result<()> {
                 .map_err(snell::Error::Invalid)?;
             match output {
                 Some(p) => snell::image_io::write_atomic(&p, out.as_bytes())?,
-                None => println!("{out}"),
+                None => say!("{out}"),
             }
             Ok(())
         }
@@ -172,7 +180,7 @@ fn run(cli: Cli) -> snell::Result<()> {
                 seed,
                 std::time::Duration::from_secs(1),
             );
-            println!(
+            say!(
                 "{} cases in {:.1} s: {} rendered, {} located errors, {} other errors, {} panics, {} slower than 1 s; slowest {:.3} s ({})",
                 rep.cases,
                 t.elapsed().as_secs_f64(),
@@ -185,10 +193,10 @@ fn run(cli: Cli) -> snell::Result<()> {
                 rep.slowest.1
             );
             for p in rep.panics.iter().take(5) {
-                println!("PANIC {p}");
+                say!("PANIC {p}");
             }
             for e in rep.unlocated_errors.iter().take(5) {
-                println!("UNLOCATED {e}");
+                say!("UNLOCATED {e}");
             }
             if rep.panics.is_empty() && rep.unlocated_errors.is_empty() && rep.slow.is_empty() {
                 Ok(())
@@ -213,7 +221,7 @@ fn run(cli: Cli) -> snell::Result<()> {
                 .num_threads(threads.unwrap_or(0))
                 .build()
                 .map_err(|e| snell::Error::Invalid(e.to_string()))?;
-            println!("{}", snell::bench_header());
+            say!("{}", snell::bench_header());
             let mut out = Vec::new();
             for strategy in nested {
                 let s = load_scene(
@@ -225,7 +233,7 @@ fn run(cli: Cli) -> snell::Result<()> {
                 )?;
                 let t = std::time::Instant::now();
                 let r = pool.install(|| snell::dielectric::audit::audit_scene(&s, rays, seed))?;
-                println!(
+                say!(
                     "{:<7} {} rays ({} at vertices/edges, {} at silhouettes), {} segments: {} mismatches, {} left non-empty, {} wrong rays ({:.4}%) [{:.1} s]",
                     strategy.name(),
                     r.rays,
@@ -250,19 +258,19 @@ fn run(cli: Cli) -> snell::Result<()> {
         Cmd::Bench {
             which: BenchCmd::Embree { rays, reps },
         } => {
-            println!("{}", snell::bench_header());
+            say!("{}", snell::bench_header());
             let f = snell::bench::embree_bare(rays, reps)?;
-            println!(
+            say!(
                 "bare Embree, 1 thread, {} incoherent rays against two overlapping meshes ({} triangles), median of {reps}:",
                 f.rays, f.triangles
             );
-            println!("  no filter          {:8.3} Mrays/s  1.000", f.no_filter);
-            println!(
+            say!("  no filter          {:8.3} Mrays/s  1.000", f.no_filter);
+            say!(
                 "  accept-all filter  {:8.3} Mrays/s  {:.3}",
                 f.accept_all,
                 f.accept_all / f.no_filter
             );
-            println!(
+            say!(
                 "  recording filter   {:8.3} Mrays/s  {:.3}",
                 f.recording,
                 f.recording / f.no_filter
@@ -279,7 +287,7 @@ fn run(cli: Cli) -> snell::Result<()> {
                     scenes_dir,
                 },
         } => {
-            println!("{}", snell::bench_header());
+            say!("{}", snell::bench_header());
             let mut opts = snell::bench::NestedBenchOptions {
                 reps,
                 threads,
@@ -290,7 +298,7 @@ fn run(cli: Cli) -> snell::Result<()> {
                 opts.scenes = scenes;
             }
             let runs = snell::bench::nested(&opts, |m| eprintln!("{m}"))?;
-            print!("{}", snell::bench::nested_ratios(&runs));
+            say!("{}", snell::bench::nested_ratios(&runs).trim_end());
             if let Some(p) = json {
                 let prov = snell::provenance::json();
                 let v: Vec<serde_json::Value> = runs
@@ -448,7 +456,7 @@ fn run(cli: Cli) -> snell::Result<()> {
                     st["rays_per_s"].as_f64().unwrap_or(0.0) / 1e6
                 );
             }
-            println!("{}", output.display());
+            say!("{}", output.display());
             Ok(())
         }
     }
