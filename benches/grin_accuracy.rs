@@ -1,1 +1,255 @@
-fn main() {}
+//! Gradient-index integrators: end-point error against the closed form (linear field)
+//! or a tight rk45 reference (other fields), against cost (field evaluations, steps and
+//! wall time as a ratio to rk45 at tolerance 1e-8 measured in the same run), so a user
+//! can pick a point on the curve. Then the paper's percent-error table (its h and N)
+//! beside the ray-equation methods at the same step counts.
+//!
+//! `cargo bench --bench grin_accuracy`
+use std::time::Instant;
+
+use glam::DVec3;
+use snell::media::grin_trace::{trace, Query, Stop};
+use snell::media::stepper::State;
+use snell::media::{paper, IndexField, Method};
+
+fn query(
+    field: &IndexField,
+    start: DVec3,
+    dir: DVec3,
+    len: f64,
+    method: Method,
+    tol: f64,
+    step: f64,
+) -> Query {
+    Query {
+        id: String::new(),
+        field: field.clone(),
+        start,
+        direction: dir,
+        stop: Stop {
+            x: None,
+            s: Some(len),
+        },
+        method,
+        tolerance: Some(tol),
+        step: Some(step),
+        steps: None,
+        max_length: None,
+    }
+}
+
+/// (end, evaluations, steps, seconds per trace) or the failure message.
+fn run(q: &Query) -> Result<(DVec3, u64, u64, f64), String> {
+    let a = trace(q)?;
+    let end = a.end.ok_or("no end")?;
+    let t0 = Instant::now();
+    let mut reps = 0u32;
+    while reps < 3 || (t0.elapsed().as_secs_f64() < 0.05 && reps < 100_000) {
+        std::hint::black_box(trace(std::hint::black_box(q))?);
+        reps += 1;
+    }
+    let secs = t0.elapsed().as_secs_f64() / f64::from(reps);
+    Ok((end, a.evaluations, a.steps, secs))
+}
+
+fn dir(deg: f64) -> DVec3 {
+    let a = deg.to_radians();
+    DVec3::new(a.cos(), a.sin(), 0.0)
+}
+
+fn main() {
+    println!("{}", snell::bench_header());
+    let cases: Vec<(&str, IndexField, DVec3, DVec3, f64)> = vec![
+        (
+            "linear m=0.01, 10° up, 100 m",
+            IndexField::Linear {
+                n0: 1.0,
+                m: 0.01,
+                up: DVec3::Y,
+                base: 0.0,
+            },
+            DVec3::ZERO,
+            dir(10.0),
+            100.0,
+        ),
+        (
+            "hot_ground (inferior mirage), 1.5 m, 0.5° down, 400 m",
+            IndexField::HotGround {
+                n_inf: 1.000_293,
+                dn: 1e-4,
+                h0: 0.3,
+                up: DVec3::Y,
+                base: 0.0,
+            },
+            DVec3::new(0.0, 1.5, 0.0),
+            dir(-0.5),
+            400.0,
+        ),
+        (
+            "inversion (superior mirage), 9 m, 0.2° up, 2000 m",
+            IndexField::Inversion {
+                n0: 1.000_29,
+                dn: -6e-5,
+                height: 10.0,
+                thickness: 1.0,
+                m: 0.0,
+                up: DVec3::Y,
+                base: 0.0,
+            },
+            DVec3::new(0.0, 9.0, 0.0),
+            dir(0.2),
+            2000.0,
+        ),
+    ];
+    for (name, field, p, d, len) in &cases {
+        println!("\n## {name}");
+        let is_linear = matches!(field, IndexField::Linear { .. });
+        let reference = if is_linear {
+            run(&query(field, *p, *d, *len, Method::Exact, 1.0, 1.0)).map(|r| r.0)
+        } else {
+            run(&query(field, *p, *d, *len, Method::Rk45, 1e-13, 1.0)).map(|r| r.0)
+        };
+        let Ok(reference) = reference else {
+            println!("reference failed: {reference:?}");
+            continue;
+        };
+        println!(
+            "reference: {} at {:.9?}",
+            if is_linear { "exact" } else { "rk45 tol 1e-13" },
+            reference
+        );
+        let base = run(&query(field, *p, *d, *len, Method::Rk45, 1e-8, 1.0))
+            .map(|r| r.3)
+            .unwrap_or(f64::NAN);
+        println!(
+            "{:<10} {:>12} {:>14} {:>10} {:>10} {:>12}",
+            "method", "setting", "rel. error", "evals", "steps", "time/rk45@1e-8"
+        );
+        let mut settings: Vec<(Method, f64, f64, String)> = Vec::new();
+        for tol in [1e-4, 1e-6, 1e-8, 1e-10, 1e-12] {
+            settings.push((Method::Rk45, tol, 1.0, format!("tol {tol:.0e}")));
+        }
+        for h in [10.0, 3.0, 1.0, 0.3, 0.1, 0.03] {
+            settings.push((Method::Rk4, 1.0, h, format!("h {h}")));
+        }
+        for m in [Method::Slab, Method::Length, Method::Euler, Method::PaperRk4] {
+            for h in [0.1, 0.01, 0.001] {
+                settings.push((m, 1.0, h, format!("h {h}")));
+            }
+        }
+        if is_linear {
+            settings.push((Method::Exact, 1.0, 1.0, "closed form".into()));
+        }
+        for (m, tol, h, label) in settings {
+            match run(&query(field, *p, *d, *len, m, tol, h)) {
+                Ok((end, evals, steps, secs)) => println!(
+                    "{:<10} {:>12} {:>14.3e} {:>10} {:>10} {:>12.3}",
+                    m.name(),
+                    label,
+                    (end - reference).length() / len,
+                    evals,
+                    steps,
+                    secs / base
+                ),
+                Err(e) => {
+                    let short: String = e.chars().take(70).collect();
+                    println!("{:<10} {:>12} failed: {short}", m.name(), label)
+                }
+            }
+        }
+    }
+
+    // The paper's table: n = n0 + m·y with n0 = 1, m = 0.01, a launch 10° above the
+    // horizontal from y = 0 (the paper does not give its parameters), N steps of h in
+    // height; percent error of the horizontal distance at height N·h against the closed
+    // form. rk4 and rk45 integrate the ray equation over the same arc length, rk4 in
+    // the same N steps.
+    println!(
+        "\n## the paper's table (n0 = 1, m = 0.01, 10° launch; percent error of the horizontal distance)"
+    );
+    let field = IndexField::Linear {
+        n0: 1.0,
+        m: 0.01,
+        up: DVec3::Y,
+        base: 0.0,
+    };
+    let d = dir(10.0);
+    println!(
+        "{:>5} {:>5} {:>11} {:>11} {:>11} {:>11} {:>11} {:>11}",
+        "h", "N", "slab", "length", "euler", "paper_rk4", "rk4 (N)", "rk45 1e-9"
+    );
+    for h in [1.0, 0.5] {
+        for n_steps in [10u32, 100] {
+            let height = h * f64::from(n_steps);
+            let b = d.x;
+            let n = 1.0 + 0.01 * height;
+            let x_exact = b / 0.01 * ((n + (n * n - b * b).sqrt()) / (1.0 + d.y)).ln();
+            let mut row = Vec::new();
+            for m in [Method::Slab, Method::Length, Method::Euler, Method::PaperRk4] {
+                let mut ev = 0;
+                let Ok(mut st) = State::new(&field, DVec3::ZERO, d, &mut ev) else {
+                    continue;
+                };
+                let mut ok = true;
+                for _ in 0..n_steps {
+                    match paper::segment(&field, m, h, &st, &mut ev) {
+                        Ok(paper::Seg::To(s)) => st = s,
+                        _ => ok = false,
+                    }
+                }
+                // The length method steps in arc length: read its x at height N·h
+                // (interpolated along its polyline is not needed: report at its end height).
+                let x = if m == Method::Length {
+                    // Horizontal distance at the same height on the exact curve.
+                    let nn = 1.0 + 0.01 * st.r.y;
+                    let xe = b / 0.01 * ((nn + (nn * nn - b * b).sqrt()) / (1.0 + d.y)).ln();
+                    row.push(if ok {
+                        (st.r.x - xe).abs() / xe * 100.0
+                    } else {
+                        f64::NAN
+                    });
+                    continue;
+                } else {
+                    st.r.x
+                };
+                row.push(if ok {
+                    (x - x_exact).abs() / x_exact * 100.0
+                } else {
+                    f64::NAN
+                });
+            }
+            // Ray-equation methods: arc length to height N·h from the closed form, then
+            // compare the end point's x.
+            let mut ev = 0;
+            let st0 = State::new(&field, DVec3::ZERO, d, &mut ev).expect("n > 0");
+            let w = st0.v.y;
+            // tau at which h(τ) = height: solve with the monotone arc length.
+            let (mut lo, mut hi) = (0.0f64, 1e6f64);
+            for _ in 0..200 {
+                let mid = 0.5 * (lo + hi);
+                let (pp, _, _) = snell::media::exact::at_tau(0.01, DVec3::Y, &st0, mid);
+                if pp.y < height {
+                    lo = mid
+                } else {
+                    hi = mid
+                }
+            }
+            let _ = w;
+            let (_, _, arc) = snell::media::exact::at_tau(0.01, DVec3::Y, &st0, lo);
+            for (m, tol, step) in [
+                (Method::Rk4, 1.0, arc / f64::from(n_steps)),
+                (Method::Rk45, 1e-9, 1.0),
+            ] {
+                let q = query(&field, DVec3::ZERO, d, arc, m, tol, step);
+                let e = trace(&q).ok().and_then(|a| a.end).map_or(f64::NAN, |e| e.x);
+                row.push((e - x_exact).abs() / x_exact * 100.0);
+            }
+            print!("{h:>5} {n_steps:>5}");
+            for v in row {
+                print!(" {v:>11.3e}");
+            }
+            println!();
+        }
+    }
+    println!("(paper: slab = euler 4.83 / 0.82 / 3.39 / 0.73 %, length 12.98 / 2.53 / 16.84 / 4.21 %, RK 2.8e-3 / 3.3e-4 / 3.5e-4 / 4.6e-5 %)");
+}

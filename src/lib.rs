@@ -10,6 +10,7 @@ pub mod error;
 pub mod fuzz;
 pub mod image_io;
 pub mod integrator;
+pub mod media;
 pub mod optics;
 pub mod provenance;
 pub mod render;

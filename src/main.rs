@@ -68,6 +68,12 @@ enum Cmd {
         #[command(subcommand)]
         which: AuditCmd,
     },
+    /// Trace single rays in gradient-index fields (JSON in, JSON out).
+    GrinTrace {
+        queries: PathBuf,
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+    },
     /// Warp points through a plate or a hollow cylinder (JSON in, JSON out).
     WarpPoints {
         queries: PathBuf,
@@ -150,6 +156,16 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> snell::Result<()> {
     match cli.cmd {
+        Cmd::GrinTrace { queries, output } => {
+            let text = std::fs::read_to_string(&queries).map_err(|e| snell::Error::io(&queries, e))?;
+            let out = snell::media::grin_trace_json(&text)
+                .map_err(|e| snell::Error::Invalid(format!("{}: {e}", queries.display())))?;
+            match output {
+                Some(p) => snell::image_io::write_atomic(&p, out.as_bytes())?,
+                None => say!("{out}"),
+            }
+            Ok(())
+        }
         Cmd::WarpPoints { queries, output } => {
             let text = std::fs::read_to_string(&queries).map_err(|e| snell::Error::io(&queries, e))?;
             let out = snell::warp::points::warp_points_json(&queries.display().to_string(), &text)

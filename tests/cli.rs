@@ -161,3 +161,45 @@ fn ctrl_c_stops_at_a_tile_boundary_and_writes_a_partial_image() {
     assert_eq!((img.width, img.height), (64, 48));
     let _ = std::fs::remove_dir_all(&d);
 }
+
+#[test]
+fn grin_trace_and_warp_points_batch_tools() {
+    let d = tmpdir("batch");
+    let q = d.join("q.json");
+    std::fs::write(
+        &q,
+        r#"{"queries": [{"id": "a", "field": {"kind": "linear", "n0": 1.0, "m": 0.01},
+            "start": [0, 0, 0], "direction": [0.9848, 0.1736, 0], "stop": {"x": 100.0},
+            "method": "rk45", "tolerance": 1e-10},
+           {"id": "b", "field": {"kind": "linear", "n0": 1.0, "m": 0.01},
+            "start": [0, 0, 0], "direction": [0.9848, 0.1736, 0], "stop": {"x": 100.0}, "method": "exact"},
+           {"id": "bad", "field": {"kind": "linear", "n0": 1.0}, "start": [0, 0, 0],
+            "direction": [1, 0, 0], "stop": {"x": 1.0}, "method": "rk45"}]}"#,
+    )
+    .unwrap();
+    let out = d.join("r.json");
+    let st = snell().args(["grin-trace"]).arg(&q).arg("-o").arg(&out).status().unwrap();
+    assert!(st.success());
+    let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    let res = r["results"].as_array().unwrap();
+    let (a, b) = (&res[0], &res[1]);
+    assert_eq!(a["status"], "ok");
+    for k in 0..3 {
+        let (x, y) = (a["end"][k].as_f64().unwrap(), b["end"][k].as_f64().unwrap());
+        assert!((x - y).abs() < 1e-7, "rk45 vs exact end point: {x} vs {y}");
+    }
+    assert_ne!(res[2]["status"], "ok", "a bad query gets its own error status");
+
+    let w = d.join("w.json");
+    std::fs::write(
+        &w,
+        r#"{"eye": [0, 0, 4], "glass": {"kind": "hollow_cylinder", "axis_point": [0, 0, 0], "axis_direction": [0, 1, 0],
+            "outer_radius": 1.0, "inner_radius": 0.8, "ior": 1.5}, "method": "exact", "points": [[0.5, 0, -2.5], [0, 0.5, -4]]}"#,
+    )
+    .unwrap();
+    let o = snell().args(["warp-points"]).arg(&w).output().unwrap();
+    assert!(o.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(v["points"][1]["images"].as_array().unwrap().iter().any(|i| i["family"] == "through4"));
+    let _ = std::fs::remove_dir_all(&d);
+}

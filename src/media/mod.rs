@@ -1,1 +1,599 @@
-pub fn x(){}
+//! Gradient-index media: index fields, ray-equation integrators, the paper's methods
+//! for comparison, and chord casting (a curved ray sent through Embree as straight
+//! chords whose deviation from the true arc is bounded by a tolerance).
+//!
+//! Pure f64, no Embree. See docs/grin.md for the derivations.
+pub mod exact;
+pub mod field;
+pub mod grin_trace;
+pub mod paper;
+pub mod stepper;
+
+use std::fmt;
+use std::str::FromStr;
+
+use glam::DVec3;
+use serde::{Deserialize, Serialize};
+
+pub use field::{Aabb, IndexField, Strata};
+pub use grin_trace::grin_trace_json;
+use stepper::{State, Stepper};
+
+/// A user-facing error: the key (e.g. `medium.tolerance`) and what was expected.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum MediumError {
+    #[error("{key}: {message}")]
+    Invalid { key: String, message: String },
+}
+
+impl MediumError {
+    pub fn invalid(key: impl Into<String>, message: impl Into<String>) -> MediumError {
+        MediumError::Invalid {
+            key: key.into(),
+            message: message.into(),
+        }
+    }
+}
+
+/// How a curved ray is integrated.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Method {
+    /// Dormand–Prince 5(4), error-controlled by `tolerance` (metres per step).
+    Rk45,
+    /// Classical RK4 with a fixed arc-length step `step`.
+    Rk4,
+    /// The paper's horizontal layers of thickness `step`.
+    Slab,
+    /// The paper's fixed-length pieces of `step`.
+    Length,
+    /// The paper's Euler method (height steps of `step`).
+    Euler,
+    /// The paper's Runge–Kutta as printed (height steps of `step`), typos included.
+    PaperRk4,
+    /// Closed form (catenary) for linear and constant fields.
+    Exact,
+}
+
+impl Method {
+    pub const ALL: [Method; 7] = [
+        Method::Rk45,
+        Method::Rk4,
+        Method::Slab,
+        Method::Length,
+        Method::Euler,
+        Method::PaperRk4,
+        Method::Exact,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Rk45 => "rk45",
+            Method::Rk4 => "rk4",
+            Method::Slab => "slab",
+            Method::Length => "length",
+            Method::Euler => "euler",
+            Method::PaperRk4 => "paper_rk4",
+            Method::Exact => "exact",
+        }
+    }
+
+    /// One of the paper's piecewise-straight methods.
+    pub fn is_paper(self) -> bool {
+        matches!(
+            self,
+            Method::Slab | Method::Length | Method::Euler | Method::PaperRk4
+        )
+    }
+}
+
+impl fmt::Display for Method {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for Method {
+    type Err = MediumError;
+    fn from_str(s: &str) -> Result<Method, MediumError> {
+        Method::ALL.into_iter().find(|m| m.name() == s).ok_or_else(|| {
+            MediumError::invalid(
+                "medium.method",
+                format!("expected one of rk45, rk4, slab, length, euler, paper_rk4, exact; got {s:?}"),
+            )
+        })
+    }
+}
+
+/// Checks that `method` can trace `field` (exact: linear/constant; paper: stratified).
+pub fn check_method(field: &IndexField, method: Method, key: &str) -> Result<(), MediumError> {
+    if method == Method::Exact && exact::linear_params(field).is_none() {
+        return Err(MediumError::invalid(
+            key,
+            format!(
+                "method exact has a closed form for linear and constant fields only, not {}",
+                field.kind()
+            ),
+        ));
+    }
+    if method.is_paper() && field.strata().is_none() {
+        return Err(MediumError::invalid(
+            key,
+            format!(
+                "method {method} (from the paper) needs n to depend on height only, not a {}",
+                field.kind()
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// A bounded gradient-index region with its integration settings.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Medium {
+    field: IndexField,
+    bounds: Aabb,
+    method: Method,
+    tolerance: f64,
+    step: f64,
+}
+
+impl Medium {
+    /// Validates: tolerance > 0, step > 0 (both finite), bounds finite and non-empty,
+    /// n > 0 everywhere in the bounds (exact minimum for stratified fields, a guaranteed
+    /// lower bound for a plume), the method fits the field.
+    pub fn try_new(
+        field: IndexField,
+        bounds: Aabb,
+        method: Method,
+        tolerance: f64,
+        step: f64,
+    ) -> Result<Medium, MediumError> {
+        if !(tolerance.is_finite() && tolerance > 0.0) {
+            return Err(MediumError::invalid(
+                "medium.tolerance",
+                format!("expected a finite tolerance > 0 (metres), got {tolerance}"),
+            ));
+        }
+        if !(step.is_finite() && step > 0.0) {
+            return Err(MediumError::invalid(
+                "medium.step",
+                format!("expected a finite step > 0 (metres), got {step}"),
+            ));
+        }
+        if !(bounds.min.is_finite() && bounds.max.is_finite()) {
+            return Err(MediumError::invalid(
+                "medium.bounds",
+                format!(
+                    "expected finite bounds (gradient-index fields must be bounded), got min {:?} max {:?}",
+                    bounds.min, bounds.max
+                ),
+            ));
+        }
+        if !bounds.min.cmplt(bounds.max).all() {
+            return Err(MediumError::invalid(
+                "medium.bounds",
+                format!(
+                    "expected min < max on every axis (a non-empty box), got min {:?} max {:?}",
+                    bounds.min, bounds.max
+                ),
+            ));
+        }
+        let field = field.validated("medium.field")?;
+        check_method(&field, method, "medium.method")?;
+        let (n_min, at) = field.min_n_in(&bounds);
+        if !(n_min.is_finite() && n_min > 0.0) {
+            let what = if field.strata().is_some() {
+                format!("n = {n_min} at ({:.6}, {:.6}, {:.6})", at.x, at.y, at.z)
+            } else {
+                format!("its lower bound n_amb − |dn|(1 + |amplitude|) = {n_min}")
+            };
+            return Err(MediumError::invalid(
+                "medium.field",
+                format!("expected n > 0 everywhere in the bounds, but {what}"),
+            ));
+        }
+        Ok(Medium {
+            field,
+            bounds,
+            method,
+            tolerance,
+            step,
+        })
+    }
+
+    pub fn bounds(&self) -> Aabb {
+        self.bounds
+    }
+    pub fn field(&self) -> &IndexField {
+        &self.field
+    }
+    pub fn method(&self) -> Method {
+        self.method
+    }
+    pub fn tolerance(&self) -> f64 {
+        self.tolerance
+    }
+    pub fn step(&self) -> f64 {
+        self.step
+    }
+
+    /// The field's n (meaningful inside the bounds).
+    pub fn ior_at(&self, p: DVec3) -> f64 {
+        self.field.n(p)
+    }
+
+    fn stepper(&self) -> Stepper<'_> {
+        Stepper::new(&self.field, self.method, self.tolerance, self.step)
+    }
+
+    /// Start a curved ray at p (world, metres) with direction d (normalised here).
+    pub fn start_ray(&self, p: DVec3, d: DVec3) -> CurvedRay {
+        let dl = d.length();
+        let bad = !(p.is_finite() && d.is_finite() && dl > 0.0);
+        let t = if bad { DVec3::X } else { d / dl };
+        let st = State {
+            r: p,
+            t,
+            v: t,
+            n: f64::NAN,
+            g: DVec3::ZERO,
+            s: 0.0,
+        };
+        CurvedRay {
+            st,
+            prev: st,
+            last_arc: 0.0,
+            last_curved: false,
+            mode: if bad { Mode::Failed } else { Mode::Outside },
+            failure: bad.then(|| format!("invalid ray: origin {p:?}, direction {d:?}")),
+            h_next: f64::INFINITY,
+            ell_prev: f64::INFINITY,
+            evals: 0,
+            chords: 0,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Mode {
+    /// Straight (outside the bounds, or just left them).
+    Outside,
+    /// Integrating inside the bounds.
+    Inside,
+    /// The method failed (message in `failure`): chords of length 0 from here on.
+    Failed,
+}
+
+/// A straight piece of a curved ray, to cast through Embree.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Chord {
+    pub origin: DVec3,
+    pub dir: DVec3,
+    pub length: f64,
+}
+
+/// A ray being traced through a [`Medium`], chord by chord.
+#[derive(Debug, Clone)]
+pub struct CurvedRay {
+    st: State,
+    prev: State,
+    last_arc: f64,
+    last_curved: bool,
+    mode: Mode,
+    failure: Option<String>,
+    h_next: f64,
+    ell_prev: f64,
+    evals: u64,
+    chords: u64,
+}
+
+/// Distance from q to the segment a–b.
+fn dist_to_segment(q: DVec3, a: DVec3, b: DVec3) -> f64 {
+    let ab = b - a;
+    let l2 = ab.length_squared();
+    if l2 == 0.0 {
+        return (q - a).length();
+    }
+    let u = ((q - a).dot(ab) / l2).clamp(0.0, 1.0);
+    (q - (a + ab * u)).length()
+}
+
+impl CurvedRay {
+    pub fn position(&self) -> DVec3 {
+        self.st.r
+    }
+    /// Unit tangent.
+    pub fn direction(&self) -> DVec3 {
+        self.st.t
+    }
+    /// Arc length travelled inside the medium (straight parts outside not included).
+    pub fn arc_length(&self) -> f64 {
+        self.st.s
+    }
+    /// Field evaluations so far (n and ∇n at one point count as one).
+    pub fn evaluations(&self) -> u64 {
+        self.evals
+    }
+    /// Chords returned so far.
+    pub fn chords(&self) -> u64 {
+        self.chords
+    }
+    /// Why the method failed (e.g. the paper's Euler at a turning point); after a
+    /// failure `next_chord` returns chords of length 0.
+    pub fn failure(&self) -> Option<&str> {
+        self.failure.as_deref()
+    }
+    /// True while the ray is inside the bounds and being integrated.
+    pub fn is_inside(&self) -> bool {
+        self.mode == Mode::Inside
+    }
+
+    fn fail(&mut self, msg: String) -> Chord {
+        self.mode = Mode::Failed;
+        self.failure = Some(msg);
+        self.last_curved = false;
+        Chord {
+            origin: self.st.r,
+            dir: self.st.t,
+            length: 0.0,
+        }
+    }
+
+    /// The next straight chord to cast: outside the bounds one chord to the entry (or
+    /// of infinite length); inside, a chord whose deviation from the arc is at most the
+    /// tolerance (ray-equation methods) or one native piece (the paper's methods). The
+    /// ray state moves to the chord's end.
+    pub fn next_chord(&mut self, medium: &Medium) -> Chord {
+        self.chords += 1;
+        self.prev = self.st;
+        self.last_curved = false;
+        self.last_arc = 0.0;
+        let tol = medium.tolerance;
+        if self.mode == Mode::Failed {
+            return Chord {
+                origin: self.st.r,
+                dir: self.st.t,
+                length: 0.0,
+            };
+        }
+        if self.mode == Mode::Outside {
+            let r = self.st.r;
+            let t = self.st.t;
+            let straight = |length| Chord {
+                origin: r,
+                dir: t,
+                length,
+            };
+            match medium.bounds.clip(r, t) {
+                Some((t0, t1)) if t1 > tol => {
+                    let entry = t0.max(0.0);
+                    let p = r + t * entry;
+                    match State::new(&medium.field, p, t, &mut self.evals) {
+                        Ok(mut s) => {
+                            s.s = self.st.s;
+                            self.st = s;
+                        }
+                        Err(e) => return self.fail(e),
+                    }
+                    self.prev = self.st;
+                    self.mode = Mode::Inside;
+                    if entry > 0.0 {
+                        return straight(entry);
+                    }
+                }
+                _ => return straight(f64::INFINITY),
+            }
+        }
+        let mut stepper = medium.stepper();
+        let res = if medium.method.is_paper() {
+            self.paper_chord(medium, &mut stepper)
+        } else {
+            self.arc_chord(medium, &mut stepper)
+        };
+        self.evals += stepper.evals;
+        match res {
+            Ok(c) => c,
+            Err(e) => self.fail(e),
+        }
+    }
+
+    fn exit_straight(&mut self, medium: &Medium, dir: DVec3) -> Chord {
+        let d = medium
+            .bounds
+            .clip(self.st.r, dir)
+            .map_or(0.0, |(_, t1)| t1.max(0.0));
+        let origin = self.st.r;
+        self.st.r += dir * d;
+        self.st.t = dir;
+        self.st.s += d;
+        self.mode = Mode::Outside;
+        Chord {
+            origin,
+            dir,
+            length: d,
+        }
+    }
+
+    fn paper_chord(&mut self, medium: &Medium, stepper: &mut Stepper<'_>) -> Result<Chord, String> {
+        let seg = paper::segment(
+            &medium.field,
+            medium.method,
+            medium.step,
+            &self.st,
+            &mut stepper.evals,
+        )?;
+        match seg {
+            paper::Seg::Forever => Ok(self.exit_straight(medium, self.st.t)),
+            paper::Seg::To(next) => {
+                let d = next.r - self.st.r;
+                let len = d.length();
+                if !(len > 0.0 && len.is_finite()) {
+                    return Err(format!("{}: degenerate step of length {len}", medium.method));
+                }
+                let dir = d / len;
+                if medium.bounds.contains(next.r) {
+                    let origin = self.st.r;
+                    self.st = next;
+                    Ok(Chord {
+                        origin,
+                        dir,
+                        length: len,
+                    })
+                } else {
+                    Ok(self.exit_straight(medium, dir))
+                }
+            }
+        }
+    }
+
+    fn arc_chord(&mut self, medium: &Medium, stepper: &mut Stepper<'_>) -> Result<Chord, String> {
+        let tol = medium.tolerance;
+        let st = self.st;
+        let exit = medium.bounds.clip(st.r, st.t).map_or(0.0, |(_, t1)| t1);
+        if exit <= tol * 1e-3 {
+            return Ok(self.exit_straight(medium, st.t));
+        }
+        let radius = st.radius();
+        let mut ell = (8.0 * 0.8 * tol * radius)
+            .sqrt()
+            .min(medium.field.feature_length())
+            .min(self.ell_prev * 4.0)
+            .min(exit);
+        let mut points = Vec::new();
+        let mut end;
+        let mut h_next;
+        let mut tries = 0;
+        loop {
+            tries += 1;
+            points.clear();
+            h_next = self.h_next;
+            end = stepper.advance(&st, ell, &mut h_next, &mut points)?;
+            let c = end.r - st.r;
+            let dev_tangent = c.length() * (end.t - st.t).length() / 8.0;
+            let dev_points = points
+                .iter()
+                .map(|&q| dist_to_segment(q, st.r, end.r))
+                .fold(0.0, f64::max);
+            let dev = dev_tangent.max(dev_points);
+            if dev <= tol || tries >= 40 {
+                break;
+            }
+            ell *= (0.8 * tol / dev).sqrt().clamp(0.1, 0.9);
+        }
+        self.ell_prev = ell;
+        let mut leaving = false;
+        if !medium.bounds.contains(end.r) {
+            // Find where the arc leaves the box: Newton on the arc length from the last
+            // inside state along its tangent, safeguarded by bisection.
+            leaving = true;
+            let (mut lo, mut hi) = (0.0, ell);
+            let mut lo_state = st;
+            for _ in 0..80 {
+                let gap = medium
+                    .bounds
+                    .clip(lo_state.r, lo_state.t)
+                    .map_or(0.0, |(_, t1)| t1);
+                if gap <= tol * 0.5 || hi - lo <= tol * 0.5 {
+                    break;
+                }
+                let mut guess = lo + gap;
+                if !(guess > lo && guess < hi) {
+                    guess = 0.5 * (lo + hi);
+                }
+                let mut hn = self.h_next;
+                let s = stepper.advance(&st, guess, &mut hn, &mut Vec::new())?;
+                if medium.bounds.contains(s.r) {
+                    lo = guess;
+                    lo_state = s;
+                } else {
+                    hi = guess;
+                }
+            }
+            end = lo_state;
+            ell = lo;
+            if ell <= 0.0 {
+                return Ok(self.exit_straight(medium, st.t));
+            }
+        }
+        if h_next.is_finite() {
+            self.h_next = h_next;
+        }
+        let c = end.r - st.r;
+        let len = c.length();
+        self.st = end;
+        self.last_curved = true;
+        self.last_arc = ell;
+        if leaving {
+            self.mode = Mode::Outside;
+        }
+        Ok(Chord {
+            origin: st.r,
+            dir: if len > 0.0 { c / len } else { st.t },
+            length: len,
+        })
+    }
+
+    /// Embree hit the last chord at distance `t` on a surface through `hit` with unit
+    /// normal `ng`: the point where the true arc crosses the plane (x − hit)·ng = 0
+    /// (Newton on arc length, safeguarded by bisection) and the unit tangent there.
+    /// Straight chords (outside the bounds, the paper's methods) return the chord
+    /// point itself.
+    pub fn refine_hit(
+        &self,
+        medium: &Medium,
+        chord: &Chord,
+        t: f64,
+        hit: DVec3,
+        ng: DVec3,
+    ) -> (DVec3, DVec3) {
+        let straight = (chord.origin + chord.dir * t, chord.dir);
+        if !self.last_curved || self.last_arc <= 0.0 || ng.length().is_nan() || ng.length() <= 0.0 {
+            return straight;
+        }
+        let mut stepper = medium.stepper();
+        let a = self.prev;
+        let f = |s: &State| (s.r - hit).dot(ng);
+        let (fa, fb) = (f(&a), f(&self.st));
+        if fa * fb > 0.0 {
+            return straight;
+        }
+        let (mut lo, mut hi) = (0.0, self.last_arc);
+        let (mut flo, mut _fhi) = (fa, fb);
+        let mut sig = if chord.length > 0.0 {
+            (t / chord.length * self.last_arc).clamp(0.0, self.last_arc)
+        } else {
+            0.0
+        };
+        let mut best = straight;
+        for _ in 0..60 {
+            let mut hn = self.h_next;
+            let s = match stepper.advance(&a, sig, &mut hn, &mut Vec::new()) {
+                Ok(s) => s,
+                Err(_) => return straight,
+            };
+            let fs = f(&s);
+            best = (s.r, s.t);
+            if fs.abs() <= medium.tolerance * 1e-6 || hi - lo <= medium.tolerance * 1e-6 {
+                break;
+            }
+            if (fs > 0.0) == (flo > 0.0) {
+                lo = sig;
+                flo = fs;
+            } else {
+                hi = sig;
+                _fhi = fs;
+            }
+            let d = s.t.dot(ng);
+            let mut next = if d != 0.0 { sig - fs / d } else { f64::NAN };
+            if !(next > lo && next < hi) {
+                next = 0.5 * (lo + hi);
+            }
+            sig = next;
+        }
+        best
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,520 @@
+//! Index-of-refraction fields n(p) with analytic gradients, and their bounds.
+//!
+//! Every kind is a plain serde struct variant tagged by `kind` (snake_case), so the
+//! same description is read from grin-trace JSON and from the TOML scene format.
+//! Stratified kinds (everything but `plume`) depend on the height
+//! `h = p·up − base` only; `up` must be a unit vector for `n`/`grad` (a `Medium` or
+//! `IndexField::validated` normalises it).
+use glam::DVec3;
+use serde::{Deserialize, Serialize};
+
+use super::MediumError;
+
+/// An axis-aligned box (world metres).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Aabb {
+    pub min: DVec3,
+    pub max: DVec3,
+}
+
+impl Aabb {
+    pub fn new(min: DVec3, max: DVec3) -> Aabb {
+        Aabb { min, max }
+    }
+
+    /// Closed containment test.
+    pub fn contains(&self, p: DVec3) -> bool {
+        p.cmpge(self.min).all() && p.cmple(self.max).all()
+    }
+
+    /// The 8 corners.
+    pub fn corners(&self) -> [DVec3; 8] {
+        let (a, b) = (self.min, self.max);
+        [
+            DVec3::new(a.x, a.y, a.z),
+            DVec3::new(b.x, a.y, a.z),
+            DVec3::new(a.x, b.y, a.z),
+            DVec3::new(b.x, b.y, a.z),
+            DVec3::new(a.x, a.y, b.z),
+            DVec3::new(b.x, a.y, b.z),
+            DVec3::new(a.x, b.y, b.z),
+            DVec3::new(b.x, b.y, b.z),
+        ]
+    }
+
+    /// Slab test: the parameter interval `[t0, t1]` (possibly with t0 < 0) where the
+    /// line `p + t d` is inside the box, or None when it misses.
+    pub fn clip(&self, p: DVec3, d: DVec3) -> Option<(f64, f64)> {
+        let mut t0 = f64::NEG_INFINITY;
+        let mut t1 = f64::INFINITY;
+        for k in 0..3 {
+            let (o, dir, lo, hi) = (p[k], d[k], self.min[k], self.max[k]);
+            if dir == 0.0 {
+                if o < lo || o > hi {
+                    return None;
+                }
+            } else {
+                let a = (lo - o) / dir;
+                let b = (hi - o) / dir;
+                let (a, b) = if a < b { (a, b) } else { (b, a) };
+                t0 = t0.max(a);
+                t1 = t1.min(b);
+            }
+        }
+        (t0 <= t1).then_some((t0, t1))
+    }
+}
+
+fn default_up() -> DVec3 {
+    DVec3::Y
+}
+fn default_base() -> f64 {
+    0.0
+}
+fn default_zero() -> f64 {
+    0.0
+}
+fn default_waves() -> u32 {
+    6
+}
+
+/// n(p). Parameters are documented per kind; `up`/`base` default to +y and 0.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum IndexField {
+    /// n = `n` everywhere.
+    Constant { n: f64 },
+    /// n = n0 + m·h.
+    Linear {
+        n0: f64,
+        m: f64,
+        #[serde(default = "default_up")]
+        up: DVec3,
+        #[serde(default = "default_base")]
+        base: f64,
+    },
+    /// Standard atmosphere: n = 1 + (n0 − 1)·exp(−h/H).
+    Exponential {
+        n0: f64,
+        #[serde(rename = "H")]
+        scale_height: f64,
+        #[serde(default = "default_up")]
+        up: DVec3,
+        #[serde(default = "default_base")]
+        base: f64,
+    },
+    /// Inferior mirage (hot air over a hot surface): n = n_inf − dn·exp(−h/h0).
+    HotGround {
+        n_inf: f64,
+        dn: f64,
+        h0: f64,
+        #[serde(default = "default_up")]
+        up: DVec3,
+        #[serde(default = "default_base")]
+        base: f64,
+    },
+    /// Inversion layer (superior mirage, looming, towering): a smooth step of `dn`
+    /// centred at height `height` with half-width `thickness`, over a linear background:
+    /// n = n0 + m·h + dn·(1 + tanh((h − height)/thickness))/2.
+    /// Warm air over cold water: dn < 0.
+    Inversion {
+        n0: f64,
+        dn: f64,
+        height: f64,
+        thickness: f64,
+        #[serde(default = "default_zero")]
+        m: f64,
+        #[serde(default = "default_up")]
+        up: DVec3,
+        #[serde(default = "default_base")]
+        base: f64,
+    },
+    /// A heat plume over a source at `center` with deterministic turbulence:
+    /// n = n_amb − dn·G(p)·(1 + amplitude·T(p)), G = exp(−ρ²/(2 radius²) − (h/height)²)
+    /// where h is the height above `center` along `up` and ρ the distance from the
+    /// plume axis, T = mean of `waves` sinusoids sin(k_i·p + φ_i) (|T| ≤ 1) with
+    /// wavelengths around `wavelength`, directions and phases from `seed`.
+    Plume {
+        n_amb: f64,
+        dn: f64,
+        center: DVec3,
+        radius: f64,
+        height: f64,
+        #[serde(default = "default_zero")]
+        amplitude: f64,
+        #[serde(default = "default_wavelength")]
+        wavelength: f64,
+        #[serde(default = "default_waves")]
+        waves: u32,
+        #[serde(default)]
+        seed: u64,
+        #[serde(default = "default_up")]
+        up: DVec3,
+    },
+}
+
+fn default_wavelength() -> f64 {
+    0.1
+}
+
+/// The height-only view of a stratified field.
+#[derive(Debug, Clone, Copy)]
+pub struct Strata {
+    pub up: DVec3,
+    pub base: f64,
+}
+
+fn splitmix(state: &mut u64) -> u64 {
+    *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    let mut z = *state;
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+fn unit01(state: &mut u64) -> f64 {
+    (splitmix(state) >> 11) as f64 / (1u64 << 53) as f64
+}
+
+/// The i-th turbulence wave: wave vector and phase (deterministic in seed).
+fn wave(seed: u64, i: u32, wavelength: f64) -> (DVec3, f64) {
+    let mut st = seed ^ (u64::from(i) + 1).wrapping_mul(0xD1B5_4A32_D192_ED03);
+    let z = 2.0 * unit01(&mut st) - 1.0;
+    let phi = std::f64::consts::TAU * unit01(&mut st);
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let dir = DVec3::new(r * phi.cos(), z, r * phi.sin());
+    // Wavelengths spread over [0.5, 2] × wavelength.
+    let lambda = wavelength * 2f64.powf(2.0 * unit01(&mut st) - 1.0);
+    let phase = std::f64::consts::TAU * unit01(&mut st);
+    (dir * (std::f64::consts::TAU / lambda), phase)
+}
+
+fn check(key: &str, ok: bool, expected: &str, value: impl std::fmt::Debug) -> Result<(), MediumError> {
+    if ok {
+        Ok(())
+    } else {
+        Err(MediumError::invalid(
+            key,
+            format!("expected {expected}, got {value:?}"),
+        ))
+    }
+}
+
+fn finite(key: &str, v: f64) -> Result<(), MediumError> {
+    check(key, v.is_finite(), "a finite number", v)
+}
+
+fn unit_up(key: &str, up: DVec3) -> Result<DVec3, MediumError> {
+    check(
+        key,
+        up.is_finite() && up.length() > 1e-12,
+        "a finite non-zero vector",
+        up,
+    )?;
+    Ok(up.normalize())
+}
+
+impl IndexField {
+    /// The `kind` tag.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            IndexField::Constant { .. } => "constant",
+            IndexField::Linear { .. } => "linear",
+            IndexField::Exponential { .. } => "exponential",
+            IndexField::HotGround { .. } => "hot_ground",
+            IndexField::Inversion { .. } => "inversion",
+            IndexField::Plume { .. } => "plume",
+        }
+    }
+
+    /// Checks the parameters (finite, positive scales, non-zero `up`) and returns a copy
+    /// with `up` normalised. `key` prefixes error keys (e.g. "medium.field").
+    pub fn validated(&self, key: &str) -> Result<IndexField, MediumError> {
+        let k = |s: &str| format!("{key}.{s}");
+        let mut f = self.clone();
+        match &mut f {
+            IndexField::Constant { n } => finite(&k("n"), *n)?,
+            IndexField::Linear { n0, m, up, base } => {
+                finite(&k("n0"), *n0)?;
+                finite(&k("m"), *m)?;
+                finite(&k("base"), *base)?;
+                *up = unit_up(&k("up"), *up)?;
+            }
+            IndexField::Exponential {
+                n0,
+                scale_height,
+                up,
+                base,
+            } => {
+                finite(&k("n0"), *n0)?;
+                check(
+                    &k("H"),
+                    scale_height.is_finite() && *scale_height > 0.0,
+                    "H > 0",
+                    *scale_height,
+                )?;
+                finite(&k("base"), *base)?;
+                *up = unit_up(&k("up"), *up)?;
+            }
+            IndexField::HotGround {
+                n_inf,
+                dn,
+                h0,
+                up,
+                base,
+            } => {
+                finite(&k("n_inf"), *n_inf)?;
+                finite(&k("dn"), *dn)?;
+                check(&k("h0"), h0.is_finite() && *h0 > 0.0, "h0 > 0", *h0)?;
+                finite(&k("base"), *base)?;
+                *up = unit_up(&k("up"), *up)?;
+            }
+            IndexField::Inversion {
+                n0,
+                dn,
+                height,
+                thickness,
+                m,
+                up,
+                base,
+            } => {
+                finite(&k("n0"), *n0)?;
+                finite(&k("dn"), *dn)?;
+                finite(&k("height"), *height)?;
+                finite(&k("m"), *m)?;
+                finite(&k("base"), *base)?;
+                check(
+                    &k("thickness"),
+                    thickness.is_finite() && *thickness > 0.0,
+                    "thickness > 0",
+                    *thickness,
+                )?;
+                *up = unit_up(&k("up"), *up)?;
+            }
+            IndexField::Plume {
+                n_amb,
+                dn,
+                center,
+                radius,
+                height,
+                amplitude,
+                wavelength,
+                waves,
+                up,
+                ..
+            } => {
+                finite(&k("n_amb"), *n_amb)?;
+                finite(&k("dn"), *dn)?;
+                check(&k("center"), center.is_finite(), "a finite point", *center)?;
+                check(
+                    &k("radius"),
+                    radius.is_finite() && *radius > 0.0,
+                    "radius > 0",
+                    *radius,
+                )?;
+                check(
+                    &k("height"),
+                    height.is_finite() && *height > 0.0,
+                    "height > 0",
+                    *height,
+                )?;
+                check(
+                    &k("amplitude"),
+                    amplitude.is_finite() && amplitude.abs() < 1.0,
+                    "|amplitude| < 1",
+                    *amplitude,
+                )?;
+                check(
+                    &k("wavelength"),
+                    wavelength.is_finite() && *wavelength > 0.0,
+                    "wavelength > 0",
+                    *wavelength,
+                )?;
+                check(&k("waves"), (1..=64).contains(waves), "1 to 64 waves", *waves)?;
+                *up = unit_up(&k("up"), *up)?;
+            }
+        }
+        Ok(f)
+    }
+
+    /// Some(up, base) when n depends on the height `p·up − base` only.
+    pub fn strata(&self) -> Option<Strata> {
+        match *self {
+            IndexField::Constant { .. } => Some(Strata {
+                up: DVec3::Y,
+                base: 0.0,
+            }),
+            IndexField::Linear { up, base, .. }
+            | IndexField::Exponential { up, base, .. }
+            | IndexField::HotGround { up, base, .. }
+            | IndexField::Inversion { up, base, .. } => Some(Strata { up, base }),
+            IndexField::Plume { .. } => None,
+        }
+    }
+
+    /// n and dn/dh of a stratified field at height h (None for a plume).
+    pub fn n_h(&self, h: f64) -> Option<(f64, f64)> {
+        Some(match *self {
+            IndexField::Constant { n } => (n, 0.0),
+            IndexField::Linear { n0, m, .. } => (n0 + m * h, m),
+            IndexField::Exponential { n0, scale_height, .. } => {
+                let e = (n0 - 1.0) * (-h / scale_height).exp();
+                (1.0 + e, -e / scale_height)
+            }
+            IndexField::HotGround { n_inf, dn, h0, .. } => {
+                let e = dn * (-h / h0).exp();
+                (n_inf - e, e / h0)
+            }
+            IndexField::Inversion {
+                n0,
+                dn,
+                height,
+                thickness,
+                m,
+                ..
+            } => {
+                let th = ((h - height) / thickness).tanh();
+                (
+                    n0 + m * h + 0.5 * dn * (1.0 + th),
+                    m + 0.5 * dn * (1.0 - th * th) / thickness,
+                )
+            }
+            IndexField::Plume { .. } => return None,
+        })
+    }
+
+    /// n and grad n at p (one "evaluation").
+    pub fn eval(&self, p: DVec3) -> (f64, DVec3) {
+        if let Some(s) = self.strata() {
+            // n_h is Some for every stratified kind.
+            let (n, dndh) = self.n_h(p.dot(s.up) - s.base).unwrap_or((f64::NAN, 0.0));
+            return (n, s.up * dndh);
+        }
+        match *self {
+            IndexField::Plume {
+                n_amb,
+                dn,
+                center,
+                radius,
+                height,
+                amplitude,
+                wavelength,
+                waves,
+                seed,
+                up,
+            } => {
+                let q = p - center;
+                let h = q.dot(up);
+                let radial = q - up * h;
+                let rho2 = radial.length_squared();
+                let g = (-rho2 / (2.0 * radius * radius) - (h / height).powi(2)).exp();
+                let grad_g = g * (-radial / (radius * radius) - up * (2.0 * h / (height * height)));
+                let (mut t, mut grad_t) = (0.0, DVec3::ZERO);
+                if amplitude != 0.0 {
+                    let inv = 1.0 / f64::from(waves);
+                    for i in 0..waves {
+                        let (k, phase) = wave(seed, i, wavelength);
+                        let a = k.dot(p) + phase;
+                        t += a.sin() * inv;
+                        grad_t += k * (a.cos() * inv);
+                    }
+                }
+                let f = 1.0 + amplitude * t;
+                let n = n_amb - dn * g * f;
+                let grad = -dn * (grad_g * f + g * amplitude * grad_t);
+                (n, grad)
+            }
+            _ => (f64::NAN, DVec3::ZERO),
+        }
+    }
+
+    pub fn n(&self, p: DVec3) -> f64 {
+        self.eval(p).0
+    }
+
+    pub fn grad(&self, p: DVec3) -> DVec3 {
+        self.eval(p).1
+    }
+
+    /// A length over which the field's gradient direction may change (used to cap
+    /// chords whose bending the end tangents cannot see). Infinite for monotone
+    /// stratified fields.
+    pub fn feature_length(&self) -> f64 {
+        match *self {
+            IndexField::Plume {
+                radius,
+                height,
+                amplitude,
+                wavelength,
+                ..
+            } => {
+                let l = radius.min(height) * 0.5;
+                if amplitude != 0.0 {
+                    l.min(wavelength * 0.125)
+                } else {
+                    l
+                }
+            }
+            IndexField::Inversion { thickness, .. } => thickness,
+            _ => f64::INFINITY,
+        }
+    }
+
+    /// The minimum of n over the box, exactly for stratified fields (a function of
+    /// height: extremes at corners or at interior critical points), and a guaranteed
+    /// lower bound for a plume. Returns (min n, where).
+    pub fn min_n_in(&self, b: &Aabb) -> (f64, DVec3) {
+        let corners = b.corners();
+        match (self.strata(), self) {
+            (Some(s), _) => {
+                let hs: Vec<f64> = corners.iter().map(|c| c.dot(s.up) - s.base).collect();
+                let lo = hs.iter().copied().fold(f64::INFINITY, f64::min);
+                let hi = hs.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+                let mut cand = vec![lo, hi];
+                if let IndexField::Inversion {
+                    dn,
+                    height,
+                    thickness,
+                    m,
+                    ..
+                } = *self
+                {
+                    // dn/dh = m + dn/(2w) sech²u = 0  ⇒  sech²u = −2wm/dn.
+                    if dn != 0.0 {
+                        let c = -2.0 * thickness * m / dn;
+                        if c > 0.0 && c <= 1.0 {
+                            let u = (1.0 / c.sqrt()).acosh();
+                            for h in [height + thickness * u, height - thickness * u] {
+                                if h > lo && h < hi {
+                                    cand.push(h);
+                                }
+                            }
+                        }
+                    }
+                }
+                let mut best = (f64::INFINITY, 0.0);
+                for h in cand {
+                    let n = self.n_h(h).map_or(f64::NAN, |v| v.0);
+                    if n.is_nan() || n < best.0 {
+                        best = (n, h);
+                    }
+                }
+                // A representative point at that height (the box centre moved along up).
+                let c = (b.min + b.max) * 0.5;
+                let p = c + s.up * (best.1 - (c.dot(s.up) - s.base));
+                (best.0, p)
+            }
+            (
+                None,
+                IndexField::Plume {
+                    n_amb, dn, amplitude, ..
+                },
+            ) => {
+                let lower = n_amb - dn.abs() * (1.0 + amplitude.abs());
+                (lower, (b.min + b.max) * 0.5)
+            }
+            _ => (f64::NAN, b.min),
+        }
+    }
+}

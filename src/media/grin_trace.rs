@@ -1,0 +1,465 @@
+//! `snell grin-trace`: single rays in an unbounded field, no surfaces. JSON in, JSON
+//! out. A malformed document is an error; a bad query only sets its own `status`.
+use glam::DVec3;
+use serde::{Deserialize, Serialize};
+
+use super::field::IndexField;
+use super::stepper::{State, Stepper};
+use super::{check_method, exact, paper, MediumError, Method};
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+struct Input {
+    queries: Vec<serde_json::Value>,
+}
+
+/// Where a query stops: the plane x = X, or after an arc length S.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct Stop {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub x: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub s: Option<f64>,
+}
+
+/// One query.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct Query {
+    pub id: String,
+    pub field: IndexField,
+    pub start: DVec3,
+    pub direction: DVec3,
+    pub stop: Stop,
+    pub method: Method,
+    /// rk45 error tolerance (metres per step); default 1e-9.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tolerance: Option<f64>,
+    /// Step (metres) of the fixed-step methods.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub step: Option<f64>,
+    /// Number of steps instead of `step`: step = (straight distance to the stop)/steps.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub steps: Option<u64>,
+    /// Give up after this arc length (default 1e6 m).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_length: Option<f64>,
+}
+
+/// A point where the height component of the direction changes sign.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
+pub struct Extremum {
+    pub position: DVec3,
+    pub arc_length: f64,
+}
+
+/// One result.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+pub struct Answer {
+    pub id: String,
+    pub status: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub method: Option<Method>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub end: Option<DVec3>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub end_direction: Option<DVec3>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub arc_length: Option<f64>,
+    #[serde(default)]
+    pub extrema: Vec<Extremum>,
+    pub evaluations: u64,
+    /// Steps (or pieces) taken.
+    pub steps: u64,
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+struct Output {
+    results: Vec<Answer>,
+}
+
+/// The core of `snell grin-trace`: the pretty JSON `{"results": [...]}`.
+pub fn grin_trace_json(input: &str) -> Result<String, MediumError> {
+    let doc: Input = serde_json::from_str(input)
+        .map_err(|e| MediumError::invalid("(document)", format!("expected {{\"queries\": [...]}} ({e})")))?;
+    let results = doc
+        .queries
+        .iter()
+        .enumerate()
+        .map(|(i, v)| {
+            let id = v
+                .get("id")
+                .and_then(|x| x.as_str())
+                .map_or_else(|| format!("#{i}"), str::to_owned);
+            let fail = |status: String| Answer {
+                id: id.clone(),
+                status,
+                method: None,
+                end: None,
+                end_direction: None,
+                arc_length: None,
+                extrema: Vec::new(),
+                evaluations: 0,
+                steps: 0,
+            };
+            match serde_json::from_value::<Query>(v.clone()) {
+                Err(e) => fail(format!("queries[{i}]: {e}")),
+                Ok(q) => match trace(&q) {
+                    Ok(a) => a,
+                    Err(e) => {
+                        let mut a = fail(format!("queries[{i}].{e}"));
+                        a.method = Some(q.method);
+                        a
+                    }
+                },
+            }
+        })
+        .collect();
+    serde_json::to_string_pretty(&Output { results })
+        .map_err(|e| MediumError::invalid("(output)", e.to_string()))
+}
+
+fn finite_vec(key: &str, v: DVec3) -> Result<(), String> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(format!("{key}: expected three finite numbers, got {v:?}"))
+    }
+}
+
+/// Traces one query (errors are "key: message" relative to the query).
+pub fn trace(q: &Query) -> Result<Answer, String> {
+    let field = q.field.validated("field").map_err(|e| e.to_string())?;
+    check_method(&field, q.method, "method").map_err(|e| e.to_string())?;
+    finite_vec("start", q.start)?;
+    finite_vec("direction", q.direction)?;
+    if q.direction.length().is_nan() || q.direction.length() <= 0.0 {
+        return Err("direction: expected a non-zero vector".into());
+    }
+    let d = q.direction.normalize();
+    let max_len = q.max_length.unwrap_or(1e6);
+    if !(max_len.is_finite() && max_len > 0.0) {
+        return Err(format!("max_length: expected a finite number > 0, got {max_len}"));
+    }
+    let (stop_x, stop_s) = match (q.stop.x, q.stop.s) {
+        (Some(x), None) if x.is_finite() => (Some(x), None),
+        (None, Some(s)) if s.is_finite() && s >= 0.0 => (None, Some(s)),
+        _ => {
+            return Err(format!(
+                "stop: expected exactly one of {{\"x\": finite X}} or {{\"s\": finite S ≥ 0}}, got {:?}",
+                q.stop
+            ))
+        }
+    };
+    let tol = q.tolerance.unwrap_or(1e-9);
+    if !(tol.is_finite() && tol > 0.0) {
+        return Err(format!("tolerance: expected a finite number > 0, got {tol}"));
+    }
+    let straight = match (stop_x, stop_s) {
+        (_, Some(s)) => s,
+        (Some(x), _) => ((x - q.start.x) / d.x).abs(),
+        _ => 0.0,
+    };
+    let step = match (q.step, q.steps) {
+        (Some(h), None) => h,
+        (None, Some(k)) if k > 0 => straight / k as f64,
+        (None, None) => 0.01,
+        _ => return Err("step/steps: expected one of step (> 0 m) or steps (> 0)".into()),
+    };
+    if !(step.is_finite() && step > 0.0) {
+        return Err(format!("step: expected a finite step > 0, got {step}"));
+    }
+    let up = field.strata().map_or(DVec3::Y, |s| s.up);
+    let mut stepper = Stepper::new(&field, q.method, tol, step);
+    let mut evals = 0u64;
+    let start = State::new(&field, q.start, d, &mut evals).map_err(|e| format!("start: {e}"))?;
+    let mut extrema = Vec::new();
+    let mut steps = 0u64;
+    let end = if q.method == Method::Exact {
+        trace_exact(&field, &start, stop_x, stop_s, max_len, up, &mut extrema)?
+    } else if q.method.is_paper() {
+        trace_paper(
+            &mut stepper,
+            &start,
+            stop_x,
+            stop_s,
+            max_len,
+            up,
+            &mut extrema,
+            &mut steps,
+        )?
+    } else {
+        trace_ode(
+            &mut stepper,
+            &start,
+            stop_x,
+            stop_s,
+            max_len,
+            up,
+            &mut extrema,
+            &mut steps,
+        )?
+    };
+    Ok(Answer {
+        id: q.id.clone(),
+        status: "ok".into(),
+        method: Some(q.method),
+        end: Some(end.r),
+        end_direction: Some(end.t),
+        arc_length: Some(end.s),
+        extrema,
+        evaluations: evals + stepper.evals + u64::from(q.method == Method::Exact),
+        steps: steps.max(1),
+    })
+}
+
+fn trace_exact(
+    field: &IndexField,
+    st: &State,
+    stop_x: Option<f64>,
+    stop_s: Option<f64>,
+    max_len: f64,
+    up: DVec3,
+    extrema: &mut Vec<Extremum>,
+) -> Result<State, String> {
+    let (m, _) = exact::linear_params(field).ok_or("method: exact needs a linear field")?;
+    let tau_end = if let Some(s) = stop_s {
+        exact::tau_for_length(m, up, st, s)
+    } else {
+        let x = stop_x.unwrap_or(0.0);
+        if up.x.abs() > 1e-15 {
+            return Err("stop: exact with an x stop needs `up` perpendicular to x".into());
+        }
+        let vx = st.v.x;
+        let tau = (x - st.r.x) / vx;
+        if !(tau >= 0.0 && tau.is_finite()) {
+            return Err(format!(
+                "stop: the ray never reaches x = {x} (it moves along x at {:.3e})",
+                st.t.x
+            ));
+        }
+        tau
+    };
+    let (r, v, s) = exact::at_tau(m, up, st, tau_end);
+    if s > max_len {
+        return Err(format!("stop: not reached within max_length {max_len} m"));
+    }
+    if let Some(tau) = exact::turning_tau(m, up, st) {
+        if tau <= tau_end {
+            let (p, _, sa) = exact::at_tau(m, up, st, tau);
+            extrema.push(Extremum {
+                position: p,
+                arc_length: sa,
+            });
+        }
+    }
+    let (n, g) = field.eval(r);
+    super::stepper::check_n(n, r)?;
+    Ok(State {
+        r,
+        t: v.normalize(),
+        v,
+        n,
+        g,
+        s,
+    })
+}
+
+/// Root of `f` on (0, h) by the Illinois method; f(0) and f(h) have opposite signs.
+fn root<F: FnMut(f64) -> Result<f64, String>>(
+    mut f: F,
+    h: f64,
+    f0: f64,
+    fh: f64,
+    tol: f64,
+) -> Result<f64, String> {
+    let (mut a, mut b, mut fa, mut fb) = (0.0, h, f0, fh);
+    let mut side = 0;
+    let mut c = 0.5 * h;
+    for _ in 0..100 {
+        c = if fb != fa {
+            b - fb * (b - a) / (fb - fa)
+        } else {
+            0.5 * (a + b)
+        };
+        if !(c > a.min(b) && c < a.max(b)) {
+            c = 0.5 * (a + b);
+        }
+        let fc = f(c)?;
+        if fc == 0.0 || (b - a).abs() < tol {
+            break;
+        }
+        if (fc > 0.0) == (fb > 0.0) {
+            b = c;
+            fb = fc;
+            if side == -1 {
+                fa *= 0.5;
+            }
+            side = -1;
+        } else {
+            a = c;
+            fa = fc;
+            if side == 1 {
+                fb *= 0.5;
+            }
+            side = 1;
+        }
+    }
+    Ok(c)
+}
+
+#[allow(clippy::too_many_arguments)]
+fn trace_ode(
+    stepper: &mut Stepper<'_>,
+    st: &State,
+    stop_x: Option<f64>,
+    stop_s: Option<f64>,
+    max_len: f64,
+    up: DVec3,
+    extrema: &mut Vec<Extremum>,
+    steps: &mut u64,
+) -> Result<State, String> {
+    let limit = stop_s.unwrap_or(max_len);
+    let tol = stepper.tolerance;
+    let mut cur = *st;
+    let mut h_next = (tol.powf(0.2) * 0.1).max(1e-6);
+    loop {
+        let rest = limit - cur.s;
+        if rest <= 0.0 {
+            if stop_s.is_some() {
+                return Ok(cur);
+            }
+            return Err(format!(
+                "stop: x = {} not reached within {max_len} m of arc",
+                stop_x.unwrap_or(0.0)
+            ));
+        }
+        let (next, h) = if stepper.method == Method::Rk45 {
+            stepper.rk45_step(&cur, &mut h_next, rest)?
+        } else {
+            let h = stepper.step.min(rest);
+            (stepper.rk4(&cur, h)?, h)
+        };
+        *steps += 1;
+        let next = if h >= rest {
+            State { s: limit, ..next }
+        } else {
+            next
+        };
+        let rtol = tol * 1e-3;
+        let (va, vb) = (cur.t.dot(up), next.t.dot(up));
+        if va != 0.0 && (va > 0.0) != (vb > 0.0) {
+            let base = cur;
+            let sig = root(|s| Ok(stepper.single(&base, s)?.t.dot(up)), h, va, vb, rtol)?;
+            let p = stepper.single(&base, sig)?;
+            extrema.push(Extremum {
+                position: p.r,
+                arc_length: p.s,
+            });
+        }
+        if let Some(x) = stop_x {
+            let (fa, fb) = (cur.r.x - x, next.r.x - x);
+            if fa == 0.0 {
+                return Ok(cur);
+            }
+            if (fa > 0.0) != (fb > 0.0) || fb == 0.0 {
+                let base = cur;
+                let sig = root(|s| Ok(stepper.single(&base, s)?.r.x - x), h, fa, fb, rtol)?;
+                let mut p = stepper.single(&base, sig)?;
+                p.r.x = x;
+                return Ok(p);
+            }
+        }
+        cur = next;
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn trace_paper(
+    stepper: &mut Stepper<'_>,
+    st: &State,
+    stop_x: Option<f64>,
+    stop_s: Option<f64>,
+    max_len: f64,
+    up: DVec3,
+    extrema: &mut Vec<Extremum>,
+    steps: &mut u64,
+) -> Result<State, String> {
+    let limit = stop_s.unwrap_or(max_len);
+    let mut cur = *st;
+    loop {
+        if cur.s >= limit {
+            if stop_s.is_some() {
+                return Ok(cur);
+            }
+            return Err(format!(
+                "stop: x = {} not reached within {max_len} m of arc",
+                stop_x.unwrap_or(0.0)
+            ));
+        }
+        let seg = paper::segment(
+            stepper.field,
+            stepper.method,
+            stepper.step,
+            &cur,
+            &mut stepper.evals,
+        )?;
+        *steps += 1;
+        let next = match seg {
+            paper::Seg::To(n) => n,
+            paper::Seg::Forever => {
+                // Horizontal: straight forever. Go to the stop along the line.
+                let len = match stop_x {
+                    Some(x) if cur.t.x != 0.0 && (x - cur.r.x) / cur.t.x >= 0.0 => (x - cur.r.x) / cur.t.x,
+                    Some(_) => {
+                        return Err(
+                            "stop: never reached (the method keeps the ray horizontal and straight)".into(),
+                        )
+                    }
+                    None => limit - cur.s,
+                };
+                let mut n = cur;
+                n.r += cur.t * len;
+                n.s += len;
+                return Ok(n);
+            }
+        };
+        let seg_len = next.s - cur.s;
+        let dir = (next.r - cur.r) / seg_len;
+        let (va, vb) = (cur.t.dot(up), next.t.dot(up));
+        if va != 0.0 && (va > 0.0) != (vb > 0.0) {
+            // The vertex furthest along the old vertical direction.
+            let p = if (cur.r.dot(up) - next.r.dot(up)) * va.signum() > 0.0 {
+                cur
+            } else {
+                next
+            };
+            extrema.push(Extremum {
+                position: p.r,
+                arc_length: p.s,
+            });
+        }
+        if let Some(x) = stop_x {
+            let (fa, fb) = (cur.r.x - x, next.r.x - x);
+            if (fa > 0.0) != (fb > 0.0) || fb == 0.0 {
+                let u = fa / (fa - fb) * seg_len;
+                let mut p = cur;
+                p.r = cur.r + dir * u;
+                p.r.x = x;
+                p.t = dir;
+                p.s = cur.s + u;
+                return Ok(p);
+            }
+        }
+        if next.s > limit {
+            let u = limit - cur.s;
+            let mut p = cur;
+            p.r = cur.r + dir * u;
+            p.t = dir;
+            p.s = limit;
+            return Ok(p);
+        }
+        cur = next;
+    }
+}

@@ -1,0 +1,303 @@
+//! Integrators of the ray equation d/ds(n dr/ds) = ∇n as the first-order system
+//! r' = v/n, v' = ∇n (s = arc length, v = n·t, |v| = n), plus the closed form for
+//! linear fields (exact.rs) and the paper's height-stepping methods (paper.rs).
+use glam::DVec3;
+
+use super::field::IndexField;
+use super::{exact, Method};
+
+/// The state of a ray at one point: position, unit tangent, v = n·t, and n, ∇n there.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct State {
+    pub r: DVec3,
+    pub t: DVec3,
+    pub v: DVec3,
+    pub n: f64,
+    pub g: DVec3,
+    /// Arc length travelled since the launch.
+    pub s: f64,
+}
+
+impl State {
+    /// A state at p with unit direction d (evaluates the field once).
+    pub fn new(field: &IndexField, p: DVec3, d: DVec3, evals: &mut u64) -> Result<State, String> {
+        let (n, g) = field.eval(p);
+        *evals += 1;
+        check_n(n, p)?;
+        Ok(State {
+            r: p,
+            t: d,
+            v: d * n,
+            n,
+            g,
+            s: 0.0,
+        })
+    }
+
+    /// Radius of curvature n/|∇n ⊥ t| (infinite when the ray is locally straight).
+    pub fn radius(&self) -> f64 {
+        let gp = self.g - self.t * self.g.dot(self.t);
+        let k = gp.length();
+        if k > 0.0 {
+            self.n / k
+        } else {
+            f64::INFINITY
+        }
+    }
+}
+
+pub(crate) fn check_n(n: f64, p: DVec3) -> Result<(), String> {
+    if n.is_finite() && n > 0.0 {
+        Ok(())
+    } else {
+        Err(format!(
+            "index of refraction {n} at ({:.6}, {:.6}, {:.6}): expected a finite n > 0 along the ray",
+            p.x, p.y, p.z
+        ))
+    }
+}
+
+/// Method, tolerance and step, with an evaluation counter.
+#[derive(Debug, Clone)]
+pub struct Stepper<'a> {
+    pub field: &'a IndexField,
+    pub method: Method,
+    pub tolerance: f64,
+    pub step: f64,
+    /// Field evaluations (n and ∇n at one point count as one).
+    pub evals: u64,
+    /// Accepted and rejected rk45 steps.
+    pub rejected: u64,
+}
+
+fn deriv_state(field: &IndexField, r: DVec3, v: DVec3, s: f64, evals: &mut u64) -> Result<State, String> {
+    let (n, g) = field.eval(r);
+    *evals += 1;
+    check_n(n, r)?;
+    let t = v.normalize();
+    Ok(State { r, t, v, n, g, s })
+}
+
+// Dormand–Prince 5(4) tableau.
+const C: [f64; 7] = [0.0, 1.0 / 5.0, 3.0 / 10.0, 4.0 / 5.0, 8.0 / 9.0, 1.0, 1.0];
+const A: [[f64; 6]; 7] = [
+    [0.0; 6],
+    [1.0 / 5.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    [3.0 / 40.0, 9.0 / 40.0, 0.0, 0.0, 0.0, 0.0],
+    [44.0 / 45.0, -56.0 / 15.0, 32.0 / 9.0, 0.0, 0.0, 0.0],
+    [
+        19372.0 / 6561.0,
+        -25360.0 / 2187.0,
+        64448.0 / 6561.0,
+        -212.0 / 729.0,
+        0.0,
+        0.0,
+    ],
+    [
+        9017.0 / 3168.0,
+        -355.0 / 33.0,
+        46732.0 / 5247.0,
+        49.0 / 176.0,
+        -5103.0 / 18656.0,
+        0.0,
+    ],
+    [
+        35.0 / 384.0,
+        0.0,
+        500.0 / 1113.0,
+        125.0 / 192.0,
+        -2187.0 / 6784.0,
+        11.0 / 84.0,
+    ],
+];
+const E: [f64; 7] = [
+    71.0 / 57600.0,
+    0.0,
+    -71.0 / 16695.0,
+    71.0 / 1920.0,
+    -17253.0 / 339200.0,
+    22.0 / 525.0,
+    -1.0 / 40.0,
+];
+
+impl<'a> Stepper<'a> {
+    pub fn new(field: &'a IndexField, method: Method, tolerance: f64, step: f64) -> Stepper<'a> {
+        Stepper {
+            field,
+            method,
+            tolerance,
+            step,
+            evals: 0,
+            rejected: 0,
+        }
+    }
+
+    /// One Dormand–Prince step of length h: the 5th-order state (FSAL: n, ∇n at the end
+    /// are the next step's first stage) and the error norm in metres
+    /// max(|δr|, h·|δv|/n).
+    pub fn dp45(&mut self, st: &State, h: f64) -> Result<(State, f64), String> {
+        let mut kr = [DVec3::ZERO; 7];
+        let mut kv = [DVec3::ZERO; 7];
+        kr[0] = st.v / st.n;
+        kv[0] = st.g;
+        for i in 1..6 {
+            let mut r = st.r;
+            let mut v = st.v;
+            for j in 0..i {
+                r += kr[j] * (h * A[i][j]);
+                v += kv[j] * (h * A[i][j]);
+            }
+            let (n, g) = self.field.eval(r);
+            self.evals += 1;
+            check_n(n, r)?;
+            kr[i] = v / n;
+            kv[i] = g;
+        }
+        let mut r = st.r;
+        let mut v = st.v;
+        for j in 0..6 {
+            r += kr[j] * (h * A[6][j]);
+            v += kv[j] * (h * A[6][j]);
+        }
+        let end = deriv_state(self.field, r, v, st.s + h, &mut self.evals)?;
+        kr[6] = v / end.n;
+        kv[6] = end.g;
+        let _ = C;
+        let mut er = DVec3::ZERO;
+        let mut ev = DVec3::ZERO;
+        for j in 0..7 {
+            er += kr[j] * (h * E[j]);
+            ev += kv[j] * (h * E[j]);
+        }
+        let err = er.length().max(h.abs() * ev.length() / end.n);
+        Ok((end, err))
+    }
+
+    /// One classical RK4 step of length h (4 evaluations, the last one at the end point).
+    pub fn rk4(&mut self, st: &State, h: f64) -> Result<State, String> {
+        let f = |s: &mut Self, r: DVec3, v: DVec3| -> Result<(DVec3, DVec3), String> {
+            let (n, g) = s.field.eval(r);
+            s.evals += 1;
+            check_n(n, r)?;
+            Ok((v / n, g))
+        };
+        let (k1r, k1v) = (st.v / st.n, st.g);
+        let (k2r, k2v) = f(self, st.r + k1r * (h / 2.0), st.v + k1v * (h / 2.0))?;
+        let (k3r, k3v) = f(self, st.r + k2r * (h / 2.0), st.v + k2v * (h / 2.0))?;
+        let (k4r, k4v) = f(self, st.r + k3r * h, st.v + k3v * h)?;
+        let r = st.r + (k1r + k2r * 2.0 + k3r * 2.0 + k4r) * (h / 6.0);
+        let v = st.v + (k1v + k2v * 2.0 + k3v * 2.0 + k4v) * (h / 6.0);
+        deriv_state(self.field, r, v, st.s + h, &mut self.evals)
+    }
+
+    /// One accepted rk45 step of at most `max_h` (starting from the suggestion
+    /// `*h_next`, which is updated): the new state and the step taken.
+    pub fn rk45_step(&mut self, st: &State, h_next: &mut f64, max_h: f64) -> Result<(State, f64), String> {
+        loop {
+            let h = h_next.min(max_h);
+            // A trial stage outside the field's domain (n ≤ 0) rejects the step; only a
+            // step too small to shrink further reports it.
+            let (next, err) = match self.dp45(st, h) {
+                Ok(x) => x,
+                Err(e) if h > 1e-9 * (1.0 + st.s.abs()) => {
+                    self.rejected += 1;
+                    *h_next = h * 0.25;
+                    let _ = e;
+                    continue;
+                }
+                Err(e) => return Err(e),
+            };
+            let ratio = err / self.tolerance;
+            if ratio <= 1.0 {
+                let grow = if ratio == 0.0 {
+                    5.0
+                } else {
+                    (0.9 * ratio.powf(-0.2)).clamp(0.2, 5.0)
+                };
+                *h_next = if h >= *h_next || !h_next.is_finite() {
+                    h * grow
+                } else {
+                    h_next.max(h * grow)
+                };
+                return Ok((next, h));
+            }
+            self.rejected += 1;
+            *h_next = h * (0.9 * ratio.powf(-0.25)).clamp(0.1, 0.9);
+            if h_next.is_nan() || *h_next <= 1e-13 * (1.0 + st.s.abs()) {
+                return Err(format!(
+                    "rk45: step size underflow at arc length {} (tolerance {} too small for f64?)",
+                    st.s, self.tolerance
+                ));
+            }
+        }
+    }
+
+    /// One step of length h of a ray-equation method without error control (rk45 uses
+    /// the 5th-order solution): used to land on stops and to locate events inside an
+    /// accepted step.
+    pub fn single(&mut self, st: &State, h: f64) -> Result<State, String> {
+        match self.method {
+            Method::Rk45 => self.dp45(st, h).map(|x| x.0),
+            Method::Exact => {
+                self.evals += 1;
+                exact::advance(self.field, st, h)
+            }
+            _ => self.rk4(st, h),
+        }
+    }
+
+    /// Advance by exactly `ell` metres of arc (rk45 adaptive from the suggested step
+    /// `*h_next`, rk4 in ceil(ell/step) equal steps, exact in one). Intermediate
+    /// positions are pushed to `points`.
+    pub fn advance(
+        &mut self,
+        st: &State,
+        ell: f64,
+        h_next: &mut f64,
+        points: &mut Vec<DVec3>,
+    ) -> Result<State, String> {
+        match self.method {
+            Method::Exact => {
+                self.evals += 1;
+                exact::advance(self.field, st, ell)
+            }
+            Method::Rk45 => {
+                let mut cur = *st;
+                let mut done = 0.0;
+                let mut guard = 0u32;
+                while done < ell {
+                    guard += 1;
+                    if guard > 1_000_000 {
+                        return Err("rk45: more than 1e6 steps in one advance".into());
+                    }
+                    let rest = ell - done;
+                    let (next, h) = self.rk45_step(&cur, h_next, rest)?;
+                    cur = next;
+                    if h >= rest {
+                        break;
+                    }
+                    done += h;
+                    points.push(cur.r);
+                }
+                cur.s = st.s + ell;
+                Ok(cur)
+            }
+            _ => {
+                let k = (ell / self.step).ceil().max(1.0);
+                if k > 1e9 {
+                    return Err(format!("rk4: {k} steps of {} m in one advance", self.step));
+                }
+                let h = ell / k;
+                let mut cur = *st;
+                for i in 0..k as u64 {
+                    cur = self.rk4(&cur, h)?;
+                    if (i + 1) < k as u64 {
+                        points.push(cur.r);
+                    }
+                }
+                cur.s = st.s + ell;
+                Ok(cur)
+            }
+        }
+    }
+}
