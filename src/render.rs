@@ -59,6 +59,8 @@ pub struct RenderStats {
     pub tir: u64,
     pub nan: u64,
     pub segments: u64,
+    pub chords: u64,
+    pub grin_failures: u64,
 }
 
 impl RenderStats {
@@ -73,6 +75,8 @@ impl RenderStats {
         self.tir += s.tir as u64;
         self.nan += s.nan as u64;
         self.segments += s.segments as u64;
+        self.chords += s.chords as u64;
+        self.grin_failures += s.grin_failures as u64;
     }
 
     fn merge(&mut self, o: &RenderStats) {
@@ -87,6 +91,8 @@ impl RenderStats {
         self.tir += o.tir;
         self.nan += o.nan;
         self.segments += o.segments;
+        self.chords += o.chords;
+        self.grin_failures += o.grin_failures;
     }
 
     /// The stats JSON object (with provenance).
@@ -112,6 +118,9 @@ impl RenderStats {
             "fallbacks": self.fallbacks,
             "tir": self.tir,
             "nan_or_inf_samples": self.nan,
+            "chords": self.chords,
+            "chords_per_segment": self.chords as f64 / self.segments.max(1) as f64,
+            "grin_failures": self.grin_failures,
             "provenance": crate::provenance::json(),
         })
     }

@@ -178,7 +178,13 @@ fn grin_trace_and_warp_points_batch_tools() {
     )
     .unwrap();
     let out = d.join("r.json");
-    let st = snell().args(["grin-trace"]).arg(&q).arg("-o").arg(&out).status().unwrap();
+    let st = snell()
+        .args(["grin-trace"])
+        .arg(&q)
+        .arg("-o")
+        .arg(&out)
+        .status()
+        .unwrap();
     assert!(st.success());
     let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
     let res = r["results"].as_array().unwrap();
@@ -200,6 +206,10 @@ fn grin_trace_and_warp_points_batch_tools() {
     let o = snell().args(["warp-points"]).arg(&w).output().unwrap();
     assert!(o.status.success());
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-    assert!(v["points"][1]["images"].as_array().unwrap().iter().any(|i| i["family"] == "through4"));
+    assert!(v["points"][1]["images"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|i| i["family"] == "through4"));
     let _ = std::fs::remove_dir_all(&d);
 }

@@ -18,6 +18,10 @@ use std::f32::consts::{FRAC_1_PI, PI};
 #[derive(Debug, Clone, Copy, Default)]
 pub struct SampleStats {
     pub counters: TraceCounters,
+    /// Straight chords cast for curved rays in a gradient-index medium.
+    pub chords: u32,
+    /// Curved rays whose integrator failed (path ended black).
+    pub grin_failures: u32,
     pub tir: u32,
     pub segments: u32,
     pub shadow_rays: u32,
@@ -339,6 +343,90 @@ fn medium_sigma(scene: &RenderScene, list: &InteriorList) -> Option<V3> {
     (sigma.max_element() > 0.0).then_some(sigma)
 }
 
+/// One path segment: the first true hit (if any) and the straight chord it
+/// lies on, the direction the ray arrives with and the distance travelled.
+struct Segment {
+    hit: Option<dielectric::TrueHit>,
+    /// The straight ray (a chord inside a medium) the hit was found on.
+    chord: Ray,
+    /// Unit direction at the end (the tangent of the curved path at the hit,
+    /// or the direction the ray leaves to infinity with).
+    dir: V3,
+    /// Path length to the hit (sum of chords).
+    length: f32,
+    /// The curved-ray integrator failed (e.g. the paper's Euler at a turning
+    /// point): the path ends black.
+    failed: bool,
+}
+
+/// Cast `ray`, through the gradient-index medium as chords when the scene has
+/// one (straight outside its bounds at no extra cost), else straight.
+fn cast(scene: &RenderScene, ray: &Ray, list: &mut InteriorList, st: &mut SampleStats) -> Result<Segment> {
+    let Some(med) = &scene.medium else {
+        let hit = dielectric::trace(scene, scene.strategy, ray, list, &mut st.counters)?;
+        return Ok(Segment {
+            length: hit.map(|h| h.hit.t).unwrap_or(f32::INFINITY),
+            hit,
+            chord: *ray,
+            dir: ray.dir,
+            failed: false,
+        });
+    };
+    let mut curved = med.start_ray(to_d(ray.org), to_d(ray.dir));
+    let mut travelled = 0.0f64;
+    for _ in 0..1_000_000 {
+        let chord = curved.next_chord(med);
+        if curved.failure().is_some() || chord.length.is_nan() || chord.length <= 0.0 {
+            return Ok(Segment {
+                hit: None,
+                chord: *ray,
+                dir: ray.dir,
+                length: travelled as f32,
+                failed: true,
+            });
+        }
+        let mut r = Ray::new(to_f(chord.origin), to_f(chord.dir));
+        if chord.length.is_finite() {
+            r.tfar = chord.length as f32;
+        }
+        st.chords += 1;
+        if let Some(th) = dielectric::trace(scene, scene.strategy, &r, list, &mut st.counters)? {
+            let p = r.org + r.dir * th.hit.t;
+            let (_, tangent) = curved.refine_hit(
+                med,
+                &chord,
+                th.hit.t as f64,
+                to_d(p),
+                to_d(th.hit.ng.normalize_or(V3::Y)),
+            );
+            return Ok(Segment {
+                hit: Some(th),
+                chord: r,
+                dir: to_f(tangent.normalize()),
+                length: (travelled + th.hit.t as f64) as f32,
+                failed: false,
+            });
+        }
+        if !chord.length.is_finite() {
+            return Ok(Segment {
+                hit: None,
+                chord: r,
+                dir: r.dir,
+                length: f32::INFINITY,
+                failed: false,
+            });
+        }
+        travelled += chord.length;
+    }
+    Ok(Segment {
+        hit: None,
+        chord: *ray,
+        dir: ray.dir,
+        length: travelled as f32,
+        failed: true,
+    })
+}
+
 /// Radiance along a camera ray (unit `dir`), with `list` the interior list at the camera.
 pub fn radiance(
     scene: &RenderScene,
@@ -373,17 +461,23 @@ fn path(
     loop {
         st.segments += 1;
         let sigma = medium_sigma(scene, &list);
-        let hit = dielectric::trace(scene, scene.strategy, &ray, &mut list, &mut st.counters)?;
-        let Some(dielectric::TrueHit { hit, coincident }) = hit else {
+        let seg = cast(scene, &ray, &mut list, st)?;
+        if seg.failed {
+            st.grin_failures += 1;
+            break;
+        }
+        let Some(dielectric::TrueHit { hit, coincident }) = seg.hit else {
             if sigma.is_none() {
-                l += beta * scene.environment.eval(ray.dir);
+                l += beta * scene.environment.eval(seg.dir);
             }
             break;
         };
         if let Some(s) = sigma {
-            beta *= (-s * hit.t).exp();
+            beta *= (-s * seg.length).exp();
         }
-        let sp = surface_point(scene, &ray, &hit);
+        let sp = surface_point(scene, &seg.chord, &hit);
+        // Shade with the direction the (possibly curved) ray arrives with.
+        ray.dir = seg.dir;
         let rec = &scene.geoms[hit.geom_id as usize];
         let front = sp.ng.dot(ray.dir) < 0.0;
 

@@ -173,6 +173,8 @@ pub struct RenderScene {
     /// false hit happen and only then is a filter installed.
     pub has_overlap: bool,
     pub strategy: NestedStrategy,
+    /// The gradient-index medium, if any: rays inside its bounds are cast as chords.
+    pub medium: Option<crate::media::Medium>,
     /// Warnings produced while loading (e.g. flipped meshes).
     pub warnings: Vec<String>,
     pub(crate) containment: Vec<Containment>,
@@ -260,6 +262,12 @@ struct PendingSolid {
 impl Builder<'_> {
     fn err(&self, key: &str, msg: impl Into<String>) -> Error {
         self.src.error(key, msg)
+    }
+
+    fn medium_err(&self, e: crate::media::MediumError) -> Error {
+        match e {
+            crate::media::MediumError::Invalid { key, message } => self.err(&key, message),
+        }
     }
 
     fn finite3(&self, key: &str, v: Vec3) -> Result<DVec3> {
@@ -639,7 +647,35 @@ impl Builder<'_> {
         }
         let embree = eb.commit()?;
 
+        let medium = match &d.medium {
+            None => None,
+            Some(m) => {
+                let method: crate::media::Method = m
+                    .method
+                    .parse()
+                    .map_err(|e: crate::media::MediumError| self.medium_err(e))?;
+                let bounds = crate::media::Aabb::new(
+                    self.finite3("medium.bounds.min", m.bounds.min)?,
+                    self.finite3("medium.bounds.max", m.bounds.max)?,
+                );
+                if m.tolerance.is_finite() && m.tolerance < 1e-9 {
+                    return Err(self.err(
+                        "medium.tolerance",
+                        format!(
+                            "a chord tolerance of {} m would need ~{:.0e} chords per metre; expected >= 1e-9",
+                            m.tolerance,
+                            (1.0 / m.tolerance).sqrt()
+                        ),
+                    ));
+                }
+                Some(
+                    crate::media::Medium::try_new(m.field.clone(), bounds, method, m.tolerance, m.step)
+                        .map_err(|e| self.medium_err(e))?,
+                )
+            }
+        };
         let mut scene = RenderScene {
+            medium,
             embree,
             geoms,
             solids,

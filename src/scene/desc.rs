@@ -22,6 +22,40 @@ pub struct SceneDesc {
     pub lights: Vec<LightDesc>,
     #[serde(default)]
     pub objects: Vec<ObjectDesc>,
+    /// One gradient-index medium (docs/grin.md): rays inside its bounds curve.
+    #[serde(default)]
+    pub medium: Option<MediumDesc>,
+}
+
+/// `[medium]`: an index field inside a box, traced as chords.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MediumDesc {
+    pub field: crate::media::IndexField,
+    pub bounds: BoundsDesc,
+    /// rk45 (default), rk4, exact (linear fields), or the paper's slab/length/euler/paper_rk4.
+    #[serde(default = "default_method")]
+    pub method: String,
+    /// Geometric chord tolerance in metres (chord–arc deviation), and rk45's error target.
+    #[serde(default = "default_tolerance")]
+    pub tolerance: f64,
+    /// Step in metres for fixed-step methods.
+    #[serde(default = "one")]
+    pub step: f64,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoundsDesc {
+    pub min: Vec3,
+    pub max: Vec3,
+}
+
+fn default_method() -> String {
+    "rk45".into()
+}
+fn default_tolerance() -> f64 {
+    1e-3
 }
 
 pub fn default_ambient_ior() -> f64 {
