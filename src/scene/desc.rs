@@ -25,6 +25,60 @@ pub struct SceneDesc {
     /// One gradient-index medium (docs/grin.md): rays inside its bounds curve.
     #[serde(default)]
     pub medium: Option<MediumDesc>,
+    /// One analytic warp glass (docs/warp.md): `snell render` traces it as a
+    /// dielectric, `snell warp-render` warps the meshes behind it instead.
+    #[serde(default)]
+    pub warp: Option<WarpDesc>,
+}
+
+/// `[warp]`: the glass of an analytic refraction warp.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WarpDesc {
+    pub glass: WarpGlassDesc,
+    /// Screen-space subdivision tolerance: longest projected edge, in pixels.
+    #[serde(default = "default_subdivide")]
+    pub subdivide: f64,
+    /// Weight the warp image by the Fresnel transmittance of the pixel's path.
+    #[serde(default)]
+    pub fresnel: bool,
+    /// "exact" (default) or "paper" (Mukai et al.'s C→B→A approximation; the
+    /// cylinder only, the plate's paper formula is exact).
+    #[serde(default = "default_warp_method")]
+    pub method: String,
+    /// Size of the glass as geometry for the full trace: the plate's side
+    /// length or the tube's height, in metres (the warp math takes it infinite).
+    #[serde(default = "default_warp_extent")]
+    pub extent: f64,
+}
+
+fn default_subdivide() -> f64 {
+    4.0
+}
+fn default_warp_method() -> String {
+    "exact".into()
+}
+fn default_warp_extent() -> f64 {
+    100.0
+}
+
+/// The warp glass, as in `snell warp-points`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum WarpGlassDesc {
+    Plate {
+        near_face_point: Vec3,
+        normal: Vec3,
+        thickness: f64,
+        ior: f64,
+    },
+    HollowCylinder {
+        axis_point: Vec3,
+        axis_direction: Vec3,
+        outer_radius: f64,
+        inner_radius: f64,
+        ior: f64,
+    },
 }
 
 /// `[medium]`: an index field inside a box, traced as chords.

@@ -30,7 +30,7 @@ pub struct HollowCylinder {
 }
 
 /// How the eye ray reaches the target.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Family {
     /// No refraction.
@@ -66,6 +66,9 @@ pub struct CylImage {
     pub refractions: u32,
     /// +1 upright, −1 mirrored (horizontally), relative to a direct view.
     pub parity: i8,
+    /// Signed impact parameter of the eye ray about the axis (metres, the
+    /// 2-D `b` of the reduction; its sign tells the side of the axis).
+    pub impact: f64,
 }
 
 /// Why a target has no images.
@@ -257,6 +260,25 @@ impl HollowCylinder {
         }
     }
 
+    /// The frame's unit axes (u, w across the axis, a along it).
+    pub fn frame_axes(&self) -> (DVec3, DVec3, DVec3) {
+        let f = self.frame();
+        (f.u, f.w, f.a)
+    }
+
+    /// Signed impact parameter `b` and axial direction component `β` of the
+    /// ray from `eye` along unit `d`, in the frame `images` uses.
+    pub fn impact_of(&self, eye: DVec3, d: DVec3) -> (f64, f64) {
+        let f = self.frame();
+        let (e, _) = f.to2(eye);
+        let h = DVec2::new(d.dot(f.u), d.dot(f.w));
+        let hl = h.length();
+        if hl == 0.0 {
+            return (0.0, d.dot(f.a));
+        }
+        (e.perp_dot(h / hl), d.dot(f.a))
+    }
+
     /// All images of `target` seen from `eye`.
     pub fn images(&self, eye: DVec3, target: DVec3) -> Result<Vec<CylImage>, CylStatus> {
         let f = self.frame();
@@ -287,6 +309,7 @@ impl HollowCylinder {
                     position: target,
                     refractions: 0,
                     parity: 1,
+                    impact: 0.0,
                 });
             }
         }
@@ -445,6 +468,7 @@ impl HollowCylinder {
             position: eye + dir.normalize() * dist,
             refractions: fam.refractions(),
             parity,
+            impact: b,
         })
     }
 }

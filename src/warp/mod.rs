@@ -1,11 +1,34 @@
 //! Analytic refraction warps (Mukai et al.): move mesh vertices by Snell's law
-//! so that straight primary rays see them where refraction would. Pure f64,
-//! no Embree. This stop has the parallel plate and the exact hollow cylinder;
-//! the paper's approximate method, `warp-points` and the primary-ray renderer
-//! are still to come (issue 7).
+//! so that straight primary rays see them where refraction would. The solvers
+//! (`plate`, `cylinder`, `paper`) are pure f64 with no Embree; `render` is the
+//! primary-ray renderer on Embree and the exact trace it is judged against.
 pub mod cylinder;
+pub mod glass;
+pub mod paper;
 pub mod plate;
 pub mod points;
 
 pub use cylinder::{CylImage, CylStatus, Family, HollowCylinder};
+pub use glass::{CopyKey, ExactPath, RayClass, Segment, WarpGlass};
 pub use plate::{Plate, PlateImage, PlateStatus};
+
+/// How vertex images are found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum WarpMethod {
+    /// The exact 3-D solvers.
+    Exact,
+    /// Mukai et al.'s approximation (moving the eye C→B→A); the cylinder only.
+    Paper,
+}
+
+/// A scene's `[warp]` table, validated.
+#[derive(Debug, Clone)]
+pub struct WarpSpec {
+    pub glass: WarpGlass,
+    /// The glass's own geometries in the render scene (skipped by the warp renderer).
+    pub glass_geoms: Vec<u32>,
+    /// Longest projected edge after subdivision, in pixels.
+    pub subdivide: f64,
+    pub fresnel: bool,
+    pub method: WarpMethod,
+}
