@@ -94,6 +94,28 @@ impl Camera {
     pub fn forward(&self) -> V3 {
         self.forward
     }
+
+    /// Film position (pixels, x right, y down) of the world point `p` for the
+    /// pinhole at `position`; `None` behind the eye.
+    pub fn project(&self, p: V3) -> Option<(f32, f32)> {
+        let v = p - self.position;
+        let z = v.dot(self.forward);
+        if z <= 1e-6 * v.length() || z <= 0.0 {
+            return None;
+        }
+        let sx = v.dot(self.right) / z / (self.tan_half * self.aspect);
+        let sy = v.dot(self.up) / z / self.tan_half;
+        Some(((sx + 1.0) * 0.5 * self.width, (1.0 - sy) * 0.5 * self.height))
+    }
+
+    /// Angle subtended by one pixel at the image centre (radians).
+    pub fn pixel_angle(&self) -> f32 {
+        2.0 * self.tan_half / self.height
+    }
+
+    pub fn size(&self) -> (u32, u32) {
+        (self.width as u32, self.height as u32)
+    }
 }
 
 #[cfg(test)]

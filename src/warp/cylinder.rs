@@ -279,6 +279,151 @@ impl HollowCylinder {
         (e.perp_dot(h / hl), d.dot(f.a))
     }
 
+    /// 2-D coordinates across the axis and the height along it.
+    pub(crate) fn to2(&self, p: DVec3) -> (DVec2, f64) {
+        self.frame().to2(p)
+    }
+
+    /// The final 2-D ray (origin, direction) of `fam` for (b, β).
+    pub(crate) fn path_public(
+        &self,
+        fam: Family,
+        e: DVec2,
+        b: f64,
+        beta: f64,
+        in_hollow: bool,
+    ) -> Option<(DVec2, DVec2)> {
+        self.path(fam, e, b, beta, in_hollow).map(|p| (p.origin, p.dir))
+    }
+
+    /// The direct image, when the straight line misses the tube.
+    pub(crate) fn direct_image(&self, eye: DVec3, target: DVec3) -> Option<CylImage> {
+        let f = self.frame();
+        let (e, _) = f.to2(eye);
+        let (p, _) = f.to2(target);
+        if p.length() <= self.inner_radius {
+            return None;
+        }
+        let seg = p - e;
+        let l = seg.length();
+        let blocked =
+            l > 0.0 && circle(e, seg / l, self.outer_radius).is_some_and(|(t0, t1)| t1 > 0.0 && t0 < l);
+        if blocked {
+            return None;
+        }
+        let dist = (target - eye).length();
+        Some(CylImage {
+            family: Family::Direct,
+            direction: (target - eye) / dist,
+            position: target,
+            refractions: 0,
+            parity: 1,
+            impact: 0.0,
+        })
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn refine_public(
+        &self,
+        fam: Family,
+        e: DVec2,
+        p: DVec2,
+        dv: f64,
+        dist: f64,
+        eye: DVec3,
+        lo: f64,
+        hi: f64,
+        beta0: f64,
+        in_hollow: bool,
+    ) -> Option<CylImage> {
+        let f = self.frame();
+        self.refine(fam, e, p, dv, dist, eye, &f, lo, hi, beta0, in_hollow)
+    }
+
+    /// Newton in (b, β) together from a bracket's midpoint: both residuals
+    /// (distance of the target from the final ray across the axis, and the
+    /// climb error along it), a finite-difference Jacobian, damped steps that
+    /// must reduce the residual. `None` if it leaves the family or stalls
+    /// (the caller then uses the robust `refine`).
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn newton_image(
+        &self,
+        fam: Family,
+        e: DVec2,
+        p: DVec2,
+        dv: f64,
+        dist: f64,
+        eye: DVec3,
+        b0: f64,
+        beta0: f64,
+        in_hollow: bool,
+    ) -> Option<CylImage> {
+        let n = self.ior;
+        let resid = |b: f64, beta: f64| -> Option<(f64, f64)> {
+            let path = self.path(fam, e, b, beta, in_hollow)?;
+            let rel = p - path.origin;
+            let along = rel.dot(path.dir);
+            if along <= 0.0 {
+                return None;
+            }
+            let ma = (1.0 - beta * beta).sqrt();
+            let mg = (n * n - beta * beta).sqrt();
+            let climb = beta * ((path.air + along) / ma + path.glass / mg);
+            Some((path.dir.perp_dot(rel), climb - dv))
+        };
+        let norm = |r: (f64, f64)| r.0.abs().max(r.1.abs());
+        let (mut b, mut beta) = (b0, beta0);
+        let mut r = resid(b, beta)?;
+        let tol = 1e-13 * dist;
+        let mut converged = false;
+        for _ in 0..30 {
+            if norm(r) <= tol {
+                converged = true;
+                break;
+            }
+            let hb = 1e-8 * self.outer_radius;
+            let hbeta = 1e-8;
+            let rb = resid(b + hb, beta)
+                .or_else(|| resid(b - hb, beta).map(|x| (2.0 * r.0 - x.0, 2.0 * r.1 - x.1)))?;
+            let rt = resid(b, beta + hbeta)
+                .or_else(|| resid(b, beta - hbeta).map(|x| (2.0 * r.0 - x.0, 2.0 * r.1 - x.1)))?;
+            let (j11, j12) = ((rb.0 - r.0) / hb, (rt.0 - r.0) / hbeta);
+            let (j21, j22) = ((rb.1 - r.1) / hb, (rt.1 - r.1) / hbeta);
+            let det = j11 * j22 - j12 * j21;
+            if det == 0.0 || !det.is_finite() {
+                return None;
+            }
+            let db = -(r.0 * j22 - r.1 * j12) / det;
+            let dbeta = -(j11 * r.1 - j21 * r.0) / det;
+            let mut lambda = 1.0;
+            let mut accepted = false;
+            for _ in 0..10 {
+                let (nb, nbeta) = (b + lambda * db, beta + lambda * dbeta);
+                if nbeta.abs() < 0.999_999 {
+                    if let Some(nr) = resid(nb, nbeta) {
+                        if norm(nr) < norm(r) {
+                            b = nb;
+                            beta = nbeta;
+                            r = nr;
+                            accepted = true;
+                            break;
+                        }
+                    }
+                }
+                lambda *= 0.5;
+            }
+            if !accepted {
+                converged = norm(r) <= 1e-11 * dist;
+                break;
+            }
+        }
+        if !converged && norm(r) > 1e-11 * dist {
+            return None;
+        }
+        let f = self.frame();
+        self.finish(fam, e, p, dist, eye, &f, b, beta, in_hollow)
+    }
+
     /// All images of `target` seen from `eye`.
     pub fn images(&self, eye: DVec3, target: DVec3) -> Result<Vec<CylImage>, CylStatus> {
         let f = self.frame();
@@ -454,6 +599,28 @@ impl HollowCylinder {
         if r.abs() > 1e-9 * dist || gval(b, beta)?.abs() > 1e-9 * dist {
             return None;
         }
+        self.finish(fam, e, p, dist, eye, f, b, beta, in_hollow)
+    }
+
+    /// The image for a solved (b, β): direction, position and parity.
+    #[allow(clippy::too_many_arguments)]
+    fn finish(
+        &self,
+        fam: Family,
+        e: DVec2,
+        p: DVec2,
+        dist: f64,
+        eye: DVec3,
+        f: &Frame,
+        b: f64,
+        beta: f64,
+        in_hollow: bool,
+    ) -> Option<CylImage> {
+        let gval = |b: f64, beta: f64| -> Option<f64> {
+            let path = self.path(fam, e, b, beta, in_hollow)?;
+            let rel = p - path.origin;
+            (rel.dot(path.dir) > 0.0).then(|| path.dir.perp_dot(rel))
+        };
         let h = Self::dir_for(e, b);
         let dir = (f.u * h.x + f.w * h.y) * (1.0 - beta * beta).sqrt() + f.a * beta;
         // Parity: orientation of b → crossing position against a straight view.

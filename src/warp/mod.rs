@@ -3,10 +3,12 @@
 //! (`plate`, `cylinder`, `paper`) are pure f64 with no Embree; `render` is the
 //! primary-ray renderer on Embree and the exact trace it is judged against.
 pub mod cylinder;
+pub mod fastcyl;
 pub mod glass;
 pub mod paper;
 pub mod plate;
 pub mod points;
+pub mod render;
 
 pub use cylinder::{CylImage, CylStatus, Family, HollowCylinder};
 pub use glass::{CopyKey, ExactPath, RayClass, Segment, WarpGlass};

@@ -1,0 +1,155 @@
+//! The warp renderer end to end: the warp image against the exact trace of
+//! the same scene, with stated tolerances; the paper's approximation is
+//! measurably worse; `snell render` traces the same [warp] scene; bad input.
+use snell::scene::{load_scene, load_scene_str, BuildOptions};
+use snell::warp::render::{run, WarpRunOptions};
+use snell::warp::WarpMethod;
+use std::path::Path;
+use std::process::Command;
+
+fn compare(scene: &str, w: u32, h: u32, method: WarpMethod) -> snell::warp::render::Comparison {
+    let mut s = load_scene(Path::new(scene), &BuildOptions::default()).unwrap();
+    s.set_resolution(w, h).unwrap();
+    let rep = run(
+        &s,
+        &WarpRunOptions {
+            compare: true,
+            method: Some(method),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let (_, cmp, _) = rep.exact.unwrap();
+    eprintln!("{scene} {method:?}: {cmp:?}");
+    cmp
+}
+
+/// Tolerances: mean position error ≤ 0.25 pixel footprints, 95th percentile
+/// ≤ 0.5; pixels showing a different object (the seams where a ray changes
+/// family, the tube's silhouette) ≤ 2 % of the image; RMSE ≤ 0.1.
+#[test]
+fn warp_matches_the_exact_trace() {
+    for scene in ["scenes/warp_cylinder.toml", "scenes/warp_plate.toml"] {
+        let c = compare(scene, 160, 120, WarpMethod::Exact);
+        assert!(c.matched as f64 > 0.5 * c.pixels as f64, "{scene}: {c:?}");
+        assert!(c.px_mean <= 0.25 && c.px_p95 <= 0.5, "{scene}: {c:?}");
+        assert!((c.mismatched as f64) <= 0.02 * c.pixels as f64, "{scene}: {c:?}");
+        assert!(c.rmse <= 0.1, "{scene}: {c:?}");
+    }
+}
+
+#[test]
+fn paper_method_is_measurably_worse_on_the_tube() {
+    let exact = compare("scenes/warp_cylinder.toml", 96, 72, WarpMethod::Exact);
+    let paper = compare("scenes/warp_cylinder.toml", 96, 72, WarpMethod::Paper);
+    assert!(
+        paper.px_mean > 10.0 * exact.px_mean.max(1e-3),
+        "paper {paper:?} exact {exact:?}"
+    );
+}
+
+#[test]
+fn full_trace_of_a_warp_scene_renders() {
+    for scene in ["scenes/warp_cylinder.toml", "scenes/warp_plate.toml"] {
+        let mut s = load_scene(Path::new(scene), &BuildOptions::default()).unwrap();
+        assert!(s.warp.is_some());
+        s.set_resolution(32, 24).unwrap();
+        s.spp = 2;
+        let r = snell::render::render(
+            &s,
+            &snell::render::RenderOptions {
+                threads: Some(1),
+                quiet: true,
+                want_aovs: false,
+            },
+        )
+        .unwrap();
+        assert_eq!(r.stats.nan, 0);
+        assert!(
+            r.pixels.iter().any(|p| p.max_element() > 0.05),
+            "{scene}: black image"
+        );
+    }
+}
+
+#[test]
+fn bad_warp_input_is_a_located_error() {
+    let base = std::fs::read_to_string("scenes/warp_cylinder.toml").unwrap();
+    let cases = [
+        (
+            base.replace("subdivide = 4.0", "subdivide = 4.0\ncolour = 1"),
+            "colour",
+        ),
+        (
+            base.replace("inner_radius = 0.8", "inner_radius = 1.2"),
+            "warp.glass",
+        ),
+        (
+            base.replace("subdivide = 4.0", "subdivide = 0.0"),
+            "warp.subdivide",
+        ),
+        (
+            base.replace("ambient_ior = 1.0", "ambient_ior = 1.33"),
+            "ambient_ior",
+        ),
+        (base.replace("\"hollow_cylinder\"", "\"sphere\""), "warp"),
+    ];
+    for (text, key) in cases {
+        let e = load_scene_str("w.toml", &text, Path::new("scenes"), &BuildOptions::default())
+            .err()
+            .unwrap_or_else(|| panic!("accepted: {key}"))
+            .to_string();
+        assert!(e.contains("w.toml:") && e.contains(key), "{key}: {e}");
+    }
+    // A scene without [warp], and analytic shapes, are refused by warp-render.
+    let s = load_scene(Path::new("scenes/three_spheres.toml"), &BuildOptions::default()).unwrap();
+    let e = run(&s, &WarpRunOptions::default()).err().unwrap().to_string();
+    assert!(e.contains("[warp]"), "{e}");
+    let text = base.replace(
+        "[[objects]]",
+        "[[objects]]\nname = \"ball\"\nshape = { type = \"sphere\", center = [0.0, 0.0, -2.0], radius = 0.3 }\nmaterial = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }\n\n[[objects]]",
+    );
+    let s = load_scene_str("w.toml", &text, Path::new("scenes"), &BuildOptions::default()).unwrap();
+    let e = run(&s, &WarpRunOptions::default()).err().unwrap().to_string();
+    assert!(e.contains("ball") && e.contains("mesh"), "{e}");
+}
+
+#[test]
+fn cli_writes_image_heatmap_and_stats() {
+    let d = std::env::temp_dir().join(format!("snell-warp-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_snell"))
+        .args([
+            "warp-render",
+            "scenes/warp_plate.toml",
+            "--width",
+            "64",
+            "--height",
+            "48",
+            "-o",
+        ])
+        .arg(d.join("w.png"))
+        .arg("--compare")
+        .arg(d.join("heat.png"))
+        .arg("--stats-json")
+        .arg(d.join("s.json"))
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(d.join("w.png").exists() && d.join("heat.png").exists());
+    let st: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("s.json")).unwrap()).unwrap();
+    assert!(
+        st["comparison"]["rmse"].as_f64().is_some() && st["provenance"]["commit"].is_string(),
+        "{st}"
+    );
+    let bad = Command::new(env!("CARGO_BIN_EXE_snell"))
+        .args(["warp-render", "scenes/warp_plate.toml", "--method", "magic", "-o"])
+        .arg(d.join("x.png"))
+        .output()
+        .unwrap();
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("--method"));
+    assert!(!d.join("x.png").exists());
+    let _ = std::fs::remove_dir_all(&d);
+}
