@@ -271,8 +271,68 @@ pub fn find_degenerate(m: &Mesh) -> Option<usize> {
     })
 }
 
+/// A bilinear grid of `nx` × `ny` vertices over the quad `corners` (in the
+/// order of `rect`: counter-clockwise seen from `normal`), uv over [0,1]².
+/// Used by the warp benchmarks to set a vertex count.
+pub fn grid(corners: [DVec3; 4], normal: DVec3, nx: u32, ny: u32) -> Mesh {
+    let (nx, ny) = (nx.max(2), ny.max(2));
+    let mut positions = Vec::with_capacity((nx * ny) as usize);
+    let mut uvs = Vec::with_capacity((nx * ny) as usize);
+    for j in 0..ny {
+        let v = j as f64 / (ny - 1) as f64;
+        for i in 0..nx {
+            let u = i as f64 / (nx - 1) as f64;
+            let p = corners[0] * ((1.0 - u) * (1.0 - v))
+                + corners[1] * (u * (1.0 - v))
+                + corners[2] * (u * v)
+                + corners[3] * ((1.0 - u) * v);
+            positions.push(f3(p));
+            uvs.push([u as f32, v as f32]);
+        }
+    }
+    let mut indices = Vec::with_capacity(((nx - 1) * (ny - 1) * 2) as usize);
+    for j in 0..ny - 1 {
+        for i in 0..nx - 1 {
+            let a = j * nx + i;
+            let (b, c, d) = (a + 1, a + 1 + nx, a + nx);
+            indices.push([a, b, c]);
+            indices.push([a, c, d]);
+        }
+    }
+    Mesh {
+        normals: Some(vec![f3(normal); positions.len()]),
+        positions,
+        indices,
+        uvs: Some(uvs),
+    }
+}
+
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn grid_spans_the_quad_with_the_asked_vertices() {
+        let c = [
+            DVec3::new(0.0, 0.0, 0.0),
+            DVec3::new(2.0, 0.0, 0.0),
+            DVec3::new(2.0, 1.0, 0.0),
+            DVec3::new(0.0, 1.0, 0.0),
+        ];
+        let m = grid(c, DVec3::Z, 5, 3);
+        assert_eq!(m.positions.len(), 15);
+        assert_eq!(m.indices.len(), 16);
+        assert_eq!(m.aabb(), (c[0], c[2]));
+        // Counter-clockwise seen from +z, area 2.
+        let area: f64 = m
+            .indices
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| DVec3::from(m.positions[i as usize].map(|x| x as f64)));
+                (b - a).cross(c - a).z * 0.5
+            })
+            .sum();
+        assert!((area - 2.0).abs() < 1e-9, "{area}");
+    }
+
     use super::*;
 
     #[test]

@@ -19,10 +19,28 @@ use glam::{DVec2, DVec3};
 /// Width of a β bin (the table's β is the bin centre).
 const BIN: f64 = 0.01;
 
-struct Entry {
-    b: f64,
-    origin: DVec2,
-    dir: DVec2,
+/// One family's table in one β bin, as linear forms in the target `p`:
+/// `g = gx·p.x + gy·p.y − gc` (the target's signed distance from the final
+/// ray) and `along = dir·p − ac` (must be > 0), for ascending `b`. Struct of
+/// arrays so the per-target scan is a tight loop.
+#[derive(Default)]
+struct Table {
+    b: Vec<f64>,
+    gx: Vec<f64>,
+    gy: Vec<f64>,
+    gc: Vec<f64>,
+    ac: Vec<f64>,
+}
+
+impl Table {
+    fn push(&mut self, b: f64, origin: DVec2, dir: DVec2) {
+        // dir × (p − o) = −dir.y·p.x + dir.x·p.y − dir × o
+        self.b.push(b);
+        self.gx.push(-dir.y);
+        self.gy.push(dir.x);
+        self.gc.push(dir.perp_dot(origin));
+        self.ac.push(dir.dot(origin));
+    }
 }
 
 /// Tables for one eye and one tube.
@@ -30,8 +48,8 @@ pub struct CylinderWarper {
     cyl: HollowCylinder,
     eye: DVec3,
     beta_lo: f64,
-    /// [bin][family] → entries in ascending b.
-    tables: Vec<[Vec<Entry>; 4]>,
+    /// [bin][family].
+    tables: Vec<[Table; 4]>,
 }
 
 const FAMILIES: [Family; 4] = [Family::Through4, Family::Tir2, Family::Wall2, Family::Hollow2];
@@ -70,17 +88,13 @@ impl CylinderWarper {
                 }
                 samples.sort_by(f64::total_cmp);
                 FAMILIES.map(|fam| {
-                    samples
-                        .iter()
-                        .filter_map(|&b| {
-                            let path = cyl.path_public(fam, e, b, beta, fam == Family::Hollow2)?;
-                            Some(Entry {
-                                b,
-                                origin: path.0,
-                                dir: path.1,
-                            })
-                        })
-                        .collect()
+                    let mut t = Table::default();
+                    for &b in &samples {
+                        if let Some((o, d)) = cyl.path_public(fam, e, b, beta, fam == Family::Hollow2) {
+                            t.push(b, o, d);
+                        }
+                    }
+                    t
                 })
             })
             .collect();
@@ -119,21 +133,23 @@ impl CylinderWarper {
             if (fam == Family::Hollow2) != in_hollow {
                 continue;
             }
-            let entries = &table[fi];
+            let t = &table[fi];
+            // along = dir·p − ac with dir = (gy, −gx).
             let mut prev: Option<(f64, f64)> = None;
-            for en in entries {
-                let rel = p - en.origin;
-                let g = if rel.dot(en.dir) > 0.0 {
-                    Some(en.dir.perp_dot(rel))
-                } else {
-                    None
-                };
-                match (prev, g) {
-                    (Some((b0, g0)), Some(g1)) if g0 == 0.0 || g0.signum() != g1.signum() => {
+            for k in 0..t.b.len() {
+                let g = t.gx[k] * p.x + t.gy[k] * p.y - t.gc[k];
+                let along = t.gy[k] * p.x - t.gx[k] * p.y - t.ac[k];
+                if along <= 0.0 {
+                    prev = None;
+                    continue;
+                }
+                if let Some((b0, g0)) = prev {
+                    if g0 == 0.0 || (g0 < 0.0) != (g < 0.0) {
+                        let b1 = t.b[k];
                         let img = c
-                            .newton_image(fam, e, p, dv, dist, self.eye, 0.5 * (b0 + en.b), beta0, in_hollow)
+                            .newton_image(fam, e, p, dv, dist, self.eye, 0.5 * (b0 + b1), beta0, in_hollow)
                             .or_else(|| {
-                                c.refine_public(fam, e, p, dv, dist, self.eye, b0, en.b, beta0, in_hollow)
+                                c.refine_public(fam, e, p, dv, dist, self.eye, b0, b1, beta0, in_hollow)
                             });
                         if let Some(img) = img {
                             if !out.iter().any(|o: &CylImage| {
@@ -143,9 +159,8 @@ impl CylinderWarper {
                             }
                         }
                     }
-                    _ => {}
                 }
-                prev = g.map(|g| (en.b, g));
+                prev = Some((t.b[k], g));
             }
         }
         Ok(out)

@@ -95,6 +95,30 @@ impl Plate {
 
     /// The warped image of `target` seen from `eye`.
     pub fn warp(&self, eye: DVec3, target: DVec3) -> Result<PlateImage, PlateStatus> {
+        let (u, it) = self.slope_for(eye, target)?;
+        let shift = self.shift(u);
+        let position = target - self.normal * shift;
+        let eye_dir = (position - eye).normalize();
+        Ok(PlateImage {
+            position,
+            eye_dir,
+            theta: u.atan(),
+            slope: u,
+            shift,
+            iterations: it,
+        })
+    }
+
+    /// Only the warped position (the mesh warp's inner loop).
+    #[inline]
+    pub fn warped_position(&self, eye: DVec3, target: DVec3) -> Result<DVec3, PlateStatus> {
+        let (u, _) = self.slope_for(eye, target)?;
+        Ok(target - self.normal * self.shift(u))
+    }
+
+    /// Classify `target` and solve for the eye ray's slope tanθ.
+    #[inline]
+    fn slope_for(&self, eye: DVec3, target: DVec3) -> Result<(f64, u32), PlateStatus> {
         let n = self.normal;
         let e = (eye - self.near_face_point).dot(n);
         let a = (target - self.near_face_point).dot(n);
@@ -115,27 +139,66 @@ impl Plate {
         let lateral = rel - n * rel.dot(n);
         let d = lateral.length();
         let h = (a - e) - w; // normal distance travelled in air, > 0 (eye strictly in front)
+        let (u, it) = if self.ior >= 1.0 {
+            self.solve_slope(h, d).ok_or(PlateStatus::NotConverged)?
+        } else {
+            self.solve_slope_bracketed(h, d)
+                .ok_or(PlateStatus::NotConverged)?
+        };
+        Ok((u, it))
+    }
+
+    /// Solve `f(u) = h·u + W·u/√(n² + (n²−1)u²) − D = 0` for n ≥ 1. `f` is
+    /// increasing and concave, so Newton from the paraxial guess
+    /// `D/(h + W/n)` (a lower bound: the glass term is at most `W·u/n`)
+    /// climbs monotonically to the root, and from an upper bound its first
+    /// step lands below the root; no bracket is needed. Once a step
+    /// is below 1e-8 relative, the next one (quadratic convergence) is below
+    /// ~1e-16 and is taken without a further test: 2–3 steps in all.
+    #[inline]
+    fn solve_slope(&self, h: f64, d: f64) -> Option<(f64, u32)> {
+        let w = self.thickness;
+        let n2 = self.ior * self.ior;
+        let k = n2 - 1.0;
+        // Paraxial lower bound, then one fixed-point step u = (D − W·u/s(u))/h
+        // (an upper bound, since W·u/s(u) increases): close when h ≫ W.
+        let u0 = d / (h + w / self.ior);
+        let mut u = (d - w * u0 / (n2 + k * u0 * u0).sqrt()) / h;
+        let step = |u: f64| {
+            let inv = 1.0 / (n2 + k * u * u).sqrt();
+            let fu = h * u + w * u * inv - d;
+            let df = h + w * n2 * inv * inv * inv;
+            (u - fu / df).max(0.0)
+        };
+        for it in 1..=60u32 {
+            let next = step(u);
+            if (next - u).abs() <= 1e-8 * next || next == u {
+                return Some((if next == u { next } else { step(next) }, it + 1));
+            }
+            u = next;
+        }
+        None
+    }
+
+    /// The general solver (also n < 1, where total internal reflection bounds
+    /// the slope): Newton guarded by a bracket, bisection when a step leaves it.
+    fn solve_slope_bracketed(&self, h: f64, d: f64) -> Option<(f64, u32)> {
+        let w = self.thickness;
         let n2 = self.ior * self.ior;
         let k = n2 - 1.0;
         let f = |u: f64| h * u + w * u / (n2 + k * u * u).sqrt() - d;
         let df = |u: f64| h + w * n2 / (n2 + k * u * u).powf(1.5);
-        // Bracket: f(0) = −D <= 0; since the glass term is >= 0 (n >= 1) or
-        // bounded by W·u/√(n² + (n²−1)u²) <= W·u/n·… we use hi = D/h, which has
-        // f(hi) >= 0 when n >= 1, and grow it otherwise.
         let (mut lo, mut hi) = (0.0f64, d / h);
         let mut guard = 0;
         while f(hi) < 0.0 && guard < 200 {
             hi = hi * 2.0 + 1.0;
             guard += 1;
         }
-        let mut u = hi; // right of the root: Newton is monotone on a concave f
-        let mut it = 0;
-        let mut converged = d == 0.0;
+        let mut u = hi;
         if d == 0.0 {
-            u = 0.0;
+            return Some((0.0, 0));
         }
-        while !converged && it < 200 {
-            it += 1;
+        for it in 1..=200u32 {
             let fu = f(u);
             if fu > 0.0 {
                 hi = hi.min(u);
@@ -144,29 +207,14 @@ impl Plate {
             }
             let mut next = u - fu / df(u);
             if !(next > lo && next < hi) {
-                next = 0.5 * (lo + hi); // bisection fallback
+                next = 0.5 * (lo + hi);
             }
             if (next - u).abs() <= 1e-15 * next.abs().max(1e-300) || hi - lo <= 1e-15 * hi.abs() {
-                u = next;
-                converged = true;
-            } else {
-                u = next;
+                return Some((next, it));
             }
+            u = next;
         }
-        if !converged {
-            return Err(PlateStatus::NotConverged);
-        }
-        let shift = self.shift(u);
-        let position = target - n * shift;
-        let eye_dir = (position - eye).normalize();
-        Ok(PlateImage {
-            position,
-            eye_dir,
-            theta: u.atan(),
-            slope: u,
-            shift,
-            iterations: it,
-        })
+        None
     }
 }
 

@@ -1,4 +1,6 @@
-//! `snell warp-points`: JSON in, JSON out (format in issue 7 / docs). A bad
+//! `snell warp-points`: JSON in, JSON out (format in docs/warp.md). `method`
+//! is "exact" or "paper" (the paper's C→B→A for the cylinder; for the plate
+//! the paper's formula is the exact one). A bad
 //! point gets an error status and does not sink the batch; a bad document is
 //! one clear error naming the key.
 use super::{CylStatus, Family, HollowCylinder, Plate, PlateStatus};
@@ -45,12 +47,15 @@ fn v(a: [f64; 3]) -> DVec3 {
 pub fn warp_points_json(file: &str, input: &str) -> Result<String, String> {
     let q: Query =
         serde_json::from_str(input).map_err(|e| format!("{file}:{}:{}: {e}", e.line(), e.column()))?;
-    if q.method != "exact" {
-        return Err(format!(
-            "{file}: method: expected \"exact\" (the paper's approximation is not implemented yet), got \"{}\"",
-            q.method
-        ));
-    }
+    let paper = match q.method.as_str() {
+        "exact" => false,
+        "paper" => true,
+        o => {
+            return Err(format!(
+                "{file}: method: expected \"exact\" or \"paper\", got \"{o}\""
+            ))
+        }
+    };
     let eye = v(q.eye);
     if !eye.is_finite() {
         return Err(format!("{file}: eye: expected finite coordinates"));
@@ -101,7 +106,11 @@ pub fn warp_points_json(file: &str, input: &str) -> Result<String, String> {
                 Err(PlateStatus::EyeNotInFront) => ("error: the eye is not in front of the plate".into(), vec![]),
                 Err(PlateStatus::NotConverged) => ("error: the solver did not converge".into(), vec![]),
             },
-            Glass::Cyl(c) => match c.images(eye, p) {
+            Glass::Cyl(c) => match if paper {
+                super::paper::paper_image(c, eye, p).map(|o| o.into_iter().collect())
+            } else {
+                c.images(eye, p)
+            } {
                 Ok(ims) => (
                     if ims.is_empty() { "ok: no image".to_string() } else { "ok".to_string() },
                     ims.iter()
@@ -135,6 +144,12 @@ mod tests {
         assert_eq!(pts[0]["status"], "ok");
         assert!(!pts[0]["images"].as_array().unwrap().is_empty());
         assert!(pts[2]["status"].as_str().unwrap().contains("inside the glass"));
+        let paper = doc.replace("\"exact\"", "\"paper\"");
+        let out: serde_json::Value =
+            serde_json::from_str(&warp_points_json("q.json", &paper).unwrap()).unwrap();
+        assert_eq!(out["points"][0]["images"].as_array().unwrap().len(), 1);
+        let e = warp_points_json("q.json", &doc.replace("\"exact\"", "\"magic\"")).unwrap_err();
+        assert!(e.contains("method"), "{e}");
         let bad = doc.replace("\"ior\": 1.5", "\"ior\": 1.5, \"colour\": 1");
         let e = warp_points_json("q.json", &bad).unwrap_err();
         assert!(e.contains("q.json:") && e.contains("colour"), "{e}");

@@ -178,8 +178,48 @@ pub fn prepare(scene: &RenderScene, spec: &WarpSpec, tol_px: f64) -> Result<Prep
     })
 }
 
-/// The images of one vertex: (copy, warped position).
-pub type VertexImages = Vec<(CopyKey, DVec3)>;
+/// Most images one vertex can have in distinct copies (direct, through4 or
+/// hollow2, tir2±, wall2±).
+pub const MAX_IMAGES: usize = 7;
+
+/// The images of one vertex: (copy, warped position), at most one per copy.
+/// Inline (no allocation per vertex).
+#[derive(Debug, Clone, Copy)]
+pub struct VertexImages {
+    len: u8,
+    items: [(CopyKey, [f32; 3]); MAX_IMAGES],
+}
+
+impl Default for VertexImages {
+    fn default() -> Self {
+        VertexImages {
+            len: 0,
+            items: [(CopyKey::DIRECT, [0.0; 3]); MAX_IMAGES],
+        }
+    }
+}
+
+impl VertexImages {
+    /// Add an image unless its copy already has one (the first wins).
+    pub fn push(&mut self, key: CopyKey, p: DVec3) {
+        if (self.len as usize) < MAX_IMAGES && self.get(key).is_none() {
+            self.items[self.len as usize] = (key, [p.x as f32, p.y as f32, p.z as f32]);
+            self.len += 1;
+        }
+    }
+    pub fn get(&self, key: CopyKey) -> Option<[f32; 3]> {
+        self.items[..self.len as usize]
+            .iter()
+            .find(|(k, _)| *k == key)
+            .map(|(_, p)| *p)
+    }
+    pub fn len(&self) -> usize {
+        self.len as usize
+    }
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+}
 
 /// Per-eye solver state: the fast cylinder tables when they apply.
 pub struct VertexSolver {
@@ -234,17 +274,17 @@ pub fn vertex_images(
     p: DVec3,
     fast: Option<&super::fastcyl::CylinderWarper>,
 ) -> VertexImages {
-    let mut out: VertexImages = Vec::new();
+    let mut out = VertexImages::default();
     match glass {
-        WarpGlass::Plate(pl) => match pl.warp(eye, p) {
-            Ok(im) => out.push((
+        WarpGlass::Plate(pl) => match pl.warped_position(eye, p) {
+            Ok(pos) => out.push(
                 CopyKey {
                     family: Family::Wall2,
                     side: 0,
                 },
-                im.position,
-            )),
-            Err(PlateStatus::InFront) => out.push((CopyKey::DIRECT, p)),
+                pos,
+            ),
+            Err(PlateStatus::InFront) => out.push(CopyKey::DIRECT, p),
             Err(_) => {}
         },
         WarpGlass::Cylinder(c) => {
@@ -257,9 +297,7 @@ pub fn vertex_images(
             };
             for im in ims {
                 let key = WarpGlass::key_for(im.family, im.impact);
-                if !out.iter().any(|(k, _)| *k == key) {
-                    out.push((key, im.position));
-                }
+                out.push(key, im.position);
             }
         }
     }
@@ -311,47 +349,66 @@ pub fn warp_scene(scene: &RenderScene, spec: &WarpSpec, prep: &Prepared) -> Resu
     let warp_s = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
     let images = per_object.iter().flatten().map(|v| v.len()).sum();
-    let mut copies = Vec::new();
-    let mut in_some = vec![Vec::new(); prep.objects.len()];
-    for (oi, o) in prep.objects.iter().enumerate() {
-        in_some[oi] = vec![false; o.mesh.indices.len()];
-    }
-    for key in spec.glass.copy_keys() {
-        let mut positions: Vec<[f32; 3]> = Vec::new();
-        let mut indices: Vec<[u32; 3]> = Vec::new();
-        let mut source = Vec::new();
-        for (oi, o) in prep.objects.iter().enumerate() {
-            let base = positions.len() as u32;
-            let imgs = &per_object[oi];
-            for vi in imgs {
-                let p = vi
-                    .iter()
-                    .find(|(k, _)| *k == key)
-                    .map(|(_, p)| *p)
-                    .unwrap_or(DVec3::ZERO);
-                positions.push([p.x as f32, p.y as f32, p.z as f32]);
-            }
-            let has = |v: u32| imgs[v as usize].iter().any(|(k, _)| *k == key);
-            for (ti, tri) in o.mesh.indices.iter().enumerate() {
-                if tri.iter().all(|&v| has(v)) {
-                    indices.push(tri.map(|v| v + base));
-                    source.push((oi as u32, ti as u32));
-                    in_some[oi][ti] = true;
+    // One copy per key, built in parallel (each is its own Embree scene).
+    let built: Vec<Option<Result<WarpedCopy>>> = spec
+        .glass
+        .copy_keys()
+        .into_par_iter()
+        .map(|key| {
+            let mut positions: Vec<[f32; 3]> = Vec::with_capacity(prep.vertices);
+            let mut indices: Vec<[u32; 3]> = Vec::new();
+            let mut source = Vec::new();
+            for (oi, o) in prep.objects.iter().enumerate() {
+                let base = positions.len() as u32;
+                let imgs = &per_object[oi];
+                positions.extend(imgs.iter().map(|vi| vi.get(key).unwrap_or([0.0; 3])));
+                let has = |v: u32| imgs[v as usize].get(key).is_some();
+                for (ti, tri) in o.mesh.indices.iter().enumerate() {
+                    if tri.iter().all(|&v| has(v)) {
+                        indices.push(tri.map(|v| v + base));
+                        source.push((oi as u32, ti as u32));
+                    }
                 }
             }
-        }
-        if indices.is_empty() {
-            continue;
-        }
-        let mut b = SceneBuilder::new(scene.embree.device(), SceneFlags::default(), BuildQuality::Medium)?;
-        b.add_triangles(&positions, &indices)?;
-        copies.push(WarpedCopy {
-            key,
-            scene: b.commit()?,
-            source,
-        });
+            if indices.is_empty() {
+                return None;
+            }
+            Some((|| {
+                // Rebuilt every frame (the eye moves): Embree's fast (Morton) builder.
+                let mut b =
+                    SceneBuilder::new(scene.embree.device(), SceneFlags::default(), BuildQuality::Low)?;
+                b.add_triangles(&positions, &indices)?;
+                Ok(WarpedCopy {
+                    key,
+                    scene: b.commit()?,
+                    source,
+                })
+            })())
+        })
+        .collect();
+    let mut copies = Vec::new();
+    for c in built.into_iter().flatten() {
+        copies.push(c?);
     }
-    let dropped_triangles = in_some.iter().flatten().filter(|x| !**x).count();
+    // Triangles in no copy: no key common to all three vertices.
+    let dropped_triangles = prep
+        .objects
+        .par_iter()
+        .enumerate()
+        .map(|(oi, o)| {
+            let imgs = &per_object[oi];
+            o.mesh
+                .indices
+                .iter()
+                .filter(|tri| {
+                    let a = &imgs[tri[0] as usize];
+                    !a.items[..a.len()].iter().any(|(k, _)| {
+                        imgs[tri[1] as usize].get(*k).is_some() && imgs[tri[2] as usize].get(*k).is_some()
+                    })
+                })
+                .count()
+        })
+        .sum();
     Ok(Warped {
         copies,
         warp_s,
