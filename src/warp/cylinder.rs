@@ -27,6 +27,8 @@ pub struct HollowCylinder {
     pub outer_radius: f64,
     pub inner_radius: f64,
     pub ior: f64,
+    /// Cached unit vector across the axis (the frame's u; w = axis × u).
+    across: DVec3,
 }
 
 /// How the eye ray reaches the target.
@@ -145,26 +147,30 @@ impl HollowCylinder {
         if !(ior.is_finite() && ior >= 1.0) {
             return Err(format!("ior: expected a finite value >= 1, got {ior}"));
         }
+        let a = axis_direction.normalize();
         Ok(HollowCylinder {
             axis_point,
-            axis_direction: axis_direction.normalize(),
+            across: Self::across_for(a),
+            axis_direction: a,
             outer_radius: outer,
             inner_radius: inner,
             ior,
         })
     }
 
+    fn across_for(a: DVec3) -> DVec3 {
+        let (u, _) = crate::sampling::basis(glam::Vec3A::new(a.x as f32, a.y as f32, a.z as f32));
+        // Re-orthonormalise in f64.
+        let u = DVec3::new(u.x as f64, u.y as f64, u.z as f64);
+        (u - a * a.dot(u)).normalize()
+    }
+
+    #[inline]
     fn frame(&self) -> Frame {
         let a = self.axis_direction;
-        let (u, w) = crate::sampling::basis(glam::Vec3A::new(a.x as f32, a.y as f32, a.z as f32));
-        // Re-orthonormalise in f64.
-        let u = (DVec3::new(u.x as f64, u.y as f64, u.z as f64)
-            - a * a.dot(DVec3::new(u.x as f64, u.y as f64, u.z as f64)))
-        .normalize();
-        let _ = w;
         Frame {
-            u,
-            w: a.cross(u),
+            u: self.across,
+            w: a.cross(self.across),
             a,
             c: self.axis_point,
         }
