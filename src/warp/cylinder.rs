@@ -80,6 +80,64 @@ pub enum CylStatus {
     InsideGlass,
 }
 
+/// Where to look for a root of g(b) found by scanning samples.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum Candidate {
+    /// g changes sign between these two samples.
+    Bracket(f64, f64),
+    /// g does not change sign within the family's samples, but extrapolates
+    /// to zero just past the end of a run of valid samples (a family edge):
+    /// at the target's own β the root may lie inside. Start Newton here.
+    Edge(f64),
+}
+
+/// Sign changes of g over ascending samples `bs` (`g(k)` is `None` where
+/// the family does not apply), plus run ends (family edges) where |g| falls
+/// towards the edge and is below `edge_tol`: g has a square-root singularity
+/// at an edge, and a root just inside the edge at the target's own β can lie
+/// just outside it at the β the samples were taken for, so no sign change
+/// shows; Newton from the run end finds it.
+pub(crate) fn scan_candidates(bs: &[f64], g: impl Fn(usize) -> Option<f64>, edge_tol: f64) -> Vec<Candidate> {
+    let mut out = Vec::new();
+    let falling = |g0: f64, g1: f64| g1.abs() < g0.abs() && g1.abs() <= edge_tol && (g0 < 0.0) == (g1 < 0.0);
+    let mut prev: Option<(f64, f64)> = None;
+    let mut prev2: Option<(f64, f64)> = None;
+    let mut run_start = true;
+    for (k, &bk) in bs.iter().enumerate() {
+        match g(k) {
+            Some(gk) => {
+                if let Some((b0, g0)) = prev {
+                    if g0 == 0.0 || (g0 < 0.0) != (gk < 0.0) {
+                        out.push(Candidate::Bracket(b0, bk));
+                    } else if run_start && falling(gk, g0) {
+                        // Second sample of a run: |g| falls towards the run's start.
+                        out.push(Candidate::Edge(b0));
+                    }
+                    run_start = false;
+                }
+                prev2 = prev;
+                prev = Some((bk, gk));
+            }
+            None => {
+                if let (Some((_, g0)), Some((b1, g1))) = (prev2, prev) {
+                    if !run_start && falling(g0, g1) {
+                        out.push(Candidate::Edge(b1));
+                    }
+                }
+                prev = None;
+                prev2 = None;
+                run_start = true;
+            }
+        }
+    }
+    if let (Some((_, g0)), Some((b1, g1))) = (prev2, prev) {
+        if !run_start && falling(g0, g1) {
+            out.push(Candidate::Edge(b1));
+        }
+    }
+    out
+}
+
 struct Frame {
     u: DVec3,
     w: DVec3,
@@ -346,11 +404,35 @@ impl HollowCylinder {
         self.refine(fam, e, p, dv, dist, eye, &f, lo, hi, beta0, in_hollow)
     }
 
-    /// Newton in (b, β) together from a bracket's midpoint: both residuals
-    /// (distance of the target from the final ray across the axis, and the
-    /// climb error along it), a finite-difference Jacobian, damped steps that
-    /// must reduce the residual. `None` if it leaves the family or stalls
-    /// (the caller then uses the robust `refine`).
+    /// The interval of impact parameters where `fam` applies for β, on the
+    /// side of `b` (the two-refraction families have a band on each side).
+    fn domain(&self, fam: Family, beta: f64, b: f64) -> (f64, f64) {
+        let (big, small) = (self.outer_radius, self.inner_radius);
+        let ma = (1.0 - beta * beta).sqrt();
+        let mg = (self.ior * self.ior - beta * beta).sqrt();
+        let tir_edge = (small * mg / ma).min(big);
+        let (lo, hi) = match fam {
+            Family::Through4 | Family::Hollow2 | Family::Direct => return (-small, small),
+            Family::Tir2 => (small, tir_edge),
+            Family::Wall2 => (tir_edge, big),
+        };
+        if b < 0.0 {
+            (-hi, -lo)
+        } else {
+            (lo, hi)
+        }
+    }
+
+    /// Newton in (b, β) together from `b0`: both residuals (distance of the
+    /// target from the final ray across the axis, and the climb error along
+    /// it), a finite-difference Jacobian, damped steps that must reduce the
+    /// residual. `None` if it leaves the family or stalls (the caller then
+    /// uses the robust `refine`).
+    ///
+    /// g(b) has a square-root singularity at the family edges (the ray
+    /// grazes a circle there), which stalls Newton in b for images within
+    /// ~1e-6 of an edge. So b is written as `edge + σ·s²` from the edge of
+    /// its interval nearest `b0` (σ = ±1 pointing inside): smooth in s.
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn newton_image(
         &self,
@@ -365,7 +447,19 @@ impl HollowCylinder {
         in_hollow: bool,
     ) -> Option<CylImage> {
         let n = self.ior;
-        let resid = |b: f64, beta: f64| -> Option<(f64, f64)> {
+        let (lo0, hi0) = self.domain(fam, beta0, b0);
+        let from_lo = (b0 - lo0) <= (hi0 - b0);
+        let side = b0;
+        let to_b = |s: f64, beta: f64| {
+            let (lo, hi) = self.domain(fam, beta, side);
+            if from_lo {
+                lo + s * s
+            } else {
+                hi - s * s
+            }
+        };
+        let resid = |s: f64, beta: f64| -> Option<(f64, f64)> {
+            let b = to_b(s, beta);
             let path = self.path(fam, e, b, beta, in_hollow)?;
             let rel = p - path.origin;
             let along = rel.dot(path.dir);
@@ -378,37 +472,47 @@ impl HollowCylinder {
             Some((path.dir.perp_dot(rel), climb - dv))
         };
         let norm = |r: (f64, f64)| r.0.abs().max(r.1.abs());
-        let (mut b, mut beta) = (b0, beta0);
-        let mut r = resid(b, beta)?;
+        let mut s = (if from_lo { b0 - lo0 } else { hi0 - b0 }).max(0.0).sqrt();
+        let mut beta = beta0;
+        let mut r = resid(s, beta)?;
         let tol = 1e-13 * dist;
         let mut converged = false;
-        for _ in 0..30 {
+        for _ in 0..40 {
             if norm(r) <= tol {
                 converged = true;
                 break;
             }
-            let hb = 1e-8 * self.outer_radius;
+            // Relative 1e-5 in s: a change of b of ~2e-5·s² stays thousands of
+            // ulps of b even 1e-9 from an edge (1e-7 would be below b's ulp).
+            // and at least 1e-6·√R, so that b moves by ≥ ~1e-12·R when s ≈ 0.
+            let hs = (1e-5 * s).max(1e-6 * self.outer_radius.sqrt());
             let hbeta = 1e-8;
-            let rb = resid(b + hb, beta)
-                .or_else(|| resid(b - hb, beta).map(|x| (2.0 * r.0 - x.0, 2.0 * r.1 - x.1)))?;
-            let rt = resid(b, beta + hbeta)
-                .or_else(|| resid(b, beta - hbeta).map(|x| (2.0 * r.0 - x.0, 2.0 * r.1 - x.1)))?;
-            let (j11, j12) = ((rb.0 - r.0) / hb, (rt.0 - r.0) / hbeta);
-            let (j21, j22) = ((rb.1 - r.1) / hb, (rt.1 - r.1) / hbeta);
+            let fd = |a: Option<(f64, f64)>, b: Option<(f64, f64)>| -> Option<(f64, f64, f64)> {
+                // forward difference, or backward if forward is outside
+                match (a, b) {
+                    (Some(x), _) => Some((x.0 - r.0, x.1 - r.1, 1.0)),
+                    (None, Some(x)) => Some((r.0 - x.0, r.1 - x.1, 1.0)),
+                    _ => None,
+                }
+            };
+            let (ds0, ds1, _) = fd(resid(s + hs, beta), resid(s - hs, beta))?;
+            let (dt0, dt1, _) = fd(resid(s, beta + hbeta), resid(s, beta - hbeta))?;
+            let (j11, j12) = (ds0 / hs, dt0 / hbeta);
+            let (j21, j22) = (ds1 / hs, dt1 / hbeta);
             let det = j11 * j22 - j12 * j21;
             if det == 0.0 || !det.is_finite() {
                 return None;
             }
-            let db = -(r.0 * j22 - r.1 * j12) / det;
-            let dbeta = -(j11 * r.1 - j21 * r.0) / det;
+            let d_s = -(r.0 * j22 - r.1 * j12) / det;
+            let d_beta = -(j11 * r.1 - j21 * r.0) / det;
             let mut lambda = 1.0;
             let mut accepted = false;
-            for _ in 0..10 {
-                let (nb, nbeta) = (b + lambda * db, beta + lambda * dbeta);
+            for _ in 0..12 {
+                let (ns, nbeta) = (s + lambda * d_s, beta + lambda * d_beta);
                 if nbeta.abs() < 0.999_999 {
-                    if let Some(nr) = resid(nb, nbeta) {
+                    if let Some(nr) = resid(ns.abs(), nbeta) {
                         if norm(nr) < norm(r) {
-                            b = nb;
+                            s = ns.abs();
                             beta = nbeta;
                             r = nr;
                             accepted = true;
@@ -419,15 +523,17 @@ impl HollowCylinder {
                 lambda *= 0.5;
             }
             if !accepted {
-                converged = norm(r) <= 1e-11 * dist;
+                // Stalled at rounding level: near an edge dg/db is ~1e5, so
+                // an ulp of b moves g by ~1e-11.
+                converged = norm(r) <= 1e-10 * dist;
                 break;
             }
         }
-        if !converged && norm(r) > 1e-11 * dist {
+        if !converged && norm(r) > 1e-10 * dist {
             return None;
         }
         let f = self.frame();
-        self.finish(fam, e, p, dist, eye, &f, b, beta, in_hollow)
+        self.finish(fam, e, p, dist, eye, &f, to_b(s, beta), beta, in_hollow)
     }
 
     /// All images of `target` seen from `eye`.
@@ -500,16 +606,17 @@ impl HollowCylinder {
                 }
             }
             samples.sort_by(f64::total_cmp);
-            let mut roots = Vec::new();
-            for w in samples.windows(2) {
-                if let (Some((ga, _)), Some((gb, _))) = (g(w[0], beta0), g(w[1], beta0)) {
-                    if ga == 0.0 || ga.signum() != gb.signum() {
-                        roots.push((w[0], w[1]));
-                    }
-                }
-            }
-            for (lo0, hi0) in roots {
-                let Some(img) = self.refine(fam, e, p, dv, dist, eye, &f, lo0, hi0, beta0, in_hollow) else {
+            let gs: Vec<Option<f64>> = samples.iter().map(|&b| g(b, beta0).map(|x| x.0)).collect();
+            for cand in scan_candidates(&samples, |k| gs[k], 1e-3 * dist) {
+                let img = match cand {
+                    Candidate::Bracket(lo0, hi0) => self
+                        .refine(fam, e, p, dv, dist, eye, &f, lo0, hi0, beta0, in_hollow)
+                        .or_else(|| {
+                            self.newton_image(fam, e, p, dv, dist, eye, 0.5 * (lo0 + hi0), beta0, in_hollow)
+                        }),
+                    Candidate::Edge(b0) => self.newton_image(fam, e, p, dv, dist, eye, b0, beta0, in_hollow),
+                };
+                let Some(img) = img else {
                     continue;
                 };
                 if !out.iter().any(|o: &CylImage| {
@@ -630,8 +737,18 @@ impl HollowCylinder {
         let h = Self::dir_for(e, b);
         let dir = (f.u * h.x + f.w * h.y) * (1.0 - beta * beta).sqrt() + f.a * beta;
         // Parity: orientation of b → crossing position against a straight view.
-        let db = 1e-7 * self.outer_radius;
-        let dg = gval(b + db, beta).zip(gval(b - db, beta)).map(|(x, y)| x - y)?;
+        // One-sided near a family edge (the other side is outside the family).
+        let (lo, hi) = self.domain(fam, beta, b);
+        let db = (1e-7 * self.outer_radius)
+            .min(0.5 * (b - lo).min(hi - b))
+            .max(1e-15);
+        let g0 = gval(b, beta)?;
+        let dg = match (gval(b + db, beta), gval(b - db, beta)) {
+            (Some(x), Some(y)) => x - y,
+            (Some(x), None) => x - g0,
+            (None, Some(y)) => g0 - y,
+            (None, None) => return None,
+        };
         let straight = |bb: f64| Self::dir_for(e, bb).perp_dot(p - e);
         let ds = straight(b + db) - straight(b - db);
         let parity = if dg.signum() == ds.signum() { 1 } else { -1 };

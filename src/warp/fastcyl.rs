@@ -13,7 +13,7 @@
 //! image (checked to 1e-9 like the slow path); what can differ is a pair of
 //! images within a bin's width of a caustic, where the pair exists at the
 //! target's β but not at the bin's (or the reverse).
-use super::cylinder::{CylImage, CylStatus, Family, HollowCylinder};
+use super::cylinder::{scan_candidates, Candidate, CylImage, CylStatus, Family, HollowCylinder};
 use glam::{DVec2, DVec3};
 
 /// Width of a β bin (the table's β is the bin centre).
@@ -134,33 +134,28 @@ impl CylinderWarper {
                 continue;
             }
             let t = &table[fi];
-            // along = dir·p − ac with dir = (gy, −gx).
-            let mut prev: Option<(f64, f64)> = None;
-            for k in 0..t.b.len() {
-                let g = t.gx[k] * p.x + t.gy[k] * p.y - t.gc[k];
+            // along = dir·p − ac with dir = (gy, −gx); invalid where ≤ 0.
+            let gval = |k: usize| {
                 let along = t.gy[k] * p.x - t.gx[k] * p.y - t.ac[k];
-                if along <= 0.0 {
-                    prev = None;
-                    continue;
-                }
-                if let Some((b0, g0)) = prev {
-                    if g0 == 0.0 || (g0 < 0.0) != (g < 0.0) {
-                        let b1 = t.b[k];
-                        let img = c
-                            .newton_image(fam, e, p, dv, dist, self.eye, 0.5 * (b0 + b1), beta0, in_hollow)
-                            .or_else(|| {
-                                c.refine_public(fam, e, p, dv, dist, self.eye, b0, b1, beta0, in_hollow)
-                            });
-                        if let Some(img) = img {
-                            if !out.iter().any(|o: &CylImage| {
-                                o.family == img.family && (o.direction - img.direction).length() < 1e-9
-                            }) {
-                                out.push(img);
-                            }
-                        }
+                (along > 0.0).then(|| t.gx[k] * p.x + t.gy[k] * p.y - t.gc[k])
+            };
+            // A bin is BIN wide in β; roots move by ~dist·Δβ at most.
+            for cand in scan_candidates(&t.b, gval, 0.1 * BIN * dist) {
+                let img = match cand {
+                    Candidate::Bracket(b0, b1) => c
+                        .newton_image(fam, e, p, dv, dist, self.eye, 0.5 * (b0 + b1), beta0, in_hollow)
+                        .or_else(|| c.refine_public(fam, e, p, dv, dist, self.eye, b0, b1, beta0, in_hollow)),
+                    Candidate::Edge(b0) => {
+                        c.newton_image(fam, e, p, dv, dist, self.eye, b0, beta0, in_hollow)
+                    }
+                };
+                if let Some(img) = img {
+                    if !out.iter().any(|o: &CylImage| {
+                        o.family == img.family && (o.direction - img.direction).length() < 1e-9
+                    }) {
+                        out.push(img);
                     }
                 }
-                prev = Some((t.b[k], g));
             }
         }
         Ok(out)
@@ -228,6 +223,110 @@ mod tests {
                 "r={inner}: {same} of {total} targets: all robust images found; {extra} extra (verified)"
             );
             assert!(total > 200 && same == total, "r={inner}: {same} of {total} agree");
+        }
+    }
+}
+
+#[cfg(test)]
+mod edge_tests {
+    use super::*;
+    use crate::warp::WarpGlass;
+
+    /// Eye ray with impact parameter `b` (in the frame of `c`) and a small
+    /// climb, from `eye`.
+    fn ray_for(c: &HollowCylinder, eye: DVec3, b: f64, beta: f64) -> DVec3 {
+        let (u, w, a) = c.frame_axes();
+        let (e, _) = c.to2(eye);
+        let rho = e.length();
+        let inward = -e / rho;
+        let perp = DVec2::new(-inward.y, inward.x);
+        let x = -(b / rho);
+        let h = (inward * (1.0 - x * x).sqrt() + perp * x).normalize();
+        let d = (u * h.x + w * h.y) * (1.0 - beta * beta).sqrt() + a * beta;
+        debug_assert!((c.impact_of(eye, d).0 - b).abs() < 1e-12);
+        d
+    }
+
+    /// Images whose eye ray passes within 1e-9 of a family edge (|b| = r,
+    /// r·m_g/m_a, R) are found by both solvers: forward-trace such a ray to a
+    /// target, then ask for the target's images.
+    #[test]
+    fn images_at_the_family_edges() {
+        let eye = DVec3::new(0.3, 0.1, 4.0);
+        for inner in [0.8, 0.5] {
+            let c = HollowCylinder::try_new(DVec3::ZERO, DVec3::Y, 1.0, inner, 1.5).unwrap();
+            let g = WarpGlass::Cylinder(c);
+            let w = CylinderWarper::new(c, eye, -0.5, 0.5).unwrap();
+            let beta: f64 = 0.05;
+            let (ma, mg) = ((1.0 - beta * beta).sqrt(), (2.25 - beta * beta).sqrt());
+            let mut edges = vec![inner, 1.0];
+            if inner * mg / ma < 1.0 {
+                edges.push(inner * mg / ma);
+            }
+            let mut checked = 0;
+            let mut missed = Vec::new();
+            for edge in edges {
+                for eps in [1e-3, 1e-6, 1e-9] {
+                    for b in [edge - eps, edge + eps, -(edge - eps)] {
+                        if b.abs() >= 1.0 {
+                            continue;
+                        }
+                        let d = ray_for(&c, eye, b, beta);
+                        let path = g.exact_path(eye, d);
+                        let last = path.segments.last().unwrap();
+                        let target = last.origin + last.dir * 3.0;
+                        let want = path.refractions;
+                        for (name, imgs) in [("robust", c.images(eye, target)), ("fast", w.images(target))] {
+                            let imgs = imgs.unwrap();
+                            let hit = imgs
+                                .iter()
+                                .any(|im| im.refractions == want && im.direction.angle_between(d) < 1e-7);
+                            if !hit {
+                                missed
+                                    .push(format!("{name} r={inner} edge {edge} b={b} ({want} refractions)"));
+                            }
+                        }
+                        checked += 1;
+                    }
+                }
+            }
+            assert!(checked >= 12, "{checked}");
+            assert!(
+                missed.is_empty(),
+                "missed {} of {}:\n{}",
+                missed.len(),
+                2 * checked,
+                missed.join("\n")
+            );
+        }
+    }
+
+    /// Image counts around the tube: 1–3 for R=1, r=0.8, n=1.5 (no wall-only
+    /// path), up to 4 for r=0.5 (and 4 is reached).
+    #[test]
+    fn image_counts_around_the_tube() {
+        let eye = DVec3::new(0.0, 0.0, 4.0);
+        for (inner, max) in [(0.8, 3usize), (0.5, 4)] {
+            let c = HollowCylinder::try_new(DVec3::ZERO, DVec3::Y, 1.0, inner, 1.5).unwrap();
+            let w = CylinderWarper::new(c, eye, -0.3, 0.3).unwrap();
+            let mut seen_max = 0;
+            for k in 0..72 {
+                let phi = k as f64 * std::f64::consts::TAU / 72.0;
+                for rad in [1.5, 2.5, 4.0] {
+                    let t = DVec3::new(rad * phi.sin(), 0.2, rad * phi.cos());
+                    if (t - eye).length() < 0.5 {
+                        continue;
+                    }
+                    let n = w.images(t).unwrap().len();
+                    let behind = t.z < -1.0 && t.x.abs() < 1.0;
+                    assert!(n <= max, "r={inner} {t}: {n} images");
+                    if behind {
+                        assert!(n >= 1, "r={inner} {t}: no image");
+                    }
+                    seen_max = seen_max.max(n);
+                }
+            }
+            assert_eq!(seen_max, max, "r={inner}");
         }
     }
 }
