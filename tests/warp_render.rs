@@ -153,3 +153,35 @@ fn cli_writes_image_heatmap_and_stats() {
     assert!(!d.join("x.png").exists());
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// Fresnel weights: both renderers weight by the transmittance of the
+/// pixel's exact path, so they still agree, and the plate's pixels seen
+/// through the glass darken by the two-interface transmittance (about
+/// (1 − 0.04)² = 0.92 near normal incidence, less at grazing).
+#[test]
+fn fresnel_weights_darken_the_view_through_the_glass() {
+    let mut s = load_scene(Path::new("scenes/warp_plate.toml"), &BuildOptions::default()).unwrap();
+    s.set_resolution(64, 48).unwrap();
+    let plain = run(&s, &WarpRunOptions::default()).unwrap();
+    let weighted = run(
+        &s,
+        &WarpRunOptions {
+            fresnel: Some(true),
+            compare: true,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let (_, cmp, _) = weighted.exact.as_ref().unwrap();
+    assert!(cmp.rmse < 1e-3, "{cmp:?}");
+    let mut ratios = Vec::new();
+    for (a, b) in plain.frame.pixels.iter().zip(&weighted.frame.pixels) {
+        if a.max_element() > 0.05 {
+            ratios.push(b.element_sum() / a.element_sum());
+        }
+    }
+    let lo = ratios.iter().cloned().fold(f32::INFINITY, f32::min);
+    let hi = ratios.iter().cloned().fold(0.0f32, f32::max);
+    assert!(lo > 0.5 && hi <= 1.0 + 1e-6, "{lo} {hi}");
+    assert!(ratios.iter().any(|r| (r - 0.92).abs() < 0.02), "{lo} {hi}");
+}
