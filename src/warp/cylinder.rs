@@ -83,12 +83,12 @@ pub enum CylStatus {
 /// Where to look for a root of g(b) found by scanning samples.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) enum Candidate {
-    /// g changes sign between these two samples.
-    Bracket(f64, f64),
+    /// g changes sign between these two samples (indices).
+    Bracket(usize, usize),
     /// g does not change sign within the family's samples, but extrapolates
     /// to zero just past the end of a run of valid samples (a family edge):
-    /// at the target's own β the root may lie inside. Start Newton here.
-    Edge(f64),
+    /// at the target's own β the root may lie inside. Start Newton at this sample.
+    Edge(usize),
 }
 
 /// Sign changes of g over ascending samples `bs` (`g(k)` is `None` where
@@ -100,23 +100,23 @@ pub(crate) enum Candidate {
 pub(crate) fn scan_candidates(bs: &[f64], g: impl Fn(usize) -> Option<f64>, edge_tol: f64) -> Vec<Candidate> {
     let mut out = Vec::new();
     let falling = |g0: f64, g1: f64| g1.abs() < g0.abs() && g1.abs() <= edge_tol && (g0 < 0.0) == (g1 < 0.0);
-    let mut prev: Option<(f64, f64)> = None;
-    let mut prev2: Option<(f64, f64)> = None;
+    let mut prev: Option<(usize, f64)> = None;
+    let mut prev2: Option<(usize, f64)> = None;
     let mut run_start = true;
-    for (k, &bk) in bs.iter().enumerate() {
+    for k in 0..bs.len() {
         match g(k) {
             Some(gk) => {
-                if let Some((b0, g0)) = prev {
+                if let Some((k0, g0)) = prev {
                     if g0 == 0.0 || (g0 < 0.0) != (gk < 0.0) {
-                        out.push(Candidate::Bracket(b0, bk));
+                        out.push(Candidate::Bracket(k0, k));
                     } else if run_start && falling(gk, g0) {
                         // Second sample of a run: |g| falls towards the run's start.
-                        out.push(Candidate::Edge(b0));
+                        out.push(Candidate::Edge(k0));
                     }
                     run_start = false;
                 }
                 prev2 = prev;
-                prev = Some((bk, gk));
+                prev = Some((k, gk));
             }
             None => {
                 if let (Some((_, g0)), Some((b1, g1))) = (prev2, prev) {
@@ -441,16 +441,17 @@ impl HollowCylinder {
         self.frame().to2(p)
     }
 
-    /// The final 2-D ray (origin, direction) of `fam` for (b, β).
-    pub(crate) fn path_public(
+    /// The final 2-D ray and its horizontal lengths in air and glass.
+    pub(crate) fn path_lengths(
         &self,
         fam: Family,
         e: DVec2,
         b: f64,
         beta: f64,
         in_hollow: bool,
-    ) -> Option<(DVec2, DVec2)> {
-        self.path(fam, e, b, beta, in_hollow).map(|p| (p.origin, p.dir))
+    ) -> Option<(DVec2, DVec2, f64, f64)> {
+        self.path(fam, e, b, beta, in_hollow)
+            .map(|p| (p.origin, p.dir, p.air, p.glass))
     }
 
     /// The direct image, when the straight line misses the tube.
@@ -707,12 +708,26 @@ impl HollowCylinder {
             let gs: Vec<Option<f64>> = samples.iter().map(|&b| g(b, beta0).map(|x| x.0)).collect();
             for cand in scan_candidates(&samples, |k| gs[k], 1e-3 * dist) {
                 let img = match cand {
-                    Candidate::Bracket(lo0, hi0) => self
-                        .refine(fam, e, p, dv, dist, eye, &f, lo0, hi0, beta0, in_hollow)
-                        .or_else(|| {
-                            self.newton_image(fam, e, p, dv, dist, eye, 0.5 * (lo0 + hi0), beta0, in_hollow)
-                        }),
-                    Candidate::Edge(b0) => self.newton_image(fam, e, p, dv, dist, eye, b0, beta0, in_hollow),
+                    Candidate::Bracket(k0, k1) => {
+                        let (lo0, hi0) = (samples[k0], samples[k1]);
+                        self.refine(fam, e, p, dv, dist, eye, &f, lo0, hi0, beta0, in_hollow)
+                            .or_else(|| {
+                                self.newton_image(
+                                    fam,
+                                    e,
+                                    p,
+                                    dv,
+                                    dist,
+                                    eye,
+                                    0.5 * (lo0 + hi0),
+                                    beta0,
+                                    in_hollow,
+                                )
+                            })
+                    }
+                    Candidate::Edge(k) => {
+                        self.newton_image(fam, e, p, dv, dist, eye, samples[k], beta0, in_hollow)
+                    }
                 };
                 let Some(img) = img else {
                     continue;

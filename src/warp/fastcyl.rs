@@ -30,17 +30,27 @@ struct Table {
     gy: Vec<f64>,
     gc: Vec<f64>,
     ac: Vec<f64>,
+    /// Horizontal lengths in air (to the final ray's origin) and in glass,
+    /// for the first guess of β.
+    air: Vec<f64>,
+    glass: Vec<f64>,
 }
 
 impl Table {
-    fn push(&mut self, b: f64, origin: DVec2, dir: DVec2) {
+    fn push(&mut self, b: f64, origin: DVec2, dir: DVec2, air: f64, glass: f64) {
         // dir × (p − o) = −dir.y·p.x + dir.x·p.y − dir × o
         self.b.push(b);
         self.gx.push(-dir.y);
         self.gy.push(dir.x);
         self.gc.push(dir.perp_dot(origin));
         self.ac.push(dir.dot(origin));
+        self.air.push(air);
+        self.glass.push(glass);
     }
+}
+
+thread_local! {
+    static GBUF: std::cell::RefCell<(Vec<f64>, Vec<f64>)> = const { std::cell::RefCell::new((Vec::new(), Vec::new())) };
 }
 
 /// Tables for one eye and one tube.
@@ -90,8 +100,10 @@ impl CylinderWarper {
                 FAMILIES.map(|fam| {
                     let mut t = Table::default();
                     for &b in &samples {
-                        if let Some((o, d)) = cyl.path_public(fam, e, b, beta, fam == Family::Hollow2) {
-                            t.push(b, o, d);
+                        if let Some((o, d, air, glass)) =
+                            cyl.path_lengths(fam, e, b, beta, fam == Family::Hollow2)
+                        {
+                            t.push(b, o, d, air, glass);
                         }
                     }
                     t
@@ -134,29 +146,59 @@ impl CylinderWarper {
                 continue;
             }
             let t = &table[fi];
-            // along = dir·p − ac with dir = (gy, −gx); invalid where ≤ 0.
-            let gval = |k: usize| {
-                let along = t.gy[k] * p.x - t.gx[k] * p.y - t.ac[k];
-                (along > 0.0).then(|| t.gx[k] * p.x + t.gy[k] * p.y - t.gc[k])
-            };
-            // A bin is BIN wide in β; roots move by ~dist·Δβ at most.
-            for cand in scan_candidates(&t.b, gval, 0.1 * BIN * dist) {
-                let img = match cand {
-                    Candidate::Bracket(b0, b1) => c
-                        .newton_image(fam, e, p, dv, dist, self.eye, 0.5 * (b0 + b1), beta0, in_hollow)
-                        .or_else(|| c.refine_public(fam, e, p, dv, dist, self.eye, b0, b1, beta0, in_hollow)),
-                    Candidate::Edge(b0) => {
-                        c.newton_image(fam, e, p, dv, dist, self.eye, b0, beta0, in_hollow)
-                    }
-                };
-                if let Some(img) = img {
-                    if !out.iter().any(|o: &CylImage| {
-                        o.family == img.family && (o.direction - img.direction).length() < 1e-9
-                    }) {
-                        out.push(img);
+            let n = t.b.len();
+            GBUF.with(|buf| {
+                let mut buf = buf.borrow_mut();
+                let (gs, along) = &mut *buf;
+                gs.resize(n, 0.0);
+                along.resize(n, 0.0);
+                // Tight loops over the table (vectorisable): g and the
+                // distance along the final ray for every sample.
+                for k in 0..n {
+                    gs[k] = t.gx[k] * p.x + t.gy[k] * p.y - t.gc[k];
+                    along[k] = t.gy[k] * p.x - t.gx[k] * p.y - t.ac[k];
+                }
+                let gval = |k: usize| (along[k] > 0.0).then(|| gs[k]);
+                // A bin is BIN wide in β; roots move by ~dist·Δβ at most.
+                for cand in scan_candidates(&t.b, gval, 0.1 * BIN * dist) {
+                    let img = match cand {
+                        Candidate::Bracket(k0, k1) => {
+                            // First guesses: b by the secant through the two
+                            // samples, β from the climb with their lengths.
+                            let (g0, g1) = (gs[k0], gs[k1]);
+                            let w = if g0 == g1 { 0.5 } else { g0 / (g0 - g1) };
+                            let lerp = |v: &[f64]| v[k0] + w * (v[k1] - v[k0]);
+                            let b = lerp(&t.b);
+                            let (air, glass) = (lerp(&t.air) + lerp(along), lerp(&t.glass));
+                            let mut beta = beta0;
+                            for _ in 0..2 {
+                                let ma = (1.0 - beta * beta).sqrt();
+                                let mg = (c.ior * c.ior - beta * beta).sqrt();
+                                beta = (dv / (air / ma + glass / mg)).clamp(-0.999, 0.999);
+                            }
+                            c.newton_image(fam, e, p, dv, dist, self.eye, b, beta, in_hollow)
+                                .or_else(|| {
+                                    c.newton_image(fam, e, p, dv, dist, self.eye, b, beta0, in_hollow)
+                                })
+                                .or_else(|| {
+                                    c.refine_public(
+                                        fam, e, p, dv, dist, self.eye, t.b[k0], t.b[k1], beta0, in_hollow,
+                                    )
+                                })
+                        }
+                        Candidate::Edge(k) => {
+                            c.newton_image(fam, e, p, dv, dist, self.eye, t.b[k], beta0, in_hollow)
+                        }
+                    };
+                    if let Some(img) = img {
+                        if !out.iter().any(|o: &CylImage| {
+                            o.family == img.family && (o.direction - img.direction).length() < 1e-9
+                        }) {
+                            out.push(img);
+                        }
                     }
                 }
-            }
+            });
         }
         Ok(out)
     }
