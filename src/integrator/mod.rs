@@ -357,6 +357,21 @@ struct Segment {
     /// The curved-ray integrator failed (e.g. the paper's Euler at a turning
     /// point): the path ends black.
     failed: bool,
+    /// The ray reached the medium's bounds before its hit (or escape), so it
+    /// may have curved: no straight next-event connection can produce it.
+    entered_medium: bool,
+}
+
+/// Does the straight segment from `p` along unit `wi` for `dist` meet the
+/// gradient-index medium's bounds? Next-event estimation is only used for
+/// connections that do not (light travels straight outside the bounds); a
+/// connection that does would need the curved path between two points.
+fn meets_medium(scene: &RenderScene, p: V3, wi: V3, dist: f32) -> bool {
+    scene.medium.as_ref().is_some_and(|m| {
+        m.bounds()
+            .clip(to_d(p), to_d(wi))
+            .is_some_and(|(t0, t1)| t1 > 0.0 && t0 < dist as f64)
+    })
 }
 
 /// Cast `ray`, through the gradient-index medium as chords when the scene has
@@ -370,19 +385,35 @@ fn cast(scene: &RenderScene, ray: &Ray, list: &mut InteriorList, st: &mut Sample
             chord: *ray,
             dir: ray.dir,
             failed: false,
+            entered_medium: false,
         });
     };
     let mut curved = med.start_ray(to_d(ray.org), to_d(ray.dir));
     let mut travelled = 0.0f64;
-    for _ in 0..1_000_000 {
+    // The first chord is inside the medium when the ray starts in its bounds;
+    // every later chord is (the first one ends at the entry).
+    let starts_inside = med
+        .bounds()
+        .clip(to_d(ray.org), to_d(ray.dir))
+        .is_some_and(|(t0, t1)| t0 <= 0.0 && t1 > med.tolerance());
+    for k in 0..1_000_000u32 {
+        let entered_medium = k > 0 || starts_inside;
         let chord = curved.next_chord(med);
-        if curved.failure().is_some() || chord.length.is_nan() || chord.length <= 0.0 {
+        if chord.length == 0.0 && curved.failure().is_none() {
+            // A zero-length chord is the ray leaving the bounds exactly where it
+            // stands (at the box face): not a failure, nothing to cast. (These
+            // were counted as integrator failures before: 55 per 307k paths in
+            // mirage_road, most paths in a box that starts at a surface.)
+            continue;
+        }
+        if curved.failure().is_some() || chord.length.is_nan() || chord.length < 0.0 {
             return Ok(Segment {
                 hit: None,
                 chord: *ray,
                 dir: ray.dir,
                 length: travelled as f32,
                 failed: true,
+                entered_medium,
             });
         }
         let mut r = Ray::new(to_f(chord.origin), to_f(chord.dir));
@@ -405,6 +436,7 @@ fn cast(scene: &RenderScene, ray: &Ray, list: &mut InteriorList, st: &mut Sample
                 dir: to_f(tangent.normalize()),
                 length: (travelled + th.hit.t as f64) as f32,
                 failed: false,
+                entered_medium,
             });
         }
         if !chord.length.is_finite() {
@@ -414,6 +446,7 @@ fn cast(scene: &RenderScene, ray: &Ray, list: &mut InteriorList, st: &mut Sample
                 dir: r.dir,
                 length: f32::INFINITY,
                 failed: false,
+                entered_medium,
             });
         }
         travelled += chord.length;
@@ -424,6 +457,7 @@ fn cast(scene: &RenderScene, ray: &Ray, list: &mut InteriorList, st: &mut Sample
         dir: ray.dir,
         length: travelled as f32,
         failed: true,
+        entered_medium: true,
     })
 }
 
@@ -485,7 +519,9 @@ fn path(
             if front {
                 let le = em.eval(sp.p, sp.uv);
                 let w = match rec.light {
-                    Some(li) if !specular => {
+                    // A path through the medium cannot come from NEE (which
+                    // only connects straight segments that avoid it): weight 1.
+                    Some(li) if !specular && !seg.entered_medium => {
                         let lp = light_pdf(scene, li, prev_p, sp.p, ray.dir);
                         power_heuristic(prev_pdf, lp)
                     }
@@ -513,7 +549,11 @@ fn path(
                 // Next-event estimation.
                 if let Some(ls) = sample_light(scene, sp.p, rng) {
                     let cos = n.dot(ls.wi);
-                    if cos > 0.0 && ng.dot(ls.wi) > 0.0 && unoccluded(scene, sp.p, ng, ls.wi, ls.dist, st) {
+                    if cos > 0.0
+                        && ng.dot(ls.wi) > 0.0
+                        && !meets_medium(scene, sp.p, ls.wi, ls.dist)
+                        && unoccluded(scene, sp.p, ng, ls.wi, ls.dist, st)
+                    {
                         let f = albedo * FRAC_1_PI;
                         let w = if ls.delta {
                             1.0
@@ -617,17 +657,22 @@ fn whitted(
     st.segments += 1;
     let ray = Ray::new(org, dir);
     let sigma = medium_sigma(scene, &list);
-    let Some(dielectric::TrueHit { hit, coincident }) =
-        dielectric::trace(scene, scene.strategy, &ray, &mut list, &mut st.counters)?
-    else {
+    // The same (curved through a medium) cast as the path tracer.
+    let seg = cast(scene, &ray, &mut list, st)?;
+    if seg.failed {
+        st.grin_failures += 1;
+        return Ok(V3::ZERO);
+    }
+    let Some(dielectric::TrueHit { hit, coincident }) = seg.hit else {
         return Ok(if sigma.is_some() {
             V3::ZERO
         } else {
-            scene.environment.eval(dir)
+            scene.environment.eval(seg.dir)
         });
     };
-    let att = sigma.map(|s| (-s * hit.t).exp()).unwrap_or(V3::ONE);
-    let sp = surface_point(scene, &ray, &hit);
+    let att = sigma.map(|s| (-s * seg.length).exp()).unwrap_or(V3::ONE);
+    let sp = surface_point(scene, &seg.chord, &hit);
+    let dir = seg.dir;
     let rec = &scene.geoms[hit.geom_id as usize];
     let front = sp.ng.dot(dir) < 0.0;
     let mut l = V3::ZERO;
@@ -650,7 +695,10 @@ fn whitted(
                 for _ in 0..scene.lights.len() {
                     if let Some(ls) = sample_light(scene, sp.p, rng) {
                         let cos = n.dot(ls.wi);
-                        if cos > 0.0 && unoccluded(scene, sp.p, ng, ls.wi, ls.dist, st) {
+                        if cos > 0.0
+                            && !meets_medium(scene, sp.p, ls.wi, ls.dist)
+                            && unoccluded(scene, sp.p, ng, ls.wi, ls.dist, st)
+                        {
                             l += albedo * FRAC_1_PI * ls.li * (cos / ls.pdf) / scene.lights.len() as f32;
                         }
                     }
