@@ -133,3 +133,88 @@ material = {{ type = "diffuse", reflectance = [0.7, 0.7, 0.7] }}
         "without NEE through the bounds the estimate must be noisier"
     );
 }
+
+fn render_small(path: &str, w: u32, h: u32, spp: u32) -> snell::render::Rendered {
+    let mut s = load_scene(Path::new(path), &BuildOptions::default()).unwrap();
+    s.set_resolution(w, h).unwrap();
+    s.spp = spp;
+    render(
+        &s,
+        &RenderOptions {
+            threads: Some(2),
+            quiet: true,
+            want_aovs: false,
+        },
+    )
+    .unwrap()
+}
+
+/// Runs of rows in columns x..x+3 where `pred` holds for a majority of the
+/// three pixels, gaps of up to 2 rows bridged (Monte Carlo speckle).
+fn runs(r: &snell::render::Rendered, x: u32, pred: impl Fn(glam::Vec3A) -> bool) -> usize {
+    let on: Vec<bool> = (0..r.height)
+        .map(|y| {
+            (x..x + 3)
+                .filter(|&xx| pred(r.pixels[(y * r.width + xx) as usize]))
+                .count()
+                >= 2
+        })
+        .collect();
+    let mut n = 0;
+    let mut last_on: Option<u32> = None;
+    for (y, &o) in on.iter().enumerate() {
+        if o {
+            if last_on.is_none_or(|l| y as u32 > l + 3) {
+                n += 1;
+            }
+            last_on = Some(y as u32);
+        }
+    }
+    n
+}
+
+/// The superior mirage: without the field the ship's hull is one band in the
+/// centre column and the sky meets the sea once; with the inversion layer an
+/// inverted hull appears above the real one and a band of sea hangs in the sky.
+#[test]
+fn cold_sea_shows_an_inverted_ship_above_the_ship() {
+    let field = render_small("scenes/mirage_sea.toml", 160, 80, 2);
+    let plain = render_small("scenes/mirage_sea_nofield.toml", 160, 80, 2);
+    assert_eq!(field.stats.grin_failures, 0);
+    let hull = |p: glam::Vec3A| p.x > 0.15 && p.x > 2.0 * p.y && p.x > 2.0 * p.z;
+    let sea = |p: glam::Vec3A| p.z > 0.05 && p.z < 0.5 && p.z > p.x;
+    let (hf, hp) = (runs(&field, 77, hull), runs(&plain, 77, hull));
+    let (sf, sp) = (runs(&field, 8, sea), runs(&plain, 8, sea));
+    eprintln!("hull bands: {hf} with the field, {hp} without; sea bands: {sf} with, {sp} without");
+    assert_eq!((hp, sp), (1, 1));
+    assert!(hf >= 2, "no inverted image: {hf} hull bands");
+    assert!(sf >= 2, "no sea band in the sky: {sf}");
+}
+
+/// Heat shimmer: the plume distorts the wall seen through it and nothing
+/// else: columns through the plume differ from the no-field image, columns
+/// far from it do not (beyond noise).
+#[test]
+fn plume_distorts_only_what_is_seen_through_it() {
+    let (w, h) = (96, 72);
+    let field = render_small("scenes/heat_shimmer.toml", w, h, 1);
+    let plain = render_small("scenes/heat_shimmer_nofield.toml", w, h, 1);
+    assert_eq!(field.stats.grin_failures, 0);
+    let col_diff = |x0: u32, x1: u32| {
+        let mut s = 0.0f64;
+        let mut n = 0;
+        for y in 0..h * 2 / 3 {
+            for x in x0..x1 {
+                let i = (y * w + x) as usize;
+                s += (field.pixels[i] - plain.pixels[i]).abs().element_sum() as f64;
+                n += 1;
+            }
+        }
+        s / n as f64
+    };
+    let centre = col_diff(w / 2 - 6, w / 2 + 6);
+    let edges = (col_diff(0, 8) + col_diff(w - 8, w)) / 2.0;
+    eprintln!("mean |difference| per pixel: {centre:.4} through the plume, {edges:.4} at the sides");
+    assert!(centre > 0.1, "{centre}");
+    assert!(edges < 0.1 * centre, "{edges} vs {centre}");
+}

@@ -440,6 +440,33 @@ impl IndexField {
     /// A length over which the field's gradient direction may change (used to cap
     /// chords whose bending the end tangents cannot see). Infinite for monotone
     /// stratified fields.
+    /// The longest chord (arc length) for a ray with unit tangent `t` that
+    /// cannot step over a feature of the field. For the inversion layer that is
+    /// a vertical extent of one `thickness`: with the path's curvature bounded by
+    /// a = max|∇n|/n ≤ |dn|/(2·thickness) + |m|, a run ℓ climbs at most
+    /// ℓ·|t·up| + aℓ²/2, so ℓ = 2·thickness/(|t·up| + √((t·up)² + 2a·thickness)).
+    /// A nearly horizontal ray may then take chords of kilometres where
+    /// `feature_length` (thickness along the path) would force metres.
+    pub fn feature_length_along(&self, t: DVec3) -> f64 {
+        match *self {
+            IndexField::Inversion {
+                n0,
+                dn,
+                thickness,
+                m,
+                up,
+                ..
+            } => {
+                let tu = t.dot(up.normalize_or_zero()).abs();
+                // n is near n0 in any air-like layer; 0.5 keeps the bound finite otherwise.
+                let n_min = (n0 - dn.abs()).max(0.5);
+                let a = (dn.abs() / (2.0 * thickness) + m.abs()) / n_min;
+                2.0 * thickness / (tu + (tu * tu + 2.0 * a * thickness).sqrt())
+            }
+            _ => self.feature_length(),
+        }
+    }
+
     pub fn feature_length(&self) -> f64 {
         match *self {
             IndexField::Plume {

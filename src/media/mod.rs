@@ -457,7 +457,7 @@ impl CurvedRay {
         let radius = st.radius();
         let mut ell = (8.0 * 0.8 * tol * radius)
             .sqrt()
-            .min(medium.field.feature_length())
+            .min(medium.field.feature_length_along(st.t))
             .min(self.ell_prev * 4.0)
             .min(exit);
         let mut points = Vec::new();
