@@ -357,3 +357,72 @@ pub fn nested_ratios(runs: &[NestedRun]) -> String {
     out.push_str("(ratios are speed ratios: time of the other strategy / time of filter; > 1 means filter is faster)\n");
     out
 }
+
+/// One render of a chord-tolerance sweep.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct ChordRun {
+    pub tolerance: f64,
+    pub wall_s: f64,
+    pub rays_per_s: f64,
+    pub chords_per_segment: f64,
+    /// RMSE of linear RGB against the finest tolerance's render (same pixels,
+    /// same random numbers: only the chords differ).
+    pub rmse: f64,
+    /// Share of pixels differing by more than 0.05 in some channel.
+    pub changed: f64,
+}
+
+/// Render `scene` (which must have a `[medium]`) at each chord tolerance and
+/// compare every image with the render at the last (finest) one.
+pub fn chord_sweep(
+    scene: &mut RenderScene,
+    tolerances: &[f64],
+    threads: Option<usize>,
+) -> Result<Vec<ChordRun>> {
+    let Some(m0) = scene.medium.clone() else {
+        return Err(crate::Error::Invalid(
+            "chord sweep: the scene has no [medium]".into(),
+        ));
+    };
+    let mut images = Vec::new();
+    for &tol in tolerances {
+        let m = crate::media::Medium::try_new(m0.field().clone(), m0.bounds(), m0.method(), tol, m0.step())
+            .map_err(|e| crate::Error::Invalid(format!("chord sweep: {e:?}")))?;
+        scene.medium = Some(m);
+        let r = crate::render::render(
+            scene,
+            &crate::render::RenderOptions {
+                threads,
+                quiet: true,
+                want_aovs: false,
+            },
+        )?;
+        images.push(r);
+    }
+    scene.medium = Some(m0);
+    let reference = images.last().map(|r| r.pixels.clone()).unwrap_or_default();
+    Ok(tolerances
+        .iter()
+        .zip(&images)
+        .map(|(&tolerance, r)| {
+            let mut se = 0.0f64;
+            let mut changed = 0usize;
+            for (a, b) in r.pixels.iter().zip(&reference) {
+                let d = *a - *b;
+                se += (d * d).element_sum() as f64;
+                if d.abs().max_element() > 0.05 {
+                    changed += 1;
+                }
+            }
+            let n = reference.len().max(1) as f64;
+            ChordRun {
+                tolerance,
+                wall_s: r.stats.wall_s,
+                rays_per_s: r.stats.rays as f64 / r.stats.wall_s.max(1e-12),
+                chords_per_segment: r.stats.chords as f64 / r.stats.segments.max(1) as f64,
+                rmse: (se / (3.0 * n)).sqrt(),
+                changed: changed as f64 / n,
+            }
+        })
+        .collect())
+}

@@ -218,3 +218,32 @@ fn plume_distorts_only_what_is_seen_through_it() {
     assert!(centre > 0.1, "{centre}");
     assert!(edges < 0.1 * centre, "{edges} vs {centre}");
 }
+
+/// Chord casting: the image error against a fine-tolerance render shrinks as
+/// the chord tolerance shrinks (mirage_road: the hot-ground field has no
+/// feature length, so the tolerance alone sets the chords).
+#[test]
+fn image_error_shrinks_with_the_chord_tolerance() {
+    let mut s = load_scene(Path::new("scenes/mirage_road.toml"), &BuildOptions::default()).unwrap();
+    s.set_resolution(96, 32).unwrap();
+    s.spp = 1;
+    let runs = snell::bench::chord_sweep(&mut s, &[1.0, 0.1, 0.01, 0.0003], Some(2)).unwrap();
+    for r in &runs {
+        eprintln!(
+            "tolerance {:>6} m: rmse {:.4}, {:.2}% pixels changed, {:.1} chords per segment",
+            r.tolerance,
+            r.rmse,
+            100.0 * r.changed,
+            r.chords_per_segment
+        );
+    }
+    assert!(
+        runs[0].rmse > runs[1].rmse && runs[1].rmse > runs[2].rmse,
+        "{runs:?}"
+    );
+    assert!(
+        runs[0].chords_per_segment < runs[2].chords_per_segment,
+        "{runs:?}"
+    );
+    assert!(runs[2].rmse < 0.5 * runs[0].rmse, "{runs:?}");
+}
