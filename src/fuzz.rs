@@ -280,3 +280,212 @@ pub fn shipped_scenes(dir: &Path) -> Vec<(String, String)> {
     v.sort();
     v
 }
+
+/// Which batch tool a JSON document is for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum JsonTool {
+    GrinTrace,
+    WarpPoints,
+}
+
+/// Outcomes of a JSON fuzz run, per tool.
+#[derive(Debug, Clone, Default)]
+pub struct JsonFuzzReport {
+    pub cases: u64,
+    /// Documents answered (per-query statuses may still be errors).
+    pub answered: u64,
+    /// Queries or points inside answered documents whose status is an error.
+    pub item_errors: u64,
+    /// Documents refused as a whole, with a message naming the key or line.
+    pub refused: u64,
+    pub panics: Vec<String>,
+    pub unlocated: Vec<String>,
+    pub slow: Vec<(String, f64)>,
+    pub slowest: (f64, String),
+}
+
+/// Run `cases` mutated JSON documents (1–3 mutations each) through the
+/// `grin-trace` and `warp-points` tools, in process, each with a time limit
+/// (a case over `limit` is a finding: the tools bound their work up front).
+pub fn run_json(
+    seeds: &[(JsonTool, String, String)],
+    cases: u64,
+    seed: u64,
+    limit: Duration,
+) -> JsonFuzzReport {
+    let mut rep = JsonFuzzReport::default();
+    if seeds.is_empty() {
+        return rep;
+    }
+    let prev = std::panic::take_hook();
+    std::panic::set_hook(Box::new(|_| {}));
+    for i in 0..cases {
+        let mut rng = Rng::for_sample(seed ^ 0x4a53_4f4e, i, 0);
+        let (tool, name, base) = &seeds[(rng.next_u32() as usize) % seeds.len()];
+        let mut text = base.clone();
+        if rng.next_u32().is_multiple_of(2) {
+            // Structural: valid JSON with values replaced, keys dropped or added.
+            if let Ok(mut v) = serde_json::from_str::<serde_json::Value>(&text) {
+                for _ in 0..1 + rng.next_u32() % 3 {
+                    mutate_json(&mut v, &mut rng);
+                }
+                text = v.to_string();
+            }
+        } else {
+            for _ in 0..1 + rng.next_u32() % 3 {
+                text = mutate(&text, &mut rng);
+            }
+        }
+        let t = Instant::now();
+        let outcome = catch_unwind(AssertUnwindSafe(|| match tool {
+            JsonTool::GrinTrace => crate::media::grin_trace_json(&text).map_err(|e| e.to_string()),
+            JsonTool::WarpPoints => crate::warp::points::warp_points_json(name, &text),
+        }));
+        let el = t.elapsed().as_secs_f64();
+        rep.cases += 1;
+        let label = format!("case {i} ({name})");
+        if el > rep.slowest.0 {
+            rep.slowest = (el, label.clone());
+        }
+        if el > limit.as_secs_f64() {
+            rep.slow.push((format!("{label}\n--- document ---\n{text}"), el));
+        }
+        match outcome {
+            Ok(Ok(out)) => {
+                rep.answered += 1;
+                // Every status that is not "ok…" is an item error.
+                let statuses = out.matches("\"status\": \"").count();
+                let ok = out.matches("\"status\": \"ok").count();
+                rep.item_errors += statuses.saturating_sub(ok) as u64;
+            }
+            Ok(Err(msg)) => {
+                rep.refused += 1;
+                // A whole-document error must say where: a key, or line and column.
+                let located =
+                    msg.contains(':') && (msg.contains("line") || msg.contains('.') || msg.contains('('));
+                if !located {
+                    rep.unlocated.push(format!("{label}: {msg}"));
+                }
+            }
+            Err(p) => {
+                let msg = p
+                    .downcast_ref::<&str>()
+                    .map(|s| s.to_string())
+                    .or_else(|| p.downcast_ref::<String>().cloned())
+                    .unwrap_or_default();
+                rep.panics
+                    .push(format!("{label}: {msg}\n--- document ---\n{text}"));
+            }
+        }
+    }
+    std::panic::set_hook(prev);
+    rep
+}
+
+/// Replacement JSON values (numeric edge cases and wrong types).
+fn json_token(rng: &mut Rng) -> serde_json::Value {
+    use serde_json::json;
+    let vals = [
+        json!(0),
+        json!(-1),
+        json!(1e300),
+        json!(-1e300),
+        json!(1e-300),
+        json!(1e-12),
+        json!(4e9),
+        json!(1e12),
+        json!(0.5),
+        json!(-0.0),
+        json!("x"),
+        json!(""),
+        json!(null),
+        json!(true),
+        json!([]),
+        json!([1]),
+        json!([0, 0, 0]),
+        json!([1e300, 0, 0]),
+        json!({}),
+        json!("rk45"),
+        json!("paper"),
+        json!("exact"),
+        json!("euler"),
+        json!("plate"),
+        json!("hollow_cylinder"),
+        json!(18446744073709551615u64),
+    ];
+    vals[(rng.next_u32() as usize) % vals.len()].clone()
+}
+
+/// One structural mutation of a JSON value: replace a random node, drop a
+/// random key, add an unknown key, or duplicate an array element.
+fn mutate_json(v: &mut serde_json::Value, rng: &mut Rng) {
+    // Collect paths to every node (as JSON pointers).
+    fn paths(v: &serde_json::Value, at: String, out: &mut Vec<String>) {
+        out.push(at.clone());
+        match v {
+            serde_json::Value::Object(m) => {
+                for (k, c) in m {
+                    paths(c, format!("{at}/{k}"), out);
+                }
+            }
+            serde_json::Value::Array(a) => {
+                for (i, c) in a.iter().enumerate() {
+                    paths(c, format!("{at}/{i}"), out);
+                }
+            }
+            _ => {}
+        }
+    }
+    let mut all = Vec::new();
+    paths(v, String::new(), &mut all);
+    let at = all[(rng.next_u32() as usize) % all.len()].clone();
+    let op = rng.next_u32() % 4;
+    let tok = json_token(rng);
+    let Some(node) = v.pointer_mut(&at) else { return };
+    match (op, node) {
+        (1, serde_json::Value::Object(m)) if !m.is_empty() => {
+            let k = m
+                .keys()
+                .nth((rng.next_u32() as usize) % m.len())
+                .cloned()
+                .unwrap_or_default();
+            m.remove(&k);
+        }
+        (2, serde_json::Value::Object(m)) => {
+            m.insert("colour".into(), tok);
+        }
+        (3, serde_json::Value::Array(a)) if !a.is_empty() => {
+            let x = a[(rng.next_u32() as usize) % a.len()].clone();
+            for _ in 0..1 + rng.next_u32() % 50 {
+                a.push(x.clone());
+            }
+        }
+        (_, n) => *n = tok,
+    }
+}
+
+/// The JSON seeds shipped in `dir` (tests/data/fuzz): files named `grin*.json`
+/// are grin-trace documents, the others warp-points documents.
+pub fn json_seeds(dir: &Path) -> Vec<(JsonTool, String, String)> {
+    let mut v: Vec<(JsonTool, String, String)> = std::fs::read_dir(dir)
+        .map(|rd| {
+            rd.filter_map(|e| e.ok())
+                .map(|e| e.path())
+                .filter(|p| p.extension().is_some_and(|x| x == "json"))
+                .filter_map(|p| {
+                    let name = p.file_name()?.to_string_lossy().to_string();
+                    let tool = if name.starts_with("grin") {
+                        JsonTool::GrinTrace
+                    } else {
+                        JsonTool::WarpPoints
+                    };
+                    std::fs::read_to_string(&p)
+                        .ok()
+                        .map(|t| (tool, p.display().to_string(), t))
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    v.sort_by(|a, b| a.1.cmp(&b.1));
+    v
+}

@@ -121,6 +121,11 @@ enum Cmd {
         seed: u64,
         #[arg(long, default_value = "scenes")]
         scenes_dir: PathBuf,
+        /// Mutated grin-trace / warp-points documents (default: as many as --cases).
+        #[arg(long)]
+        json_cases: Option<u64>,
+        #[arg(long, default_value = "tests/data/fuzz")]
+        json_dir: PathBuf,
     },
     /// Benchmarks that print ratios measured in one run, with provenance.
     Bench {
@@ -311,6 +316,8 @@ fn run(cli: Cli) -> snell::Result<()> {
             cases,
             seed,
             scenes_dir,
+            json_cases,
+            json_dir,
         } => {
             let seeds = snell::fuzz::shipped_scenes(&scenes_dir);
             if seeds.is_empty() {
@@ -345,7 +352,41 @@ fn run(cli: Cli) -> snell::Result<()> {
             for e in rep.unlocated_errors.iter().take(5) {
                 say!("UNLOCATED {e}");
             }
-            if rep.panics.is_empty() && rep.unlocated_errors.is_empty() && rep.slow.is_empty() {
+            for (d, el) in rep.slow.iter().take(5) {
+                say!("SLOW {el:.2} s: {d}");
+            }
+            let json_seeds = snell::fuzz::json_seeds(&json_dir);
+            let jcases = json_cases.unwrap_or(cases);
+            let t = std::time::Instant::now();
+            let jr = snell::fuzz::run_json(&json_seeds, jcases, seed, std::time::Duration::from_secs(1));
+            say!(
+                "{} grin-trace/warp-points documents in {:.1} s ({} seeds): {} answered ({} queries or points with an error status), {} refused with a located error, {} unlocated, {} panics, {} slower than 1 s; slowest {:.3} s ({})",
+                jr.cases,
+                t.elapsed().as_secs_f64(),
+                json_seeds.len(),
+                jr.answered,
+                jr.item_errors,
+                jr.refused - jr.unlocated.len() as u64,
+                jr.unlocated.len(),
+                jr.panics.len(),
+                jr.slow.len(),
+                jr.slowest.0,
+                jr.slowest.1
+            );
+            for p in jr.panics.iter().take(5) {
+                say!("PANIC {p}");
+            }
+            for e in jr.unlocated.iter().take(5) {
+                say!("UNLOCATED {e}");
+            }
+            for (d, el) in jr.slow.iter().take(5) {
+                say!("SLOW {el:.2} s: {d}");
+            }
+            if json_seeds.is_empty() && jcases > 0 {
+                say!("warning: no JSON seeds in {}", json_dir.display());
+            }
+            let json_ok = jr.panics.is_empty() && jr.unlocated.is_empty() && jr.slow.is_empty();
+            if json_ok && rep.panics.is_empty() && rep.unlocated_errors.is_empty() && rep.slow.is_empty() {
                 Ok(())
             } else {
                 Err(snell::Error::Invalid(

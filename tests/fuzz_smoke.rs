@@ -30,3 +30,38 @@ fn mutated_scenes_never_panic() {
         "the mutations must reach both outcomes"
     );
 }
+
+/// The JSON batch tools (`grin-trace`, `warp-points`) on mutated documents:
+/// never a panic, every refusal located, no case over one second.
+#[test]
+fn mutated_json_queries_never_panic_or_hang() {
+    let seeds = fuzz::json_seeds(Path::new("tests/data/fuzz"));
+    assert!(seeds.len() >= 3, "json seeds: {}", seeds.len());
+    let rep = fuzz::run_json(&seeds, 2000, 2026, Duration::from_secs(1));
+    eprintln!(
+        "{} json cases: {} answered ({} item errors), {} refused, {} panics, slowest {:.3} s ({})",
+        rep.cases,
+        rep.answered,
+        rep.item_errors,
+        rep.refused,
+        rep.panics.len(),
+        rep.slowest.0,
+        rep.slowest.1
+    );
+    assert!(rep.panics.is_empty(), "panics:\n{}", rep.panics.join("\n\n"));
+    assert!(
+        rep.unlocated.is_empty(),
+        "unlocated:\n{}",
+        rep.unlocated.join("\n")
+    );
+    assert!(
+        rep.slow.is_empty(),
+        "cases over 1 s:\n{}",
+        rep.slow
+            .iter()
+            .map(|(d, s)| format!("{s:.2} s: {d}"))
+            .collect::<Vec<_>>()
+            .join("\n\n")
+    );
+    assert!(rep.answered > 0 && rep.refused > 0);
+}

@@ -362,6 +362,10 @@ struct Segment {
     entered_medium: bool,
 }
 
+/// Chords one curved segment may take before the path is ended (and counted
+/// as an integrator failure).
+pub const MAX_CHORDS_PER_SEGMENT: u32 = 200_000;
+
 /// Does the straight segment from `p` along unit `wi` for `dist` meet the
 /// gradient-index medium's bounds? Next-event estimation is only used for
 /// connections that do not (light travels straight outside the bounds); a
@@ -396,7 +400,9 @@ fn cast(scene: &RenderScene, ray: &Ray, list: &mut InteriorList, st: &mut Sample
         .bounds()
         .clip(to_d(ray.org), to_d(ray.dir))
         .is_some_and(|(t0, t1)| t0 <= 0.0 && t1 > med.tolerance());
-    for k in 0..1_000_000u32 {
+    // A budget of chords per segment (the load-time checks bound the chord
+    // count across the box; this also covers rays trapped in a duct).
+    for k in 0..MAX_CHORDS_PER_SEGMENT {
         let entered_medium = k > 0 || starts_inside;
         let chord = curved.next_chord(med);
         if chord.length == 0.0 && curved.failure().is_none() {

@@ -128,6 +128,22 @@ fn finite_vec(key: &str, v: DVec3) -> Result<(), String> {
     }
 }
 
+/// Work limits of one query: a query that would need more is refused (before
+/// it starts when the step count is known, else when it gets there), so no
+/// query runs for more than a fraction of a second.
+pub const MAX_STEPS: u64 = 2_000_000;
+pub const MAX_EVALUATIONS: u64 = 10_000_000;
+
+fn over_budget(steps: u64, evals: u64) -> Result<(), String> {
+    if steps > MAX_STEPS || evals > MAX_EVALUATIONS {
+        return Err(format!(
+            "work limit: {steps} steps and {evals} field evaluations without reaching the stop (limits {MAX_STEPS} steps, {MAX_EVALUATIONS} evaluations): {}",
+            "loosen tolerance, enlarge step or shorten the stop"
+        ));
+    }
+    Ok(())
+}
+
 /// Traces one query (errors are "key: message" relative to the query).
 pub fn trace(q: &Query) -> Result<Answer, String> {
     let field = q.field.validated("field").map_err(|e| e.to_string())?;
@@ -169,6 +185,16 @@ pub fn trace(q: &Query) -> Result<Answer, String> {
     };
     if !(step.is_finite() && step > 0.0) {
         return Err(format!("step: expected a finite step > 0, got {step}"));
+    }
+    if q.method != Method::Rk45 && q.method != Method::Exact {
+        // Fixed steps: the count is known up front (the x stop along the straight line).
+        let length = stop_s.unwrap_or(straight.min(max_len));
+        let planned = length / step;
+        if planned > MAX_STEPS as f64 {
+            return Err(format!(
+                "step: {length:.3e} m in steps of {step:.3e} m would take {planned:.2e} steps (limit {MAX_STEPS}): enlarge step"
+            ));
+        }
     }
     let up = field.strata().map_or(DVec3::Y, |s| s.up);
     let mut stepper = Stepper::new(&field, q.method, tol, step);
@@ -335,6 +361,7 @@ fn trace_ode(
                 stop_x.unwrap_or(0.0)
             ));
         }
+        over_budget(*steps, stepper.evals)?;
         let (next, h) = if stepper.method == Method::Rk45 {
             stepper.rk45_step(&cur, &mut h_next, rest)?
         } else {
@@ -398,6 +425,7 @@ fn trace_paper(
                 stop_x.unwrap_or(0.0)
             ));
         }
+        over_budget(*steps, stepper.evals)?;
         let seg = paper::segment(
             stepper.field,
             stepper.method,

@@ -181,6 +181,30 @@ impl Medium {
         }
         let field = field.validated("medium.field")?;
         check_method(&field, method, "medium.method")?;
+        // Absurd sizes are refused before any ray runs: a feature length (the
+        // longest chord the field allows) that would need more than 1e6 chords
+        // across the box.
+        let diag = (bounds.max - bounds.min).length();
+        let feature = field.feature_length();
+        if feature.is_finite() && diag / feature > 1e6 {
+            return Err(MediumError::invalid(
+                "medium.field",
+                format!(
+                    "its feature length {feature:.3e} m (plume: min(radius, height)/2 and wavelength/8; inversion: thickness) \
+                     would need ~{:.1e} chords across the {diag:.3e} m box (limit 1e6)",
+                    diag / feature
+                ),
+            ));
+        }
+        if method.is_paper() && diag / step > 1e6 {
+            return Err(MediumError::invalid(
+                "medium.step",
+                format!(
+                    "a step of {step:.3e} m would need ~{:.1e} steps across the {diag:.3e} m box (limit 1e6)",
+                    diag / step
+                ),
+            ));
+        }
         let (n_min, at) = field.min_n_in(&bounds);
         if !(n_min.is_finite() && n_min > 0.0) {
             let what = if field.strata().is_some() {

@@ -225,7 +225,7 @@ impl<'a> Stepper<'a> {
             *h_next = h * (0.9 * ratio.powf(-0.25)).clamp(0.1, 0.9);
             if h_next.is_nan() || *h_next <= 1e-13 * (1.0 + st.s.abs()) {
                 return Err(format!(
-                    "rk45: step size underflow at arc length {} (tolerance {} too small for f64?)",
+                    "rk45: step size underflow at arc length {:e} m (tolerance {:e} too small for f64?)",
                     st.s, self.tolerance
                 ));
             }
