@@ -492,34 +492,9 @@ impl IndexField {
     /// height: extremes at corners or at interior critical points), and a guaranteed
     /// lower bound for a plume. Returns (min n, where).
     pub fn min_n_in(&self, b: &Aabb) -> (f64, DVec3) {
-        let corners = b.corners();
         match (self.strata(), self) {
             (Some(s), _) => {
-                let hs: Vec<f64> = corners.iter().map(|c| c.dot(s.up) - s.base).collect();
-                let lo = hs.iter().copied().fold(f64::INFINITY, f64::min);
-                let hi = hs.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-                let mut cand = vec![lo, hi];
-                if let IndexField::Inversion {
-                    dn,
-                    height,
-                    thickness,
-                    m,
-                    ..
-                } = *self
-                {
-                    // dn/dh = m + dn/(2w) sech²u = 0  ⇒  sech²u = −2wm/dn.
-                    if dn != 0.0 {
-                        let c = -2.0 * thickness * m / dn;
-                        if c > 0.0 && c <= 1.0 {
-                            let u = (1.0 / c.sqrt()).acosh();
-                            for h in [height + thickness * u, height - thickness * u] {
-                                if h > lo && h < hi {
-                                    cand.push(h);
-                                }
-                            }
-                        }
-                    }
-                }
+                let cand = self.critical_heights(b, s);
                 let mut best = (f64::INFINITY, 0.0);
                 for h in cand {
                     let n = self.n_h(h).map_or(f64::NAN, |v| v.0);
@@ -542,6 +517,59 @@ impl IndexField {
                 (lower, (b.min + b.max) * 0.5)
             }
             _ => (f64::NAN, b.min),
+        }
+    }
+
+    /// Heights where a stratified n can be extreme over the box: the lowest
+    /// and highest heights of its corners and the interior critical points.
+    fn critical_heights(&self, b: &Aabb, s: Strata) -> Vec<f64> {
+        let hs: Vec<f64> = b.corners().iter().map(|c| c.dot(s.up) - s.base).collect();
+        let lo = hs.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = hs.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let mut cand = vec![lo, hi];
+        if let IndexField::Inversion {
+            dn,
+            height,
+            thickness,
+            m,
+            ..
+        } = *self
+        {
+            // dn/dh = m + dn/(2w) sech²u = 0  ⇒  sech²u = −2wm/dn.
+            if dn != 0.0 {
+                let c = -2.0 * thickness * m / dn;
+                if c > 0.0 && c <= 1.0 {
+                    let u = (1.0 / c.sqrt()).acosh();
+                    for h in [height + thickness * u, height - thickness * u] {
+                        if h > lo && h < hi {
+                            cand.push(h);
+                        }
+                    }
+                }
+            }
+        }
+        cand
+    }
+
+    /// The maximum of n over the box (exact for stratified fields, a
+    /// guaranteed upper bound for a plume).
+    pub fn max_n_in(&self, b: &Aabb) -> f64 {
+        match (self.strata(), self) {
+            (Some(s), _) => self
+                .critical_heights(b, s)
+                .into_iter()
+                .map(|h| self.n_h(h).map_or(f64::NAN, |v| v.0))
+                .fold(
+                    f64::NEG_INFINITY,
+                    |a, n| if n.is_nan() { f64::NAN } else { a.max(n) },
+                ),
+            (
+                None,
+                IndexField::Plume {
+                    n_amb, dn, amplitude, ..
+                },
+            ) => n_amb + dn.abs() * (1.0 + amplitude.abs()),
+            _ => f64::NAN,
         }
     }
 }

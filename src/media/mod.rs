@@ -138,6 +138,9 @@ pub struct Medium {
     step: f64,
 }
 
+/// The largest index a medium may reach (real media are below ~4).
+pub const MAX_INDEX: f64 = 10.0;
+
 impl Medium {
     /// Validates: tolerance > 0, step > 0 (both finite), bounds finite and non-empty,
     /// n > 0 everywhere in the bounds (exact minimum for stratified fields, a guaranteed
@@ -181,6 +184,15 @@ impl Medium {
         }
         let field = field.validated("medium.field")?;
         check_method(&field, method, "medium.method")?;
+        // Indices of real media are below ~4; an index of 1e300 is a typo, and
+        // it makes the integrators crawl (found by the proptest strategies).
+        let n_max = field.max_n_in(&bounds);
+        if !(n_max.is_finite() && n_max <= MAX_INDEX) {
+            return Err(MediumError::invalid(
+                "medium.field",
+                format!("expected n <= {MAX_INDEX} everywhere in the bounds, but it reaches {n_max:e}"),
+            ));
+        }
         // Absurd sizes are refused before any ray runs: a feature length (the
         // longest chord the field allows) that would need more than 1e6 chords
         // across the box.

@@ -334,9 +334,16 @@ impl Builder<'_> {
                 if axes[0] == axes[1] {
                     return Err(self.err(&format!("{key}.axes"), "the two checker axes must differ"));
                 }
+                let size = self.positive(&format!("{key}.size"), c.size)?;
+                if size < 1e-9 {
+                    return Err(self.err(
+                        &format!("{key}.size"),
+                        format!("expected a square size >= 1e-9 m, got {size:e}"),
+                    ));
+                }
                 Texture::Checker {
                     axes,
-                    inv_size: (1.0 / self.positive(&format!("{key}.size"), c.size)?) as f32,
+                    inv_size: (1.0 / size) as f32,
                     c0: self.color(&format!("{key}.color0"), c.color0)?,
                     c1: self.color(&format!("{key}.color1"), c.color1)?,
                 }
@@ -1023,14 +1030,15 @@ impl Builder<'_> {
             }
             ShapeDesc::Heightfield(h) => {
                 if h.levels == 0 || h.levels > MAX_HEIGHTFIELD_LEVELS {
-                    let n = (1u128 << h.levels.min(100)) + 1;
+                    // In f64: 2^levels overflows any integer for absurd levels.
+                    let n = 2f64.powi(h.levels.min(2000) as i32) + 1.0;
                     return Err(self.err(
                         &format!("{sk}.levels"),
                         format!(
-                            "expected 1..={MAX_HEIGHTFIELD_LEVELS} levels; {} levels would be {} triangles (~{:.1e} bytes)",
+                            "expected 1..={MAX_HEIGHTFIELD_LEVELS} levels; {} levels would be {:.2e} triangles (~{:.1e} bytes)",
                             h.levels,
-                            2 * (n - 1) * (n - 1),
-                            (n * n * 48) as f64
+                            2.0 * (n - 1.0) * (n - 1.0),
+                            n * n * 48.0
                         ),
                     ));
                 }

@@ -132,7 +132,8 @@ impl Texture {
                 // exact far from the origin.
                 let a = (p[axes[0]] as f64 * *inv_size as f64).floor() as i64;
                 let b = (p[axes[1]] as f64 * *inv_size as f64).floor() as i64;
-                if (a + b).rem_euclid(2) == 0 {
+                // Parities separately: a and b saturate at ±i64::MAX far out.
+                if (a.rem_euclid(2) + b.rem_euclid(2)) % 2 == 0 {
                     *c0
                 } else {
                     *c1
