@@ -148,6 +148,19 @@ pub fn run(
     seed: u64,
     limit: Duration,
 ) -> FuzzReport {
+    run_from(seeds, scene_dir, 0, cases, seed, limit)
+}
+
+/// `run` starting at case `first` (case i is the same document for any
+/// `first`: reproduce a finding with `snell fuzz --first i --cases 1`).
+pub fn run_from(
+    seeds: &[(String, String)],
+    scene_dir: &Path,
+    first: u64,
+    cases: u64,
+    seed: u64,
+    limit: Duration,
+) -> FuzzReport {
     let mut rep = FuzzReport::default();
     let prev = std::panic::take_hook();
     std::panic::set_hook(Box::new(|_| {}));
@@ -174,7 +187,7 @@ pub fn run(
             let _ = std::fs::write(obj_dir.join(n), t);
         }
     }
-    for i in 0..cases {
+    for i in first..first.saturating_add(cases) {
         let mut rng = Rng::for_sample(seed, i, 0);
         let mutate_obj = have_obj_dir && rng.next_u32().is_multiple_of(4);
         let (name, base, dir, restore) = if mutate_obj {
@@ -234,7 +247,8 @@ pub fn run(
             rep.slowest = (el, format!("case {i} ({name})"));
         }
         if el > limit.as_secs_f64() {
-            rep.slow.push((format!("case {i} ({name})"), el));
+            rep.slow
+                .push((format!("case {i} ({name})\n--- document ---\n{text}"), el));
         }
         match outcome {
             Ok(Ok(true)) => rep.rendered += 1,

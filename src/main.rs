@@ -121,6 +121,9 @@ enum Cmd {
         seed: u64,
         #[arg(long, default_value = "scenes")]
         scenes_dir: PathBuf,
+        /// Start at this scene case (to reproduce one: --first N --cases 1 --json-cases 0).
+        #[arg(long, default_value_t = 0)]
+        first: u64,
         /// Mutated grin-trace / warp-points documents (default: as many as --cases).
         #[arg(long)]
         json_cases: Option<u64>,
@@ -316,6 +319,7 @@ fn run(cli: Cli) -> snell::Result<()> {
             cases,
             seed,
             scenes_dir,
+            first,
             json_cases,
             json_dir,
         } => {
@@ -327,9 +331,10 @@ fn run(cli: Cli) -> snell::Result<()> {
                 )));
             }
             let t = std::time::Instant::now();
-            let rep = snell::fuzz::run(
+            let rep = snell::fuzz::run_from(
                 &seeds,
                 &scenes_dir,
+                first,
                 cases,
                 seed,
                 std::time::Duration::from_secs(1),

@@ -83,6 +83,7 @@ struct Output {
 pub fn grin_trace_json(input: &str) -> Result<String, MediumError> {
     let doc: Input = serde_json::from_str(input)
         .map_err(|e| MediumError::invalid("(document)", format!("expected {{\"queries\": [...]}} ({e})")))?;
+    let used = std::cell::Cell::new(0u64);
     let results = doc
         .queries
         .iter()
@@ -103,7 +104,15 @@ pub fn grin_trace_json(input: &str) -> Result<String, MediumError> {
                 evaluations: 0,
                 steps: 0,
             };
-            match serde_json::from_value::<Query>(v.clone()) {
+            let left = DOCUMENT_WORK.saturating_sub(used.get());
+            if left == 0 {
+                return fail(format!(
+                    "queries[{i}]: work limit: the document's {DOCUMENT_WORK} steps + evaluations were used by the queries before this one"
+                ));
+            }
+            WORK_LEFT.with(|w| w.set(left));
+            WORK_DONE.with(|w| w.set(0));
+            let answer = match serde_json::from_value::<Query>(v.clone()) {
                 Err(e) => fail(format!("queries[{i}]: {e}")),
                 Ok(q) => match trace(&q) {
                     Ok(a) => a,
@@ -113,9 +122,12 @@ pub fn grin_trace_json(input: &str) -> Result<String, MediumError> {
                         a
                     }
                 },
-            }
+            };
+            used.set(used.get() + WORK_DONE.with(|w| w.get()).max(answer.evaluations + answer.steps));
+            answer
         })
         .collect();
+    WORK_LEFT.with(|w| w.set(u64::MAX));
     serde_json::to_string_pretty(&Output { results })
         .map_err(|e| MediumError::invalid("(output)", e.to_string()))
 }
@@ -133,11 +145,23 @@ fn finite_vec(key: &str, v: DVec3) -> Result<(), String> {
 /// query runs for more than a fraction of a second.
 pub const MAX_STEPS: u64 = 2_000_000;
 pub const MAX_EVALUATIONS: u64 = 10_000_000;
+/// Work (steps + evaluations) of a whole document: a document of many heavy
+/// queries stops there (the later queries get a work-limit status).
+pub const DOCUMENT_WORK: u64 = 20_000_000;
+
+thread_local! {
+    /// Work this thread's current query may still do (set per query by the document).
+    static WORK_LEFT: std::cell::Cell<u64> = const { std::cell::Cell::new(u64::MAX) };
+    /// Work the current query has done so far (updated at every step).
+    static WORK_DONE: std::cell::Cell<u64> = const { std::cell::Cell::new(0) };
+}
 
 fn over_budget(steps: u64, evals: u64) -> Result<(), String> {
-    if steps > MAX_STEPS || evals > MAX_EVALUATIONS {
+    let left = WORK_LEFT.with(|w| w.get());
+    WORK_DONE.with(|w| w.set(steps + evals));
+    if steps > MAX_STEPS || evals > MAX_EVALUATIONS || steps + evals > left {
         return Err(format!(
-            "work limit: {steps} steps and {evals} field evaluations without reaching the stop (limits {MAX_STEPS} steps, {MAX_EVALUATIONS} evaluations): {}",
+            "work limit: {steps} steps and {evals} field evaluations without reaching the stop (limits {MAX_STEPS} steps, {MAX_EVALUATIONS} evaluations, {DOCUMENT_WORK} steps + evaluations per document): {}",
             "loosen tolerance, enlarge step or shorten the stop"
         ));
     }
