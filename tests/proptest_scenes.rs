@@ -270,6 +270,25 @@ fn regressions_found_by_the_strategies() {
         ),
     ];
     for (extra, key) in cases {
+        check(base, extra, key);
+    }
+    // The absurd sizes, each refused with the estimated cost.
+    for (extra, key) in [
+        (
+            "[medium]\nfield = { kind = \"constant\", n = 1.0 }\nbounds = { min = [-1.0, -1.0, -1.0], max = [1.0, 1.0, 1.0] }\ntolerance = 1e-300\n[[lights]]\ntype = \"point\"\nposition = [0.0, 0.0, 0.0]\nintensity = [1.0, 1.0, 1.0]\n",
+            "chords per metre",
+        ),
+        (
+            "[[objects]]\nshape = { type = \"heightfield\", size = [1.0, 1.0], levels = 14, height = 0.0, roughness = 0.5 }\nmaterial = { type = \"black\" }\n",
+            "5.37e8 triangles",
+        ),
+    ] {
+        check(base, extra, key);
+    }
+}
+
+fn check(base: &str, extra: &str, key: &str) {
+    {
         let doc = format!("{base}{extra}");
         let e = load_scene_str("r.toml", &doc, Path::new("scenes"), &BuildOptions::default())
             .err()

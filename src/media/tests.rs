@@ -482,3 +482,35 @@ fn grin_trace_round_trip_and_bad_queries() {
     let again: serde_json::Value = serde_json::from_str(&out).unwrap();
     assert_eq!(again, v);
 }
+
+/// Queries that would run for minutes are refused up front (fixed steps) or
+/// stopped at the work limit (found by the JSON fuzzer: five hangs).
+#[test]
+fn grin_trace_bounds_the_work_of_a_query() {
+    use super::grin_trace::grin_trace_json;
+    let q = |extra: &str| {
+        format!(
+            r#"{{"queries": [{{"id": "x", "field": {{"kind": "linear", "n0": 1.0, "m": 0.01}}, "start": [0, 0, 0], "direction": [0.9848, 0.1736, 0], "stop": {{"x": 100.0}}, {extra}}}]}}"#
+        )
+    };
+    for (extra, want) in [
+        (r#""method": "rk4", "step": 1e-300"#, "would take"),
+        (r#""method": "slab", "steps": 1000000000000"#, "would take"),
+        (r#""method": "length", "step": 1e-9"#, "would take"),
+        (
+            r#""method": "rk45", "tolerance": 1e-10, "max_length": 1e300, "stop": {"s": 1e300}"#,
+            "work limit",
+        ),
+    ] {
+        let doc = q(extra).replace(r#""stop": {"x": 100.0}, "method": "rk45""#, r#""method": "rk45""#);
+        let doc = if extra.contains("\"stop\"") {
+            doc.replacen(r#""stop": {"x": 100.0}, "#, "", 1)
+        } else {
+            doc
+        };
+        let t = std::time::Instant::now();
+        let out = grin_trace_json(&doc).unwrap();
+        assert!(out.contains(want), "{extra}: {out}");
+        assert!(t.elapsed().as_secs_f64() < 5.0, "{extra}: {:?}", t.elapsed());
+    }
+}
