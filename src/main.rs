@@ -427,13 +427,14 @@ fn run(cli: Cli) -> snell::Result<()> {
                 let t = std::time::Instant::now();
                 let r = pool.install(|| snell::dielectric::audit::audit_scene(&s, rays, seed))?;
                 say!(
-                    "{:<7} {} rays ({} at vertices/edges, {} at silhouettes), {} segments: {} mismatches, {} left non-empty, {} wrong rays ({:.4}%) [{:.1} s]",
+                    "{:<7} {} rays ({} at vertices/edges, {} at silhouettes), {} segments: {} mismatches (+{} within f32 resolution of a surface), {} left non-empty, {} wrong rays ({:.4}%) [{:.1} s]",
                     strategy.name(),
                     r.rays,
                     r.vertex_edge_rays,
                     r.silhouette_rays,
                     r.segments,
                     r.mismatches,
+                    r.ambiguous,
                     r.left_nonempty,
                     r.wrong_rays,
                     100.0 * r.wrong_rays as f64 / r.rays.max(1) as f64,
