@@ -259,11 +259,7 @@ pub fn run_from(
                 rep.unlocated_errors.push(format!("case {i} ({name}): {msg}"));
             }
             Err(p) => {
-                let msg = p
-                    .downcast_ref::<&str>()
-                    .map(|s| s.to_string())
-                    .or_else(|| p.downcast_ref::<String>().cloned())
-                    .unwrap_or_default();
+                let msg = panic_message(p.as_ref());
                 rep.panics
                     .push(format!("case {i} ({name}): {msg}\n--- document ---\n{text}"));
             }
@@ -293,6 +289,14 @@ pub fn shipped_scenes(dir: &Path) -> Vec<(String, String)> {
         .unwrap_or_default();
     v.sort();
     v
+}
+
+/// The text of a caught panic.
+fn panic_message(p: &(dyn std::any::Any + Send)) -> String {
+    p.downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| p.downcast_ref::<String>().cloned())
+        .unwrap_or_default()
 }
 
 /// Which batch tool a JSON document is for.
@@ -382,11 +386,7 @@ pub fn run_json(
                 }
             }
             Err(p) => {
-                let msg = p
-                    .downcast_ref::<&str>()
-                    .map(|s| s.to_string())
-                    .or_else(|| p.downcast_ref::<String>().cloned())
-                    .unwrap_or_default();
+                let msg = panic_message(p.as_ref());
                 rep.panics
                     .push(format!("{label}: {msg}\n--- document ---\n{text}"));
             }

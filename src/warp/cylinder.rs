@@ -164,7 +164,7 @@ fn reflect2(d: DVec2, n: DVec2) -> DVec2 {
 }
 
 /// Roots s of |x + s·h| = c (h unit), ascending.
-fn circle(x: DVec2, h: DVec2, c: f64) -> Option<(f64, f64)> {
+pub(crate) fn circle(x: DVec2, h: DVec2, c: f64) -> Option<(f64, f64)> {
     let b = x.dot(h);
     let q = x.length_squared() - c * c;
     let disc = b * b - q;
@@ -498,6 +498,22 @@ impl HollowCylinder {
         self.refine(fam, e, p, dv, dist, eye, &f, lo, hi, beta0, in_hollow)
     }
 
+    /// Signed distance of the target `p` from the final 2-D ray of `fam` for
+    /// (b, β), or `None` if the family does not apply or `p` is behind the ray.
+    fn signed_miss(
+        &self,
+        fam: Family,
+        e: DVec2,
+        p: DVec2,
+        b: f64,
+        beta: f64,
+        in_hollow: bool,
+    ) -> Option<f64> {
+        let path = self.path(fam, e, b, beta, in_hollow)?;
+        let rel = p - path.origin;
+        (rel.dot(path.dir) > 0.0).then(|| path.dir.perp_dot(rel))
+    }
+
     /// The interval of impact parameters where `fam` applies for β, on the
     /// side of `b` (the two-refraction families have a band on each side).
     fn domain(&self, fam: Family, beta: f64, b: f64) -> (f64, f64) {
@@ -757,11 +773,7 @@ impl HollowCylinder {
         beta0: f64,
         in_hollow: bool,
     ) -> Option<CylImage> {
-        let gval = |b: f64, beta: f64| -> Option<f64> {
-            let path = self.path(fam, e, b, beta, in_hollow)?;
-            let rel = p - path.origin;
-            (rel.dot(path.dir) > 0.0).then(|| path.dir.perp_dot(rel))
-        };
+        let gval = |b: f64, beta: f64| self.signed_miss(fam, e, p, b, beta, in_hollow);
         // Bisection in b for fixed β inside a bracket; widen the bracket when β moved.
         let solve_b = |beta: f64, lo: f64, hi: f64| -> Option<f64> {
             let (mut lo, mut hi) = (lo, hi);
@@ -842,11 +854,7 @@ impl HollowCylinder {
         beta: f64,
         in_hollow: bool,
     ) -> Option<CylImage> {
-        let gval = |b: f64, beta: f64| -> Option<f64> {
-            let path = self.path(fam, e, b, beta, in_hollow)?;
-            let rel = p - path.origin;
-            (rel.dot(path.dir) > 0.0).then(|| path.dir.perp_dot(rel))
-        };
+        let gval = |b: f64, beta: f64| self.signed_miss(fam, e, p, b, beta, in_hollow);
         let h = Self::dir_for(e, b);
         let dir = (f.u * h.x + f.w * h.y) * (1.0 - beta * beta).sqrt() + f.a * beta;
         // Parity: orientation of b → crossing position against a straight view.

@@ -18,26 +18,12 @@
 //! (the family of the straight line); `tir2` is not modelled (the paper does
 //! not either). Measured against the exact solver in `benches/warp.rs` and in
 //! the tests below.
-use super::cylinder::{CylImage, CylStatus, Family, HollowCylinder};
+use super::cylinder::{circle, CylImage, CylStatus, Family, HollowCylinder};
 use glam::{DVec2, DVec3};
 
 fn refract2(d: DVec2, n: DVec2, n1: f64, n2: f64) -> Option<DVec2> {
     let t = crate::optics::refract(d.extend(0.0), n.extend(0.0), n1, n2)?;
     Some(t.truncate().normalize())
-}
-
-/// Roots of |x + s·h| = c for unit h, ascending.
-fn circle(x: DVec2, h: DVec2, c: f64) -> Option<(f64, f64)> {
-    let b = x.dot(h);
-    let q = x.length_squared() - c * c;
-    let disc = b * b - q;
-    if disc < 0.0 {
-        return None;
-    }
-    let s = disc.sqrt();
-    let t0 = if b > 0.0 { -(b + s) } else { -b + s };
-    let (a0, a1) = if t0 == 0.0 { (-b, -b) } else { (t0, q / t0) };
-    Some((a0.min(a1), a0.max(a1)))
 }
 
 /// One stage: the eye `v` sees `q` through one refraction (n1 → n2) at the
