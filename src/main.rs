@@ -184,6 +184,19 @@ enum BenchCmd {
     },
 }
 
+/// The first few findings of a fuzz run, each with its document.
+fn print_findings(panics: &[String], unlocated: &[String], slow: &[(String, f64)]) {
+    for p in panics.iter().take(5) {
+        say!("PANIC {p}");
+    }
+    for e in unlocated.iter().take(5) {
+        say!("UNLOCATED {e}");
+    }
+    for (d, el) in slow.iter().take(5) {
+        say!("SLOW {el:.2} s: {d}");
+    }
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match run(cli) {
@@ -351,15 +364,7 @@ fn run(cli: Cli) -> snell::Result<()> {
                 rep.slowest.0,
                 rep.slowest.1
             );
-            for p in rep.panics.iter().take(5) {
-                say!("PANIC {p}");
-            }
-            for e in rep.unlocated_errors.iter().take(5) {
-                say!("UNLOCATED {e}");
-            }
-            for (d, el) in rep.slow.iter().take(5) {
-                say!("SLOW {el:.2} s: {d}");
-            }
+            print_findings(&rep.panics, &rep.unlocated_errors, &rep.slow);
             let json_seeds = snell::fuzz::json_seeds(&json_dir);
             let jcases = json_cases.unwrap_or(cases);
             let t = std::time::Instant::now();
@@ -378,15 +383,7 @@ fn run(cli: Cli) -> snell::Result<()> {
                 jr.slowest.0,
                 jr.slowest.1
             );
-            for p in jr.panics.iter().take(5) {
-                say!("PANIC {p}");
-            }
-            for e in jr.unlocated.iter().take(5) {
-                say!("UNLOCATED {e}");
-            }
-            for (d, el) in jr.slow.iter().take(5) {
-                say!("SLOW {el:.2} s: {d}");
-            }
+            print_findings(&jr.panics, &jr.unlocated, &jr.slow);
             if json_seeds.is_empty() && jcases > 0 {
                 say!("warning: no JSON seeds in {}", json_dir.display());
             }
