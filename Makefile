@@ -8,12 +8,20 @@ APT_PACKAGES := libembree-dev libclang-dev
 
 .PHONY: deps demo test build bench fmt lint clean fuzz check-memory
 
+# Probes for exactly what the build loads: Embree's header and libembree3.so, and
+# the libclang that bindgen (clang-sys) opens: libclang.so or libclang-<version>.so*.
+# libclang-cpp.so (the stock image's libclang-cpp14) is a different library and
+# does not count.
 deps:
-	@missing=""; \
-	[ -f /usr/include/embree3/rtcore.h ] || missing="$$missing libembree-dev"; \
-	ls /usr/lib/llvm-*/lib/libclang*.so* >/dev/null 2>&1 || ls /usr/lib/x86_64-linux-gnu/libclang*.so* >/dev/null 2>&1 || missing="$$missing libclang-dev"; \
-	if [ -n "$$EMBREE_DIR" ] && [ -f "$$EMBREE_DIR/include/embree3/rtcore.h" ]; then missing=$${missing/libembree-dev/}; fi; \
-	if [ -n "$$(echo $$missing)" ]; then \
+	@any() { for f in "$$@"; do [ -e "$$f" ] && return 0; done; return 1; }; \
+	missing=""; \
+	if [ -n "$$EMBREE_DIR" ] && [ -f "$$EMBREE_DIR/include/embree3/rtcore.h" ]; then :; \
+	elif [ -f /usr/include/embree3/rtcore.h ] && any /usr/lib/*/libembree3.so /usr/lib/libembree3.so /usr/local/lib/libembree3.so; then :; \
+	else missing="$$missing libembree-dev"; fi; \
+	if [ -n "$$LIBCLANG_PATH" ] && any "$$LIBCLANG_PATH"/libclang.so* "$$LIBCLANG_PATH"/libclang-[0-9]*.so*; then :; \
+	elif any /usr/lib/llvm-*/lib/libclang.so /usr/lib/llvm-*/lib/libclang-[0-9]*.so* /usr/lib/*/libclang.so /usr/lib/*/libclang-[0-9]*.so*; then :; \
+	else missing="$$missing libclang-dev"; fi; \
+	if [ -n "$$missing" ]; then \
 	  echo "snell: installing missing system packages:$$missing"; \
 	  if [ "$$(id -u)" = 0 ]; then \
 	    export DEBIAN_FRONTEND=noninteractive; apt-get update && apt-get install -y $$missing || exit 1; \
