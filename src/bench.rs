@@ -69,7 +69,7 @@ pub fn embree_bare(n_rays: usize, reps: usize) -> Result<BareFigures> {
     let mut profile = profile;
     profile[0][0] = 0.0;
     profile[100][0] = 0.0;
-    let sphere = meshgen::lathe(&profile, 100);
+    let sphere = meshgen::lathe(&profile, 100, meshgen::LatheShading::Flat);
     let shifted: Vec<[f32; 3]> = sphere
         .positions
         .iter()

@@ -1017,8 +1017,18 @@ impl Builder<'_> {
                 let first = l.profile[0];
                 let last = l.profile[l.profile.len() - 1];
                 closed_mesh = first[0] == 0.0 && last[0] == 0.0;
+                if !(0.0..=180.0).contains(&l.crease_angle) {
+                    return Err(self.err(&format!("{sk}.crease_angle"), "expected degrees in 0..=180"));
+                }
+                let shading = if l.smooth {
+                    meshgen::LatheShading::Smooth {
+                        crease_deg: l.crease_angle,
+                    }
+                } else {
+                    meshgen::LatheShading::Flat
+                };
                 Shape::Mesh(Arc::new(
-                    self.xf_mesh(meshgen::lathe(&l.profile, l.segments), &xf),
+                    self.xf_mesh(meshgen::lathe(&l.profile, l.segments, shading), &xf),
                 ))
             }
             ShapeDesc::Mesh(m) => {

@@ -392,6 +392,18 @@ pub struct LatheDesc {
     pub profile: Vec<[f64; 2]>,
     #[serde(default = "default_segments")]
     pub segments: u32,
+    /// Shading normals smooth around the axis (default true); false shades
+    /// every facet flat.
+    #[serde(default = "yes")]
+    pub smooth: bool,
+    /// Profile joints turning by at most this many degrees are smoothed too
+    /// (default 30); sharper ones (rims, base edges) stay sharp.
+    #[serde(default = "default_crease")]
+    pub crease_angle: f64,
+}
+
+fn default_crease() -> f64 {
+    30.0
 }
 
 fn default_segments() -> u32 {

@@ -57,12 +57,112 @@ pub fn cuboid(center: DVec3, size: DVec3) -> Mesh {
     m
 }
 
+/// How a lathe is shaded.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum LatheShading {
+    /// No shading normals: every facet shows its geometric normal.
+    Flat,
+    /// Vertex normals smooth around the axis; along the profile, a joint whose
+    /// turn is at most `crease_deg` degrees is smoothed too, a sharper one (a
+    /// rim, a base edge) keeps each band's own normal.
+    Smooth { crease_deg: f64 },
+}
+
 /// A profile of (radius, height) points revolved around +y, `segments` around.
 /// Consecutive profile points form bands; points on the axis (r = 0) produce
 /// fans, not degenerate triangles. Winding: a profile walked bottom → top on
 /// the outside (increasing y at r > 0) faces away from the axis.
-/// Vertices are shared around and along the profile so the result can be closed.
-pub fn lathe(profile: &[[f64; 2]], segments: u32) -> Mesh {
+///
+/// Flat: vertices are shared around and along the profile. Smooth: every band
+/// has its own rings (same f32 positions as its neighbours', so the mesh is
+/// still closed after welding and Embree still sees no cracks) carrying the
+/// band's normal, or at a smooth joint the mean of the two bands' normals.
+pub fn lathe(profile: &[[f64; 2]], segments: u32, shading: LatheShading) -> Mesh {
+    let crease_deg = match shading {
+        LatheShading::Flat => return lathe_shared(profile, segments),
+        LatheShading::Smooth { crease_deg } => crease_deg,
+    };
+    let s = segments as usize;
+    let angle = |k: f64| std::f64::consts::TAU * k / s as f64;
+    // Position of ring point k of profile point p: the same expression as the
+    // flat lathe, so rings of neighbouring bands have bit-identical positions.
+    let pos = |p: [f64; 2], k: usize| -> [f32; 3] {
+        if p[0] == 0.0 {
+            [0.0, p[1] as f32, 0.0]
+        } else {
+            let a = angle(k as f64);
+            [(p[0] * a.cos()) as f32, p[1] as f32, (-p[0] * a.sin()) as f32]
+        }
+    };
+    // Outward normal of band i in the (r, y) plane: the profile direction
+    // turned clockwise, (dy, −dr) (up the outside → +r; along the base → −y).
+    let nb = profile.len().saturating_sub(1);
+    let band_n: Vec<Option<[f64; 2]>> = (0..nb)
+        .map(|i| {
+            let (dr, dy) = (profile[i + 1][0] - profile[i][0], profile[i + 1][1] - profile[i][1]);
+            let l = dr.hypot(dy);
+            (l > 0.0).then(|| [dy / l, -dr / l])
+        })
+        .collect();
+    let cos_crease = crease_deg.to_radians().cos();
+    // Normal at profile point `at` for band `b`: smoothed with the other band
+    // meeting there when the joint turns by at most the crease angle.
+    let joint_n = |b: usize, at: usize| -> [f64; 2] {
+        let own = band_n[b].unwrap_or([0.0, 0.0]);
+        let other = if at == b { b.checked_sub(1) } else { (b + 1 < nb).then_some(b + 1) };
+        match other.and_then(|o| band_n[o]) {
+            Some(o) if own[0] * o[0] + own[1] * o[1] >= cos_crease => {
+                let (r, y) = (own[0] + o[0], own[1] + o[1]);
+                let l = r.hypot(y);
+                [r / l, y / l]
+            }
+            _ => own,
+        }
+    };
+    let n3 = |n: [f64; 2], a: f64| -> [f32; 3] {
+        [(n[0] * a.cos()) as f32, n[1] as f32, (-n[0] * a.sin()) as f32]
+    };
+    let mut m = Mesh {
+        normals: Some(vec![]),
+        ..Default::default()
+    };
+    for b in 0..nb {
+        let ends = [b, b + 1];
+        let on_axis = ends.map(|i| profile[i][0] == 0.0);
+        if on_axis[0] && on_axis[1] {
+            continue;
+        }
+        // One ring per end: s vertices; an axis end gets s copies of the axis
+        // point whose normals follow the facet's mid angle (a cone's tip has
+        // no single normal).
+        let mut ring = [0u32; 2];
+        for (e, &i) in ends.iter().enumerate() {
+            ring[e] = m.positions.len() as u32;
+            let n = joint_n(b, i);
+            for k in 0..s {
+                m.positions.push(pos(profile[i], k));
+                let a = if on_axis[e] { angle(k as f64 + 0.5) } else { angle(k as f64) };
+                m.normals.as_mut().expect("set above").push(n3(n, a));
+            }
+        }
+        let idx = |e: usize, k: usize| ring[e] + (k % s) as u32;
+        for k in 0..s {
+            let (a0, a1, b0, b1) = (idx(0, k), idx(0, k + 1), idx(1, k), idx(1, k + 1));
+            // A fan's axis vertex is the copy at this facet's own angle (k).
+            if !on_axis[0] {
+                let b1 = if on_axis[1] { b0 } else { b1 };
+                m.indices.push([a0, a1, b1]);
+            }
+            if !on_axis[1] {
+                m.indices.push([a0, b1, b0]);
+            }
+        }
+    }
+    m
+}
+
+/// The flat lathe: vertices shared around and along the profile, no normals.
+fn lathe_shared(profile: &[[f64; 2]], segments: u32) -> Mesh {
     let s = segments as usize;
     let mut m = Mesh::default();
     let mut ring_start = Vec::with_capacity(profile.len());
@@ -348,14 +448,68 @@ mod tests {
     fn closed_lathe_is_a_solid_and_open_lathe_is_not() {
         // A cylinder of radius 1, height 1, closed by fans at both ends.
         let p = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
-        let m = lathe(&p, 64);
+        let m = lathe(&p, 64, LatheShading::Flat);
         m.check_closed().unwrap();
         let v = m.signed_volume();
         let exact = 0.5 * 64.0 * (std::f64::consts::TAU / 64.0).sin();
         assert!((v - exact).abs() < 1e-4, "{v} vs {exact}");
         assert!(find_degenerate(&m).is_none());
-        let open = lathe(&p[1..3], 64);
+        let open = lathe(&p[1..3], 64, LatheShading::Flat);
         assert!(open.check_closed().is_err());
+    }
+
+    #[test]
+    fn smooth_lathe_is_closed_smooth_around_and_sharp_at_corners() {
+        // The glass of water's profile: base, outer wall, rim, inner wall, inner bottom.
+        let p = [[0.0, 0.0], [1.0, 0.0], [1.0, 2.5], [0.9, 2.5], [0.9, 0.1], [0.0, 0.1]];
+        let flat = lathe(&p, 64, LatheShading::Flat);
+        let m = lathe(&p, 64, LatheShading::Smooth { crease_deg: 30.0 });
+        m.check_closed().unwrap();
+        assert!(find_degenerate(&m).is_none());
+        assert!((m.signed_volume() - flat.signed_volume()).abs() < 1e-9);
+        let ns = m.normals.as_ref().unwrap();
+        assert_eq!(ns.len(), m.positions.len());
+        for (q, n) in m.positions.iter().zip(ns) {
+            let (q, n) = (DVec3::from_array(q.map(|c| c as f64)), DVec3::from_array(n.map(|c| c as f64)));
+            let r = q.x.hypot(q.z);
+            let radial = DVec3::new(q.x, 0.0, q.z) / r.max(1e-30);
+            assert!((n.length() - 1.0).abs() < 1e-6);
+            // Every vertex normal is the pure normal of one band: radial (±)
+            // on the walls, ±y on base, rim and inner bottom; none is the
+            // 45° mean a smoothed 90° corner would give.
+            let is_wall = (n.dot(radial).abs() - 1.0).abs() < 1e-6 && n.y.abs() < 1e-6;
+            let is_cap = (n.y.abs() - 1.0).abs() < 1e-6;
+            assert!(is_wall || is_cap, "vertex {q} normal {n}");
+        }
+        // The shading normal at a point of the outer wall is radial (smooth
+        // around), while the facet's geometric normal is not.
+        let t = m
+            .indices
+            .iter()
+            .position(|t| t.iter().all(|&i| (m.positions[i as usize][0].hypot(m.positions[i as usize][2]) - 1.0).abs() < 1e-6)
+                && (0..3).any(|k| m.positions[t[k] as usize][1] == 0.0)
+                && (0..3).any(|k| m.positions[t[k] as usize][1] == 2.5))
+            .unwrap();
+        let (n, _) = m.shading(t as u32, 0.3, 0.3);
+        let q = m.point(t as u32, 0.3, 0.3);
+        let radial = glam::Vec3A::new(q.x, 0.0, q.z).normalize();
+        assert!(n.unwrap().dot(radial) > 1.0 - 1e-6);
+        assert!(flat.normals.is_none());
+        // A fine profile of a sphere is smooth across its joints (turn < crease).
+        let sph: Vec<[f64; 2]> = (0..=32)
+            .map(|i| {
+                let a = std::f64::consts::PI * (i as f64 / 32.0 - 0.5);
+                [if i == 0 || i == 32 { 0.0 } else { a.cos() }, a.sin()]
+            })
+            .collect();
+        let m = lathe(&sph, 64, LatheShading::Smooth { crease_deg: 30.0 });
+        m.check_closed().unwrap();
+        for (q, n) in m.positions.iter().zip(m.normals.as_ref().unwrap()) {
+            let (q, n) = (DVec3::from_array(q.map(|c| c as f64)), DVec3::from_array(n.map(|c| c as f64)));
+            if q.x.hypot(q.z) > 0.1 {
+                assert!(n.dot(q.normalize()) > 0.995, "{q} {n}");
+            }
+        }
     }
 
     #[test]
