@@ -127,7 +127,7 @@ fn main() {
         .derive_default(true)
         .derive_debug(true)
         .prepend_enum_name(false)
-        .layout_tests(false);
+        .layout_tests(true);
     for d in &found.include_dirs {
         builder = builder.clang_arg(format!("-I{}", d.display()));
     }

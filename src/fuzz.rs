@@ -10,6 +10,68 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::Path;
 use std::time::{Duration, Instant};
 
+/// Does an input error point at a line that cannot hold its key? The line
+/// must contain the key's last name (`objects[2].material.ior` → `ior`), or,
+/// for a key ending in an index or naming a whole table (`objects[2]`,
+/// `objects[2].shape`), the parent's name or a table header. Errors about the
+/// whole document and keys the file never wrote (a missing key, reported at
+/// its table) are not judged by the name, only by being a real line.
+pub fn mislocated(text: &str, key: &str, line: usize) -> bool {
+    let lines: Vec<&str> = text.lines().collect();
+    if key.is_empty() || key.starts_with('(') {
+        return false;
+    }
+    let Some(l) = line.checked_sub(1).and_then(|i| lines.get(i)) else {
+        return line > lines.len() + 1;
+    };
+    // Line 1 is where a key the document never wrote is reported; an empty
+    // key name (`"" = 1`) has no name to look for.
+    if line == 1 || key.ends_with('.') {
+        return false;
+    }
+    let names: Vec<&str> = key
+        .split('.')
+        .map(|seg| seg.split('[').next().unwrap_or(""))
+        .filter(|n| !n.is_empty())
+        .collect();
+    let Some(last) = names.last() else { return false };
+    // A key inside the i-th [[objects]] / [[lights]] must point into that block.
+    let first = key.split('.').next().unwrap_or("");
+    if let Some((table, idx)) = first.strip_suffix(']').and_then(|f| f.split_once('[')) {
+        if let Ok(idx) = idx.parse::<usize>() {
+            let header = format!("[[{table}]]");
+            let starts: Vec<usize> = lines
+                .iter()
+                .enumerate()
+                .filter(|(_, t)| t.trim() == header)
+                .map(|(i, _)| i)
+                .collect();
+            if let Some(&s0) = starts.get(idx) {
+                let end = lines
+                    .iter()
+                    .enumerate()
+                    .skip(s0 + 1)
+                    .find(|(_, t)| t.trim_start().starts_with('['))
+                    .map(|(i, _)| i)
+                    .unwrap_or(lines.len());
+                if !(s0..end).contains(&(line - 1)) {
+                    return true;
+                }
+            }
+        }
+    }
+    if l.contains(last) {
+        return false;
+    }
+    // The key was not written at all (a default or a missing key): its table's
+    // header or inline table is the right place; any line mentioning a parent.
+    let written = text.contains(last);
+    if !written || l.trim_start().starts_with('[') || l.contains('{') {
+        return false;
+    }
+    !names.iter().any(|n| l.contains(n))
+}
+
 /// Replacement tokens that probe numeric and structural edge cases.
 const TOKENS: &[&str] = &[
     "-1",
@@ -233,6 +295,12 @@ pub fn run_from(
                     )
                     .map(|_| true)
                     .map_err(|e| e.to_string())
+                }
+                Err(crate::Error::Input { ref key, line, .. }) if mislocated(&text, key, line) => {
+                    Err(format!(
+                        "mislocated: the error names {key} but line {line} does not hold it: {:?}",
+                        text.lines().nth(line.saturating_sub(1)).unwrap_or("")
+                    ))
                 }
                 Err(crate::Error::Input { .. }) => Ok(false),
                 Err(e) => Err(e.to_string()),
@@ -502,4 +570,24 @@ pub fn json_seeds(dir: &Path) -> Vec<(JsonTool, String, String)> {
         .unwrap_or_default();
     v.sort_by(|a, b| a.1.cmp(&b.1));
     v
+}
+
+#[cfg(test)]
+mod tests {
+    use super::mislocated;
+
+    #[test]
+    fn location_check_catches_lines_outside_the_keys_block() {
+        let doc = "[film]\nwidth = 8\n[[objects]]\nname = \"a\"\n[[objects]]\nname = \"b\"\nshape = { type = \"sphere\" }\n[[objects]]\nname = \"a\"\n";
+        // Right: the third object's name at line 9; a key at its own line.
+        assert!(!mislocated(doc, "objects[2].name", 9));
+        assert!(!mislocated(doc, "film.width", 2));
+        assert!(!mislocated(doc, "objects[1].shape.radius", 7));
+        assert!(!mislocated(doc, "(document)", 1));
+        // Wrong: the third object's key at the second object's line (the
+        // duplicate-name bug of issue 12), a key at a line that holds another.
+        assert!(mislocated(doc, "objects[2].name", 6));
+        assert!(mislocated(doc, "film.width", 4));
+        assert!(mislocated(doc, "film.width", 99));
+    }
 }

@@ -1,4 +1,5 @@
 //! The `snell` command line.
+#![deny(unsafe_code)]
 use clap::{Parser, Subcommand};
 use snell::dielectric::NestedStrategy;
 use snell::render::{render, RenderOptions};

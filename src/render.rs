@@ -204,6 +204,9 @@ fn render_tile(scene: &RenderScene, x0: u32, y0: u32, want_aovs: bool) -> Result
             }
         }
     }
+    // Embree errors and panics in analytic shapes (which made queries miss)
+    // surface here instead of as a silently wrong tile.
+    scene.embree.check()?;
     Ok(TileOut {
         x0,
         y0,

@@ -301,3 +301,50 @@ fn invalid_rays_never_reach_embree() {
     }
     assert!(Ray::new(V3::ZERO, V3::new(0.0, 0.0, -1.0)).is_valid());
 }
+
+/// Issue 12 regression: a panic inside an analytic shape's callback made its
+/// query a silent miss. The query still sees a miss (nothing may unwind into
+/// Embree), but `Scene::check` now reports it, and renders call it per tile.
+#[test]
+fn panic_in_user_geometry_is_reported_by_check() {
+    struct Exploding;
+    impl UserShape for Exploding {
+        fn bounds(&self, _: u32) -> Bounds {
+            Bounds {
+                lower: [-1.0; 3],
+                upper: [1.0; 3],
+            }
+        }
+        fn intersect(&self, _: u32, _: V3, _: V3, _: &mut Candidates) {
+            panic!("analytic shape exploded on purpose")
+        }
+    }
+    let d = device();
+    let mut b = SceneBuilder::new(&d, SceneFlags::default(), BuildQuality::Medium).unwrap();
+    b.add_user(Box::new(Exploding)).unwrap();
+    let s = b.commit().unwrap();
+    assert!(s.check().is_ok(), "no query yet");
+    let prev = std::panic::take_hook();
+    std::panic::set_hook(Box::new(|_| {}));
+    let h = s.intersect(&Ray::new(V3::new(0.0, 0.0, 5.0), V3::new(0.0, 0.0, -1.0)));
+    std::panic::set_hook(prev);
+    assert!(h.is_none());
+    let e = s.check().unwrap_err();
+    assert!(e.to_string().contains("analytic shape"), "{e}");
+}
+
+/// A filtered query on a scene without the context-filter flag is an error,
+/// not an abort inside Debian's assertion-enabled Embree.
+#[test]
+fn filtered_query_without_the_flag_is_an_error() {
+    struct Any;
+    impl HitFilter for Any {
+        fn accept(&mut self, _: &FilterHit) -> bool {
+            true
+        }
+    }
+    let s = two_quads(SceneFlags::default(), BuildQuality::Medium);
+    let ray = Ray::new(V3::new(0.3, -0.2, 0.0), V3::new(0.0, 0.0, -1.0));
+    assert!(s.intersect_filtered(&ray, &mut Any).is_err());
+    assert!(s.occluded_filtered(&ray, &mut Any).is_err());
+}

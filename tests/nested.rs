@@ -111,8 +111,22 @@ fn rms_diff(a: &[f64], b: &[f64]) -> f64 {
 fn nested_glass_of_water_matches_interface_meshes() {
     let (w, h, spp, k) = (640, 480, 64, 16);
     let threshold = 1.3;
-    let reference = go(&load("scenes/glass_of_water.toml", NestedStrategy::Filter, w, h, spp, 1));
-    let reference2 = go(&load("scenes/glass_of_water.toml", NestedStrategy::Filter, w, h, spp, 2));
+    let reference = go(&load(
+        "scenes/glass_of_water.toml",
+        NestedStrategy::Filter,
+        w,
+        h,
+        spp,
+        1,
+    ));
+    let reference2 = go(&load(
+        "scenes/glass_of_water.toml",
+        NestedStrategy::Filter,
+        w,
+        h,
+        spp,
+        2,
+    ));
     let nested = go(&load(
         "scenes/glass_of_water_nested.toml",
         NestedStrategy::Filter,
@@ -124,8 +138,13 @@ fn nested_glass_of_water_matches_interface_meshes() {
     let text = std::fs::read_to_string("scenes/glass_of_water_nested.toml").unwrap();
     let flat_text = text.replace("type = \"lathe\",", "type = \"lathe\", smooth = false,");
     assert_ne!(text, flat_text, "the scene must have a lathe to flatten");
-    let mut flat_scene =
-        load_scene_str("flat.toml", &flat_text, Path::new("scenes"), &opts(NestedStrategy::Filter)).unwrap();
+    let mut flat_scene = load_scene_str(
+        "flat.toml",
+        &flat_text,
+        Path::new("scenes"),
+        &opts(NestedStrategy::Filter),
+    )
+    .unwrap();
     flat_scene.set_resolution(w, h).unwrap();
     flat_scene.spp = spp;
     flat_scene.seed = 3;
@@ -135,7 +154,11 @@ fn nested_glass_of_water_matches_interface_meshes() {
         // divided by the reference's own seed-to-seed block RMS.
         let (mut num, mut den) = (0.0, 0.0);
         for ch in 0..3 {
-            let (r1, r2, n) = (blocks(&reference, k, ch), blocks(&reference2, k, ch), blocks(img, k, ch));
+            let (r1, r2, n) = (
+                blocks(&reference, k, ch),
+                blocks(&reference2, k, ch),
+                blocks(img, k, ch),
+            );
             num += rms_diff(&n, &r1).powi(2);
             den += rms_diff(&r1, &r2).powi(2);
         }
@@ -143,7 +166,10 @@ fn nested_glass_of_water_matches_interface_meshes() {
     };
     let (good, bad) = (score(&nested), score(&flat));
     eprintln!("block RMS vs reference / seed-to-seed: smooth lathe {good:.2}, flat lathe {bad:.2}");
-    assert!(good <= threshold, "nested differs from interface meshes (score {good:.2} > {threshold})");
+    assert!(
+        good <= threshold,
+        "nested differs from interface meshes (score {good:.2} > {threshold})"
+    );
     assert!(
         bad > threshold,
         "no power: the flat-shaded glass also passes (score {bad:.2} <= {threshold})"

@@ -304,3 +304,74 @@ fn empty_scene_and_inside_out_mesh_are_errors_and_flip_is_offered() {
     assert_eq!(s.warnings.len(), 1);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Issue 12 regression: with a point light declared before a rect light, a
+/// duplicate object name was reported at `objects[1].name` (the line of "b"),
+/// because the index subtracted every light while only rect and sphere lights
+/// are pending objects. The error must name the duplicate's own key and line.
+#[test]
+fn duplicate_object_name_is_located_at_the_duplicate() {
+    let text = r#"[camera]
+position = [0.0, 1.0, 5.0]
+target = [0.0, 0.0, 0.0]
+fov = 40.0
+[film]
+width = 8
+height = 8
+spp = 1
+[[lights]]
+type = "point"
+position = [0.0, 4.0, 0.0]
+intensity = [10.0, 10.0, 10.0]
+[[lights]]
+type = "rect"
+center = [0.0, 4.0, 0.0]
+normal = [0.0, -1.0, 0.0]
+u_axis = [1.0, 0.0, 0.0]
+size = [1.0, 1.0]
+radiance = [1.0, 1.0, 1.0]
+[[objects]]
+name = "a"
+shape = { type = "sphere", center = [0.0, 0.5, 0.0], radius = 0.5 }
+material = { type = "diffuse", reflectance = [0.5, 0.5, 0.5] }
+[[objects]]
+name = "b"
+shape = { type = "sphere", center = [2.0, 0.5, 0.0], radius = 0.5 }
+material = { type = "diffuse", reflectance = [0.5, 0.5, 0.5] }
+[[objects]]
+name = "a"
+shape = { type = "sphere", center = [-2.0, 0.5, 0.0], radius = 0.5 }
+material = { type = "diffuse", reflectance = [0.5, 0.5, 0.5] }
+"#;
+    let Err(err) = load_scene_str("dup.toml", text, Path::new("scenes"), &BuildOptions::default()) else {
+        panic!("a duplicate name was accepted")
+    };
+    let want_line = text.lines().position(|l| l == "name = \"a\"").unwrap();
+    let want_line = want_line
+        + 1
+        + text
+            .lines()
+            .skip(want_line + 1)
+            .position(|l| l == "name = \"a\"")
+            .unwrap()
+        + 1;
+    match &err {
+        snell::Error::Input { key, line, .. } => {
+            assert_eq!(key, "objects[2].name", "{err}");
+            assert_eq!(*line, want_line, "{err}");
+        }
+        other => panic!("not an input error: {other}"),
+    }
+    // A duplicate of a light's name is located at the object that repeats it.
+    let text2 = text.replace(
+        "radiance = [1.0, 1.0, 1.0]",
+        "radiance = [1.0, 1.0, 1.0]\nname = \"b\"",
+    );
+    let Err(err) = load_scene_str("dup.toml", &text2, Path::new("scenes"), &BuildOptions::default()) else {
+        panic!("a duplicate of a light's name was accepted")
+    };
+    assert!(
+        matches!(&err, snell::Error::Input { key, .. } if key == "objects[1].name"),
+        "{err}"
+    );
+}

@@ -307,14 +307,35 @@ impl FalseHitFilter<'_> {
 pub struct Coincident {
     items: [(u32, bool); NEAR_CAPACITY],
     len: usize,
+    /// Solids both entered and left at the point (a touch): no crossing.
+    touched: [u32; NEAR_CAPACITY],
+    touched_len: usize,
 }
 
 impl Coincident {
     pub fn as_slice(&self) -> &[(u32, bool)] {
         &self.items[..self.len]
     }
+    /// Add a report. A duplicate of one direction counts once; reports of
+    /// both directions of one solid cancel, as in `apply_rejected` (a ray
+    /// through the circle where two spheres meet can graze the second one:
+    /// the entry alone left it in the list after the ray had left it).
     fn push(&mut self, solid: u32, entering: bool) {
-        if self.len < NEAR_CAPACITY && !self.as_slice().iter().any(|c| c.0 == solid) {
+        if self.touched[..self.touched_len].contains(&solid) {
+            return;
+        }
+        if let Some(i) = self.as_slice().iter().position(|c| c.0 == solid) {
+            if self.items[i].1 != entering {
+                self.items[i] = self.items[self.len - 1];
+                self.len -= 1;
+                if self.touched_len < NEAR_CAPACITY {
+                    self.touched[self.touched_len] = solid;
+                    self.touched_len += 1;
+                }
+            }
+            return;
+        }
+        if self.len < NEAR_CAPACITY {
             self.items[self.len] = (solid, entering);
             self.len += 1;
         }
@@ -467,7 +488,6 @@ pub fn trace(
     if !scene.has_overlap || strategy == NestedStrategy::Off {
         return Ok(plain(scene.embree.intersect(ray)));
     }
-    let ranks = &scene.rank_by_geom;
     let solid_rank = |s: u32| scene.solids[s as usize].rank;
     match strategy {
         NestedStrategy::Filter if list.is_empty() => {
@@ -539,7 +559,6 @@ pub fn trace(
             if list.spilled() {
                 c.spills += 1;
             }
-            let _ = ranks;
             Ok(hit.map(|hit| {
                 let mut coincident = Coincident::default();
                 let own = scene.solid_by_geom[hit.geom_id as usize];

@@ -37,12 +37,23 @@ pub const INVALID_ID: u32 = u32::MAX;
 /// Version of the Embree header snell was built against.
 pub const EMBREE_VERSION: &str = sys::HEADER_VERSION;
 
-/// Count of panics caught inside user-geometry callbacks (treated as misses).
+/// Count of panics caught inside user-geometry callbacks (the query sees a
+/// miss; `Scene::check` turns the count into an error).
 static USER_GEOMETRY_PANICS: AtomicU64 = AtomicU64::new(0);
+/// The first such panic's message.
+static USER_GEOMETRY_PANIC_MESSAGE: Mutex<Option<String>> = Mutex::new(None);
 
 /// Panics caught inside user-geometry callbacks since the process started.
 pub fn user_geometry_panics() -> u64 {
     USER_GEOMETRY_PANICS.load(Ordering::Relaxed)
+}
+
+fn record_user_panic(p: &(dyn Any + Send)) {
+    if USER_GEOMETRY_PANICS.fetch_add(1, Ordering::Relaxed) == 0 {
+        if let Ok(mut m) = USER_GEOMETRY_PANIC_MESSAGE.lock() {
+            *m = Some(panic_message(p));
+        }
+    }
 }
 
 /// An error reported by Embree (through the device error callback or
@@ -55,6 +66,14 @@ pub enum EmbreeError {
     /// A Rust filter panicked inside a query; the query result was discarded.
     #[error("a hit filter panicked during an Embree query: {0}")]
     FilterPanicked(String),
+    /// An analytic shape's callback panicked: its query saw a miss, so the
+    /// results since the last check are not to be trusted.
+    #[error("an analytic shape's intersection callback panicked ({count} times since start): {message}")]
+    UserGeometryPanicked { count: u64, message: String },
+    /// A filtered query on a scene built without the context-filter flag
+    /// (Debian's Embree would abort on it).
+    #[error("a filtered query needs a scene built with SceneFlags::context_filter")]
+    NoContextFilterFlag,
 }
 
 fn code_name(code: sys::RTCError) -> &'static str {
@@ -275,7 +294,7 @@ pub struct SceneBuilder {
     // Boxed so each UserGeom keeps its address (Embree holds pointers to it) when the Vec grows.
     #[allow(clippy::vec_box)]
     user: Vec<Box<UserGeom>>,
-    count: u32,
+    context_filter: bool,
 }
 
 // SAFETY: a scene under construction may be moved to another thread; it is not
@@ -320,7 +339,7 @@ impl SceneBuilder {
             device: device.clone(),
             raw,
             user: Vec::new(),
-            count: 0,
+            context_filter: flags.context_filter,
         };
         // SAFETY: valid scene handle; flags and quality are valid enum values.
         unsafe {
@@ -329,11 +348,6 @@ impl SceneBuilder {
         }
         b.device.inner.check()?;
         Ok(b)
-    }
-
-    /// Number of geometries attached so far.
-    pub fn geometry_count(&self) -> u32 {
-        self.count
     }
 
     fn attach(&mut self, geom: sys::RTCGeometry) -> Result<u32, EmbreeError> {
@@ -346,7 +360,6 @@ impl SceneBuilder {
             id
         };
         self.device.inner.check()?;
-        self.count += 1;
         Ok(id)
     }
 
@@ -439,6 +452,8 @@ impl SceneBuilder {
         Ok(Scene {
             device: self.device.clone(),
             raw,
+            context_filter: self.context_filter,
+            user_panics_at_build: USER_GEOMETRY_PANICS.load(Ordering::Relaxed),
             _user: std::mem::take(&mut self.user),
         })
     }
@@ -461,8 +476,8 @@ unsafe extern "C" fn user_bounds(args: *const sys::RTCBoundsFunctionArguments) {
             o.upper_z = b.upper[2];
         }
     }));
-    if r.is_err() {
-        USER_GEOMETRY_PANICS.fetch_add(1, Ordering::Relaxed);
+    if let Err(p) = r {
+        record_user_panic(&*p);
     }
 }
 
@@ -477,8 +492,8 @@ unsafe extern "C" fn user_intersect(args: *const sys::RTCIntersectFunctionNArgum
         // SAFETY: see `intersect_lanes`.
         unsafe { intersect_lanes(args) }
     }));
-    if r.is_err() {
-        USER_GEOMETRY_PANICS.fetch_add(1, Ordering::Relaxed);
+    if let Err(p) = r {
+        record_user_panic(&*p);
     }
 }
 
@@ -627,8 +642,8 @@ unsafe extern "C" fn user_occluded(args: *const sys::RTCOccludedFunctionNArgumen
             }
         }
     }));
-    if r.is_err() {
-        USER_GEOMETRY_PANICS.fetch_add(1, Ordering::Relaxed);
+    if let Err(p) = r {
+        record_user_panic(&*p);
     }
 }
 
@@ -636,6 +651,10 @@ unsafe extern "C" fn user_occluded(args: *const sys::RTCOccludedFunctionNArgumen
 pub struct Scene {
     device: Device,
     raw: sys::RTCScene,
+    /// Built with `RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION`.
+    context_filter: bool,
+    /// `user_geometry_panics()` when the scene was committed.
+    user_panics_at_build: u64,
     #[allow(clippy::vec_box)]
     _user: Vec<Box<UserGeom>>,
 }
@@ -878,12 +897,19 @@ impl Scene {
     }
 
     /// Nearest hit accepted by `filter`. The scene must have been built with
-    /// `SceneFlags::context_filter` (Debian's Embree asserts otherwise; we check).
+    /// `SceneFlags::context_filter` (Debian's Embree asserts otherwise).
+    ///
+    /// # Errors
+    /// `NoContextFilterFlag` when it was not; `FilterPanicked` when the filter
+    /// panicked (the query's result is discarded).
     pub fn intersect_filtered<F: HitFilter>(
         &self,
         ray: &Ray,
         filter: &mut F,
     ) -> Result<Option<Hit>, EmbreeError> {
+        if !self.context_filter {
+            return Err(EmbreeError::NoContextFilterFlag);
+        }
         if !ray.is_valid() {
             return Ok(None); // an invalid ray would abort the process inside Embree
         }
@@ -903,7 +929,13 @@ impl Scene {
     }
 
     /// Occlusion with `filter` (see `intersect_filtered`).
+    ///
+    /// # Errors
+    /// As `intersect_filtered`.
     pub fn occluded_filtered<F: HitFilter>(&self, ray: &Ray, filter: &mut F) -> Result<bool, EmbreeError> {
+        if !self.context_filter {
+            return Err(EmbreeError::NoContextFilterFlag);
+        }
         if !ray.is_valid() {
             return Ok(false);
         }
@@ -921,9 +953,24 @@ impl Scene {
         }
     }
 
-    /// Errors Embree reported since the last check (e.g. from queries).
+    /// Errors since the last check: Embree's own (e.g. from queries), and
+    /// panics inside analytic shapes' callbacks since the scene was built
+    /// (those queries saw a miss). Renders call it after every tile.
+    ///
+    /// # Errors
+    /// The first error Embree reported, or `UserGeometryPanicked`.
     pub fn check(&self) -> Result<(), EmbreeError> {
-        self.device.inner.check()
+        self.device.inner.check()?;
+        let count = USER_GEOMETRY_PANICS.load(Ordering::Relaxed);
+        if count > self.user_panics_at_build {
+            let message = USER_GEOMETRY_PANIC_MESSAGE
+                .lock()
+                .ok()
+                .and_then(|m| m.clone())
+                .unwrap_or_default();
+            return Err(EmbreeError::UserGeometryPanicked { count, message });
+        }
+        Ok(())
     }
 }
 

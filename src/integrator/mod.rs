@@ -89,6 +89,25 @@ pub fn offset_origin(p: V3, side: V3) -> V3 {
     p + side * err
 }
 
+/// The origin of a ray that passes straight through an index-matched
+/// boundary (n1 = n2, direction unchanged). It is moved *along* the ray by the
+/// distance that clears the surface by `offset_origin`'s margin, so the ray
+/// stays on its line: a normal offset moves the line sideways, and next to a
+/// solid the line only grazes (the paper's Fig. 1 spheres where they meet)
+/// that sideways step can take the ray out of a solid whose entry was
+/// recorded, leaving it in the interior list after the ray left it. Grazing
+/// exits (|cos| < 1/4) keep the normal offset, whose step is bounded.
+pub fn offset_through(p: V3, exit_side: V3, dir: V3) -> V3 {
+    let err = OFFSET_ULPS * f32::EPSILON * (p.abs().max_element() + 0.5);
+    let (n, d) = (exit_side.normalize_or_zero(), dir.normalize_or_zero());
+    let cos = n.dot(d);
+    if cos >= 0.25 {
+        p + d * (err / cos)
+    } else {
+        p + exit_side * err
+    }
+}
+
 /// The light-sampling density (solid angle, including the choice of light)
 /// of reaching light `li` from `from` in direction `wi` to the point `q`.
 fn light_pdf(scene: &RenderScene, li: u32, from: V3, q: V3, wi: V3) -> f32 {
@@ -539,7 +558,6 @@ fn path(
         if depth >= scene.max_depth {
             break;
         }
-        let wo = -ray.dir;
         match &rec.material {
             Material::Black => break,
             Material::Diffuse {
@@ -578,7 +596,6 @@ fn path(
                 specular = false;
                 prev_p = sp.p;
                 ray = Ray::new(offset_origin(sp.p, ng), wi);
-                let _ = wo;
             }
             Material::Mirror { reflectance } => {
                 let n = if front { sp.ns } else { -sp.ns };
@@ -627,7 +644,13 @@ fn path(
                     if let Some(nl) = c.refract_list {
                         list = nl;
                     }
-                    ray = Ray::new(offset_origin(sp.p, -incident_side), wi);
+                    let org = if c.n1 == c.n2 {
+                        wi = ray.dir.normalize();
+                        offset_through(sp.p, -incident_side, wi)
+                    } else {
+                        offset_origin(sp.p, -incident_side)
+                    };
+                    ray = Ray::new(org, wi);
                 }
                 specular = true;
                 prev_p = sp.p;
@@ -742,18 +765,13 @@ fn whitted(
             if let Some(t) = optics::refract(d, n, c.n1 as f64, c.n2 as f64) {
                 let nl = c.refract_list.unwrap_or(list);
                 let k = c.n1 / c.n2;
-                l += (1.0 - fr)
-                    * k
-                    * k
-                    * whitted(
-                        scene,
-                        offset_origin(sp.p, -side),
-                        to_f(t.normalize()),
-                        nl,
-                        rng,
-                        st,
-                        depth + 1,
-                    )?;
+                let (org, wt) = if c.n1 == c.n2 {
+                    let wt = dir.normalize();
+                    (offset_through(sp.p, -side, wt), wt)
+                } else {
+                    (offset_origin(sp.p, -side), to_f(t.normalize()))
+                };
+                l += (1.0 - fr) * k * k * whitted(scene, org, wt, nl, rng, st, depth + 1)?;
             } else {
                 st.tir += 1;
             }
@@ -834,6 +852,13 @@ pub fn refraction_path(
             }
             None => (to_f(optics::reflect(d, n).normalize()), true),
         };
+        let straight = !tir && c.n1 == c.n2;
+        let wi = if straight { ray.dir.normalize() } else { wi };
+        let next_org = if straight {
+            offset_through(sp.p, -incident_side, wi)
+        } else {
+            offset_origin(sp.p, if tir { incident_side } else { -incident_side })
+        };
         events.push(PathEvent {
             geom: hit.geom_id,
             point: sp.p,
@@ -842,11 +867,10 @@ pub fn refraction_path(
             n2: c.n2,
             list_after: list.sorted(),
             tir,
-            next_org: offset_origin(sp.p, if tir { incident_side } else { -incident_side }),
+            next_org,
             next_dir: wi,
         });
-        let side = if tir { incident_side } else { -incident_side };
-        ray = Ray::new(offset_origin(sp.p, side), wi);
+        ray = Ray::new(next_org, wi);
     }
     Ok(RefractionPath {
         events,

@@ -186,7 +186,7 @@ pub struct RenderScene {
 /// Point-in-solid classification of each solid (independent of Embree).
 #[derive(Debug, Clone)]
 pub(crate) enum Containment {
-    Mesh(Arc<Mesh>),
+    Mesh(Arc<crate::scene::shapes::ContainsGrid>),
     Analytic(Analytic),
 }
 
@@ -247,6 +247,8 @@ fn f(a: DVec3) -> V3 {
 
 struct Pending {
     name: String,
+    /// The scene key that declares `name` (for errors about it).
+    name_key: String,
     shape: Shape,
     material: Material,
     emission: Option<Texture>,
@@ -483,6 +485,7 @@ impl Builder<'_> {
                 }
                 pending.push(Pending {
                     name: "warp_glass_plate".into(),
+                    name_key: "warp.glass".into(),
                     shape: Shape::Mesh(Arc::new(mesh)),
                     material: Material::Interface {
                         int_ior: *ior as f32,
@@ -511,6 +514,7 @@ impl Builder<'_> {
                 ] {
                     pending.push(Pending {
                         name: name.into(),
+                        name_key: "warp.glass".into(),
                         shape: Shape::Analytic(Analytic::Cylinder {
                             p0: c - a * (extent * 0.5),
                             axis: a,
@@ -682,6 +686,7 @@ impl Builder<'_> {
                     });
                     pending.push(Pending {
                         name: r.name.clone().unwrap_or_else(|| k.clone()),
+                        name_key: format!("{k}.name"),
                         shape: Shape::Mesh(Arc::new(meshgen::rect(center, normal, u, [su, sv]))),
                         material: Material::Black,
                         emission: Some(Texture::Constant(radiance)),
@@ -701,6 +706,7 @@ impl Builder<'_> {
                     });
                     pending.push(Pending {
                         name: s.name.clone().unwrap_or_else(|| k.clone()),
+                        name_key: format!("{k}.name"),
                         shape: Shape::Analytic(Analytic::Sphere { center, radius }),
                         material: Material::Black,
                         emission: Some(Texture::Constant(radiance)),
@@ -722,10 +728,7 @@ impl Builder<'_> {
         // Names must be unique (the camera's `inside` list refers to them).
         for (i, p) in pending.iter().enumerate() {
             if pending[..i].iter().any(|q| q.name == p.name) {
-                return Err(self.err(
-                    &format!("objects[{}].name", i.saturating_sub(lights.len())),
-                    format!("duplicate object name \"{}\"", p.name),
-                ));
+                return Err(self.err(&p.name_key, format!("duplicate object name \"{}\"", p.name)));
             }
         }
 
@@ -1159,7 +1162,9 @@ impl Builder<'_> {
                                 fm.flip();
                                 flipped = Some(Arc::new(fm));
                             }
-                            Containment::Mesh(flipped.clone().unwrap_or_else(|| m.clone()))
+                            Containment::Mesh(Arc::new(crate::scene::shapes::ContainsGrid::new(
+                                flipped.clone().unwrap_or_else(|| m.clone()),
+                            )))
                         }
                     };
                     if let Some(fm) = flipped {
@@ -1207,6 +1212,7 @@ impl Builder<'_> {
         };
         Ok(Pending {
             name,
+            name_key: format!("{k}.name"),
             shape,
             material,
             emission,

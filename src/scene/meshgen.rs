@@ -99,7 +99,10 @@ pub fn lathe(profile: &[[f64; 2]], segments: u32, shading: LatheShading) -> Mesh
     let nb = profile.len().saturating_sub(1);
     let band_n: Vec<Option<[f64; 2]>> = (0..nb)
         .map(|i| {
-            let (dr, dy) = (profile[i + 1][0] - profile[i][0], profile[i + 1][1] - profile[i][1]);
+            let (dr, dy) = (
+                profile[i + 1][0] - profile[i][0],
+                profile[i + 1][1] - profile[i][1],
+            );
             let l = dr.hypot(dy);
             (l > 0.0).then(|| [dy / l, -dr / l])
         })
@@ -109,7 +112,11 @@ pub fn lathe(profile: &[[f64; 2]], segments: u32, shading: LatheShading) -> Mesh
     // meeting there when the joint turns by at most the crease angle.
     let joint_n = |b: usize, at: usize| -> [f64; 2] {
         let own = band_n[b].unwrap_or([0.0, 0.0]);
-        let other = if at == b { b.checked_sub(1) } else { (b + 1 < nb).then_some(b + 1) };
+        let other = if at == b {
+            b.checked_sub(1)
+        } else {
+            (b + 1 < nb).then_some(b + 1)
+        };
         match other.and_then(|o| band_n[o]) {
             Some(o) if own[0] * o[0] + own[1] * o[1] >= cos_crease => {
                 let (r, y) = (own[0] + o[0], own[1] + o[1]);
@@ -141,7 +148,11 @@ pub fn lathe(profile: &[[f64; 2]], segments: u32, shading: LatheShading) -> Mesh
             let n = joint_n(b, i);
             for k in 0..s {
                 m.positions.push(pos(profile[i], k));
-                let a = if on_axis[e] { angle(k as f64 + 0.5) } else { angle(k as f64) };
+                let a = if on_axis[e] {
+                    angle(k as f64 + 0.5)
+                } else {
+                    angle(k as f64)
+                };
                 m.normals.as_mut().expect("set above").push(n3(n, a));
             }
         }
@@ -461,7 +472,14 @@ mod tests {
     #[test]
     fn smooth_lathe_is_closed_smooth_around_and_sharp_at_corners() {
         // The glass of water's profile: base, outer wall, rim, inner wall, inner bottom.
-        let p = [[0.0, 0.0], [1.0, 0.0], [1.0, 2.5], [0.9, 2.5], [0.9, 0.1], [0.0, 0.1]];
+        let p = [
+            [0.0, 0.0],
+            [1.0, 0.0],
+            [1.0, 2.5],
+            [0.9, 2.5],
+            [0.9, 0.1],
+            [0.0, 0.1],
+        ];
         let flat = lathe(&p, 64, LatheShading::Flat);
         let m = lathe(&p, 64, LatheShading::Smooth { crease_deg: 30.0 });
         m.check_closed().unwrap();
@@ -470,7 +488,10 @@ mod tests {
         let ns = m.normals.as_ref().unwrap();
         assert_eq!(ns.len(), m.positions.len());
         for (q, n) in m.positions.iter().zip(ns) {
-            let (q, n) = (DVec3::from_array(q.map(|c| c as f64)), DVec3::from_array(n.map(|c| c as f64)));
+            let (q, n) = (
+                DVec3::from_array(q.map(|c| c as f64)),
+                DVec3::from_array(n.map(|c| c as f64)),
+            );
             let r = q.x.hypot(q.z);
             let radial = DVec3::new(q.x, 0.0, q.z) / r.max(1e-30);
             assert!((n.length() - 1.0).abs() < 1e-6);
@@ -486,9 +507,12 @@ mod tests {
         let t = m
             .indices
             .iter()
-            .position(|t| t.iter().all(|&i| (m.positions[i as usize][0].hypot(m.positions[i as usize][2]) - 1.0).abs() < 1e-6)
-                && (0..3).any(|k| m.positions[t[k] as usize][1] == 0.0)
-                && (0..3).any(|k| m.positions[t[k] as usize][1] == 2.5))
+            .position(|t| {
+                t.iter().all(|&i| {
+                    (m.positions[i as usize][0].hypot(m.positions[i as usize][2]) - 1.0).abs() < 1e-6
+                }) && (0..3).any(|k| m.positions[t[k] as usize][1] == 0.0)
+                    && (0..3).any(|k| m.positions[t[k] as usize][1] == 2.5)
+            })
             .unwrap();
         let (n, _) = m.shading(t as u32, 0.3, 0.3);
         let q = m.point(t as u32, 0.3, 0.3);
@@ -505,7 +529,10 @@ mod tests {
         let m = lathe(&sph, 64, LatheShading::Smooth { crease_deg: 30.0 });
         m.check_closed().unwrap();
         for (q, n) in m.positions.iter().zip(m.normals.as_ref().unwrap()) {
-            let (q, n) = (DVec3::from_array(q.map(|c| c as f64)), DVec3::from_array(n.map(|c| c as f64)));
+            let (q, n) = (
+                DVec3::from_array(q.map(|c| c as f64)),
+                DVec3::from_array(n.map(|c| c as f64)),
+            );
             if q.x.hypot(q.z) > 0.1 {
                 assert!(n.dot(q.normalize()) > 0.995, "{q} {n}");
             }
