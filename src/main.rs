@@ -1,7 +1,7 @@
 //! The `snell` command line.
 use clap::{Parser, Subcommand};
 use snell::dielectric::NestedStrategy;
-use snell::render::{render, RenderOptions};
+use snell::render::RenderOptions;
 use snell::scene::{load_scene, BuildOptions};
 use std::path::PathBuf;
 
@@ -62,6 +62,37 @@ enum Cmd {
         /// Write render statistics (with provenance) as JSON.
         #[arg(long)]
         stats_json: Option<PathBuf>,
+        /// Override a scene key: objects.water.material.ior=1.34, film.spp=256 (repeatable).
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
+        #[command(flatten)]
+        farm: FarmFlags,
+    },
+    /// Merge part EXRs (regions, sample ranges; directories stand for their .exr files)
+    /// into the whole render, bit for bit equal to a single render.
+    Merge {
+        #[arg(short, long)]
+        output: PathBuf,
+        #[arg(required = true)]
+        parts: Vec<PathBuf>,
+        /// Also write an sRGB PNG of the merged image.
+        #[arg(long)]
+        png: Option<PathBuf>,
+        /// Write the parts' stats, summed.
+        #[arg(long)]
+        stats_json: Option<PathBuf>,
+        /// Keep the exact sums in the output (a part covering the whole render).
+        #[arg(long)]
+        part: bool,
+        #[arg(long)]
+        quiet: bool,
+    },
+    /// Print a Markdown table of stats JSON files (a sweep's tasks), optionally to a file.
+    Table {
+        #[arg(required = true)]
+        stats: Vec<PathBuf>,
+        #[arg(short, long)]
+        output: Option<PathBuf>,
     },
     /// Audits: `snell audit nested SCENE --rays N` compares interior lists with point-in-solid tests.
     Audit {
@@ -135,6 +166,32 @@ enum Cmd {
         #[command(subcommand)]
         which: BenchCmd,
     },
+}
+
+/// Render-farm options of `snell render` (docs/farm.md).
+#[derive(clap::Args)]
+struct FarmFlags {
+    /// Render only pixels x0..x1, y0..y1 (half-open; the EXR's data window).
+    #[arg(long, value_name = "x0,x1,y0,y1")]
+    region: Option<String>,
+    /// Render cell IX,IY of an NX x NY grid over the film.
+    #[arg(long, value_name = "IX/NX,IY/NY")]
+    region_cell: Option<String>,
+    /// Render sample indices START..START+COUNT of the film's spp.
+    #[arg(long, value_name = "START:COUNT")]
+    samples: Option<String>,
+    /// Render chunk K of the film's spp cut into N ranges.
+    #[arg(long, value_name = "K/N")]
+    sample_chunk: Option<String>,
+    /// Continue a partial part EXR (Ctrl-C): render the samples it lacks.
+    #[arg(long, value_name = "PART.exr")]
+    resume: Option<PathBuf>,
+    /// Write the EXR as a part (with exact sums) even for a whole render.
+    #[arg(long)]
+    part: bool,
+    /// Print progress lines (`openjd_progress: P`) to stderr, for farm logs.
+    #[arg(long)]
+    progress_lines: bool,
 }
 
 #[derive(Subcommand)]
@@ -506,6 +563,61 @@ fn run(cli: Cli) -> snell::Result<()> {
             }
             Ok(())
         }
+        Cmd::Merge {
+            output,
+            parts,
+            png,
+            stats_json,
+            part,
+            quiet,
+        } => {
+            let files = snell::merge::collect_inputs(&parts)?;
+            let parts = files
+                .iter()
+                .map(|f| snell::part::read_part(f))
+                .collect::<snell::Result<Vec<_>>>()?;
+            let m = snell::merge::merge(&parts)?;
+            let (w, h) = (m.meta.film_width, m.meta.film_height);
+            let is_exr = output.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+            let attrs = [
+                ("spp", m.meta.spp.to_string()),
+                ("complete", "true".to_string()),
+                ("merged_parts", files.len().to_string()),
+                ("provenance", snell::provenance::line()),
+            ];
+            if part && is_exr {
+                snell::part::write_part(&output, &m.meta, &m.pixels, &m.accum, &attrs, Some(&m.stats))?;
+            } else {
+                snell::image_io::save(&output, w, h, &m.pixels, &[], &attrs)?;
+            }
+            if let Some(p) = &png {
+                snell::image_io::save(p, w, h, &m.pixels, &[], &[])?;
+            }
+            if let Some(p) = stats_json {
+                let text = serde_json::to_string_pretty(&m.stats)
+                    .map_err(|e| snell::Error::Invalid(e.to_string()))?;
+                snell::image_io::write_atomic(&p, text.as_bytes())?;
+            }
+            if !quiet {
+                eprintln!(
+                    "merged {} parts into {w}x{h} at {} spp: {} rays, {:.2} s of task time",
+                    files.len(),
+                    m.meta.spp,
+                    m.stats["rays"],
+                    m.stats["wall_s"].as_f64().unwrap_or(0.0)
+                );
+            }
+            say!("{}", output.display());
+            Ok(())
+        }
+        Cmd::Table { stats, output } => {
+            let t = snell::farm::stats_table(&stats)?;
+            match output {
+                Some(p) => snell::image_io::write_atomic(&p, t.as_bytes())?,
+                None => say!("{}", t.trim_end()),
+            }
+            Ok(())
+        }
         Cmd::Render {
             scene,
             output,
@@ -518,6 +630,8 @@ fn run(cli: Cli) -> snell::Result<()> {
             aov,
             quiet,
             stats_json,
+            set,
+            farm,
         } => {
             for a in &aov {
                 if !["false_hits", "list_depth", "tir", "fallbacks"].contains(&a.as_str()) {
@@ -530,7 +644,9 @@ fn run(cli: Cli) -> snell::Result<()> {
                 nested,
                 ..Default::default()
             };
-            let mut s = load_scene(&scene, &opts)?;
+            let load_t = std::time::Instant::now();
+            let (mut s, scene_id) = snell::farm::load(&scene, &set, &opts)?;
+            let load_s = load_t.elapsed().as_secs_f64();
             for w in &s.warnings {
                 eprintln!("warning: {w}");
             }
@@ -546,6 +662,23 @@ fn run(cli: Cli) -> snell::Result<()> {
             if width.is_some() || height.is_some() {
                 s.set_resolution(width.unwrap_or(s.width), height.unwrap_or(s.height))?;
             }
+            let is_exr = output.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+            let fa = snell::farm::FarmArgs {
+                region: farm.region,
+                region_cell: farm.region_cell,
+                samples: farm.samples,
+                sample_chunk: farm.sample_chunk,
+                resume: farm.resume,
+                part: farm.part,
+            };
+            let plan = snell::farm::plan(&s, &scene_id, &fa, is_exr)?;
+            if plan.is_part && !aov.is_empty() {
+                return Err(snell::Error::Invalid(
+                    "--aov layers are not merged: render them in one piece (no --region, --samples, --resume or --part)"
+                        .into(),
+                ));
+            }
+            snell::render::PROGRESS_LINES.store(farm.progress_lines, std::sync::atomic::Ordering::Relaxed);
             // Ctrl-C stops at the next tile boundary and the image so far is
             // written, clearly named; a second Ctrl-C exits at once.
             let _ = ctrlc::set_handler(|| {
@@ -554,13 +687,14 @@ fn run(cli: Cli) -> snell::Result<()> {
                 }
                 eprintln!("\ninterrupted: finishing the tiles in progress (Ctrl-C again to exit at once)");
             });
-            let r = render(
+            let r = snell::render::render_part(
                 &s,
                 &RenderOptions {
                     threads,
                     quiet,
                     want_aovs: !aov.is_empty(),
                 },
+                &plan.spec,
             )?;
             let output = if r.complete {
                 output
@@ -604,15 +738,26 @@ fn run(cli: Cli) -> snell::Result<()> {
                 ("tiles_done", format!("{}/{}", r.tiles_done, r.tiles_total)),
                 ("provenance", snell::provenance::line()),
             ];
-            let is_exr = output.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
-            snell::image_io::save(
-                &output,
-                r.width,
-                r.height,
-                &r.pixels,
-                if is_exr { &layers } else { &[] },
-                &attrs,
-            )?;
+            let mut st = r.stats.to_json(&s, r.spp_done);
+            st["cpu_s"] = serde_json::json!(snell::farm::cpu_seconds());
+            st["load_s"] = serde_json::json!(load_s);
+            st["region"] = serde_json::json!(r.region.to_string());
+            st["samples_range"] = serde_json::json!(format!("{}:{}", r.sample_start, r.sample_count));
+            st["scene_id"] = serde_json::json!(scene_id);
+            st["overrides"] = serde_json::json!(set);
+            match (&r.accum, is_exr && (plan.is_part || !r.complete)) {
+                (Some(acc), true) => {
+                    snell::part::write_part(&output, &plan.meta, &r.pixels, acc, &attrs, Some(&st))?;
+                }
+                _ => snell::image_io::save(
+                    &output,
+                    r.width,
+                    r.height,
+                    &r.pixels,
+                    if is_exr { &layers } else { &[] },
+                    &attrs,
+                )?,
+            }
             if !is_exr {
                 for (name, vals) in layers.iter().filter(|l| l.0 != "spp") {
                     let max = vals.iter().cloned().fold(0.0f32, f32::max).max(1e-9);
@@ -624,7 +769,6 @@ fn run(cli: Cli) -> snell::Result<()> {
                     }
                 }
             }
-            let st = r.stats.to_json(&s, r.spp_done);
             if let Some(p) = stats_json {
                 let text =
                     serde_json::to_string_pretty(&st).map_err(|e| snell::Error::Invalid(e.to_string()))?;
