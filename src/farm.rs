@@ -37,21 +37,22 @@ pub fn parse_region(s: &str) -> Result<Region> {
     }
 }
 
-/// `I/N`: index and count, with I < N.
+/// `I/N`: item I (counting from 1) of N; returns the 0-based index and N.
 fn index_of(flag: &str, s: &str) -> Result<(u32, u32)> {
-    let bad = || Error::Invalid(format!("{flag} {s}: expected I/N with 0 <= I < N"));
+    let bad = || Error::Invalid(format!("{flag} {s}: expected I/N with 1 <= I <= N"));
     let (i, n) = s.split_once('/').ok_or_else(bad)?;
     let (i, n): (u32, u32) = (
         i.trim().parse().map_err(|_| bad())?,
         n.trim().parse().map_err(|_| bad())?,
     );
-    if i >= n {
+    if i == 0 || i > n {
         return Err(bad());
     }
-    Ok((i, n))
+    Ok((i - 1, n))
 }
 
-/// `IX/NX,IY/NY`: cell (IX, IY) of an NX x NY grid over the film.
+/// `IX/NX,IY/NY`: cell (IX, IY) of an NX x NY grid over the film, counting
+/// from 1 (`1/4,1/4` is the top-left cell), as farm task ranges do.
 pub fn region_cell(s: &str, width: u32, height: u32) -> Result<Region> {
     let (a, b) = s
         .split_once(',')
@@ -82,7 +83,7 @@ pub fn parse_samples(s: &str) -> Result<(u32, u32)> {
     ))
 }
 
-/// `K/N`: chunk K of the film's spp cut into N ranges.
+/// `K/N`: chunk K (counting from 1) of the film's spp cut into N ranges.
 pub fn sample_chunk(s: &str, spp: u32) -> Result<(u32, u32)> {
     let (k, n) = index_of("--sample-chunk", s)?;
     if n > spp {
@@ -211,6 +212,16 @@ pub fn plan(scene: &RenderScene, id: &str, a: &FarmArgs, keep_sums: bool) -> Res
     })
 }
 
+/// Create the directory of `path` if it is missing (`--mkdir`).
+pub fn make_parent(path: &Path) -> Result<()> {
+    match path.parent().filter(|p| !p.as_os_str().is_empty()) {
+        Some(d) => {
+            std::fs::create_dir_all(d).map_err(|e| Error::io(d, format!("cannot create directory: {e}")))
+        }
+        None => Ok(()),
+    }
+}
+
 /// CPU time (user + system, all threads) of this process so far, in seconds
 /// (Linux `/proc/self/stat`; `None` elsewhere).
 pub fn cpu_seconds() -> Option<f64> {
@@ -224,10 +235,27 @@ pub fn cpu_seconds() -> Option<f64> {
 
 /// A Markdown table of stats JSON files (one row each): the `--set`
 /// overrides recorded in them, then time, rays and false hits.
-pub fn stats_table(files: &[PathBuf]) -> Result<String> {
+pub fn stats_table(inputs: &[PathBuf]) -> Result<String> {
+    let mut files = Vec::new();
+    for a in inputs {
+        if a.is_dir() {
+            let mut v: Vec<PathBuf> = std::fs::read_dir(a)
+                .map_err(|e| Error::io(a, e))?
+                .filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|p| p.extension().is_some_and(|e| e == "json"))
+                .collect();
+            v.sort();
+            files.extend(v);
+        } else {
+            files.push(a.clone());
+        }
+    }
+    if files.is_empty() {
+        return Err(Error::Invalid("table: no stats JSON files given".into()));
+    }
     let mut rows = Vec::new();
     let mut keys: Vec<String> = Vec::new();
-    for f in files {
+    for f in &files {
         let text = std::fs::read_to_string(f).map_err(|e| Error::io(f, e))?;
         let v: serde_json::Value =
             serde_json::from_str(&text).map_err(|e| Error::io(f, format!("not a stats JSON file: {e}")))?;
@@ -298,7 +326,7 @@ mod tests {
         let mut covered = vec![0u32; 37 * 23];
         for ix in 0..4 {
             for iy in 0..3 {
-                let r = region_cell(&format!("{ix}/4,{iy}/3"), 37, 23).unwrap();
+                let r = region_cell(&format!("{}/4,{}/3", ix + 1, iy + 1), 37, 23).unwrap();
                 for y in r.y0..r.y1 {
                     for x in r.x0..r.x1 {
                         covered[(y * 37 + x) as usize] += 1;

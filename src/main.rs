@@ -65,6 +65,12 @@ enum Cmd {
         /// Override a scene key: objects.water.material.ior=1.34, film.spp=256 (repeatable).
         #[arg(long = "set", value_name = "KEY=VALUE")]
         set: Vec<String>,
+        /// A sweep: with --sweep-index I, the same as --set KEY=VI.
+        #[arg(long, value_name = "KEY=V1,V2,...", requires = "sweep_index")]
+        sweep: Option<String>,
+        /// Which value of --sweep to render (counting from 1).
+        #[arg(long, value_name = "I", requires = "sweep")]
+        sweep_index: Option<u32>,
         #[command(flatten)]
         farm: FarmFlags,
     },
@@ -84,10 +90,14 @@ enum Cmd {
         /// Keep the exact sums in the output (a part covering the whole render).
         #[arg(long)]
         part: bool,
+        /// Create the output's directory when it is missing.
+        #[arg(long)]
+        mkdir: bool,
         #[arg(long)]
         quiet: bool,
     },
-    /// Print a Markdown table of stats JSON files (a sweep's tasks), optionally to a file.
+    /// Print a Markdown table of stats JSON files (a sweep's tasks; directories
+    /// stand for their .json files), optionally to a file.
     Table {
         #[arg(required = true)]
         stats: Vec<PathBuf>,
@@ -192,6 +202,9 @@ struct FarmFlags {
     /// Print progress lines (`openjd_progress: P`) to stderr, for farm logs.
     #[arg(long)]
     progress_lines: bool,
+    /// Create the output's directory when it is missing.
+    #[arg(long)]
+    mkdir: bool,
 }
 
 #[derive(Subcommand)]
@@ -569,8 +582,12 @@ fn run(cli: Cli) -> snell::Result<()> {
             png,
             stats_json,
             part,
+            mkdir,
             quiet,
         } => {
+            if mkdir {
+                snell::farm::make_parent(&output)?;
+            }
             let files = snell::merge::collect_inputs(&parts)?;
             let parts = files
                 .iter()
@@ -630,9 +647,17 @@ fn run(cli: Cli) -> snell::Result<()> {
             aov,
             quiet,
             stats_json,
-            set,
+            mut set,
+            sweep,
+            sweep_index,
             farm,
         } => {
+            if let (Some(sw), Some(i)) = (&sweep, sweep_index) {
+                set.push(snell::overrides::sweep_value(sw, i)?);
+            }
+            if farm.mkdir {
+                snell::farm::make_parent(&output)?;
+            }
             for a in &aov {
                 if !["false_hits", "list_depth", "tir", "fallbacks"].contains(&a.as_str()) {
                     return Err(snell::Error::Invalid(format!(

@@ -208,6 +208,36 @@ fn show(step: &Step) -> String {
     }
 }
 
+/// `--sweep KEY=V1,V2,... --sweep-index I`: the override `KEY=VI` (I counts
+/// from 1; commas inside brackets or quotes do not split values).
+pub fn sweep_value(spec: &str, index: u32) -> Result<String> {
+    let bad = |m: String| Error::Invalid(format!("--sweep '{spec}': {m}"));
+    let (key, list) = spec
+        .split_once('=')
+        .ok_or_else(|| bad("expected KEY=V1,V2,...".into()))?;
+    let mut values = Vec::new();
+    let (mut depth, mut quoted, mut start) = (0i32, false, 0);
+    for (i, c) in list.char_indices() {
+        match c {
+            '"' => quoted = !quoted,
+            '[' | '{' if !quoted => depth += 1,
+            ']' | '}' if !quoted => depth -= 1,
+            ',' if !quoted && depth == 0 => {
+                values.push(&list[start..i]);
+                start = i + 1;
+            }
+            _ => {}
+        }
+    }
+    values.push(&list[start..]);
+    let n = values.len();
+    let v = (index as usize)
+        .checked_sub(1)
+        .and_then(|i| values.get(i))
+        .ok_or_else(|| bad(format!("--sweep-index {index} is not in 1..={n}")))?;
+    Ok(format!("{key}={}", v.trim()))
+}
+
 /// Apply `--set` overrides to a scene source. Errors in the overrides, and
 /// later errors at the keys they set, are located in the argument.
 pub fn apply(src: Source, sets: &[String]) -> Result<Source> {
@@ -267,6 +297,14 @@ mod tests {
         assert_eq!(v["objects"][0]["material"]["ior"].as_float(), Some(1.34));
         assert_eq!(v["film"]["spp"].as_integer(), Some(3));
         assert_eq!(v["objects"][0]["shape"]["radius"].as_integer(), Some(2));
+    }
+
+    #[test]
+    fn sweep_values_split_at_top_level_commas() {
+        assert_eq!(sweep_value("a.b=1.3, 1.33,1.36", 2).unwrap(), "a.b=1.33");
+        assert_eq!(sweep_value("p=[1,2],[3,4]", 2).unwrap(), "p=[3,4]");
+        assert!(sweep_value("p=1,2", 3).is_err());
+        assert!(sweep_value("p=1,2", 0).is_err());
     }
 
     #[test]

@@ -227,8 +227,9 @@ fn bad_farm_arguments_are_clear_errors() {
         (vec!["--region", "1,2,3"], "expected x0,x1,y0,y1"),
         (vec!["--samples", "5:3"], "within the film's 7 samples"),
         (vec!["--samples", "2"], "expected START:COUNT"),
-        (vec!["--sample-chunk", "3/3"], "0 <= I < N"),
-        (vec!["--region-cell", "0/2"], "IX/NX,IY/NY"),
+        (vec!["--sample-chunk", "4/3"], "1 <= I <= N"),
+        (vec!["--region-cell", "1/2"], "IX/NX,IY/NY"),
+        (vec!["--region-cell", "0/2,1/2"], "1 <= I <= N"),
         (vec!["--resume", "/nonexistent/p.exr"], "/nonexistent/p.exr"),
         (vec!["--region", "0,8,0,8", "--aov", "tir"], "not merged"),
     ] {
@@ -305,5 +306,213 @@ fn set_overrides_keys_and_locates_errors_like_the_file() {
             .unwrap(),
     );
     assert!(e.contains("bad.toml:4:1: camera.fov"), "{e}");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn ctrl_c_partial_resumes_into_the_uninterrupted_render() {
+    let d = tmpdir("resume");
+    let film = [
+        "--width",
+        "48",
+        "--height",
+        "32",
+        "--spp",
+        "1024",
+        "--threads",
+        "1",
+        "--quiet",
+    ];
+    let out = d.join("r.exr");
+    let mut child = snell()
+        .args(["render", SCENE, "-o"])
+        .arg(&out)
+        .args(film)
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(1200));
+    assert!(Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap()
+        .success());
+    assert!(child.wait().unwrap().success());
+    let partial = d.join("r.partial.exr");
+    assert!(
+        partial.exists() && !out.exists(),
+        "interrupted after 1.2 s of a ~3 s render"
+    );
+    let p = snell::part::read_part(&partial).unwrap();
+    let done = p.accum.counts.iter().filter(|&&c| c == 1024).count();
+    assert!(p.accum.counts.iter().all(|&c| c == 0 || c == 1024));
+    assert!(done > 0 && done < 48 * 32, "{done} pixels done");
+    // Resume: only the missing samples are rendered, and the result is the
+    // uninterrupted render bit for bit.
+    let stats = d.join("resumed.json");
+    ok(snell()
+        .args(["render", SCENE, "-o"])
+        .arg(&out)
+        .args(film)
+        .arg("--resume")
+        .arg(&partial)
+        .arg("--stats-json")
+        .arg(&stats)
+        .output()
+        .unwrap());
+    assert_eq!(
+        json(&stats)["samples"].as_u64().unwrap(),
+        (48 * 32 - done as u64) * 1024,
+        "the resumed render takes only the missing samples"
+    );
+    let whole = d.join("whole.exr");
+    ok(snell()
+        .args(["render", SCENE, "-o"])
+        .arg(&whole)
+        .args(film)
+        .output()
+        .unwrap());
+    assert_eq!(rgb_bits(&out), rgb_bits(&whole));
+    // A partial of another scene is refused.
+    let e = fails(
+        snell()
+            .args(["render", "scenes/three_spheres.toml", "-o"])
+            .arg(d.join("x.exr"))
+            .args(film)
+            .arg("--resume")
+            .arg(&partial)
+            .output()
+            .unwrap(),
+    );
+    assert!(e.contains("different scene"), "{e}");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// openjd-cli from the venv `make openjd` (part of `make test`) creates.
+fn openjd() -> Command {
+    let venv = std::env::var_os("SNELL_OPENJD_VENV")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join(".venv"));
+    let bin = venv.join("bin/openjd");
+    assert!(
+        bin.exists(),
+        "openjd-cli is not installed at {}: run `make openjd` (or `make test`, which creates the venv and installs it)",
+        bin.display()
+    );
+    Command::new(bin)
+}
+
+/// nested_spheres_a at 40x30 (no external files, so it can move).
+fn small_scene(dir: &Path) -> PathBuf {
+    let text = std::fs::read_to_string("scenes/nested_spheres_a.toml").unwrap();
+    let text = text
+        .replace("width = 640", "width = 40")
+        .replace("height = 480", "height = 30");
+    assert!(text.contains("width = 40"));
+    let p = dir.join("scene.toml");
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+#[test]
+fn openjd_templates_check_and_the_still_job_reproduces_snell_render() {
+    for t in ["jobs/still.yaml", "jobs/sweep.yaml"] {
+        let out = openjd().args(["check", t]).output().unwrap();
+        assert!(
+            out.status.success(),
+            "openjd check {t}: {}",
+            String::from_utf8_lossy(&out.stdout)
+        );
+    }
+    let d = tmpdir("openjd");
+    let scene = small_scene(&d);
+    let outdir = d.join("out");
+    let p = |k: &str, v: &dyn AsRef<std::ffi::OsStr>| {
+        let mut s = std::ffi::OsString::from(format!("{k}="));
+        s.push(v);
+        s
+    };
+    let bin = env!("CARGO_BIN_EXE_snell");
+    let out = openjd()
+        .args(["run", "jobs/still.yaml"])
+        .args([
+            "-p".into(),
+            p("Scene", &scene),
+            "-p".into(),
+            p("OutputDir", &outdir),
+        ])
+        .args([
+            "-p",
+            "Spp=6",
+            "-p",
+            "TilesX=2",
+            "-p",
+            "TilesY=2",
+            "-p",
+            "Chunks=3",
+            "-p",
+            "Threads=1",
+        ])
+        .args(["-p".into(), p("SnellCommand", &bin)])
+        .output()
+        .unwrap();
+    let log = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "openjd run still.yaml failed:\n{log}");
+    assert!(
+        log.contains("openjd_progress: 100.0"),
+        "tasks print progress:\n{log}"
+    );
+    let single = d.join("single.exr");
+    ok(snell()
+        .args(["render"])
+        .arg(&scene)
+        .arg("-o")
+        .arg(&single)
+        .args(["--spp", "6", "--quiet"])
+        .output()
+        .unwrap());
+    assert_eq!(rgb_bits(&outdir.join("still.exr")), rgb_bits(&single));
+    assert!(outdir.join("still.png").exists());
+    let st = json(&outdir.join("still.stats.json"));
+    assert_eq!(st["parts"], 12);
+    assert_eq!(st["samples"], 40 * 30 * 6);
+    assert!(
+        outdir.join("parts/part_2_2_3.json").exists(),
+        "stats beside each part"
+    );
+
+    let sweep = d.join("sweep");
+    let out = openjd()
+        .args(["run", "jobs/sweep.yaml"])
+        .args([
+            "-p".into(),
+            p("Scene", &scene),
+            "-p".into(),
+            p("OutputDir", &sweep),
+        ])
+        .args([
+            "-p",
+            "Key=objects.left_red.material.ior",
+            "-p",
+            "Values=1.3,1.6",
+            "-p",
+            "Count=2",
+        ])
+        .args(["-p", "Spp=2", "-p", "Threads=1"])
+        .args(["-p".into(), p("SnellCommand", &bin)])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "openjd run sweep.yaml failed:\n{}",
+        String::from_utf8_lossy(&out.stdout)
+    );
+    let table = std::fs::read_to_string(sweep.join("table.md")).unwrap();
+    assert!(table.contains("| objects.left_red.material.ior |"), "{table}");
+    assert!(
+        table.contains("| sweep_1.json | 1.3 |") && table.contains("| sweep_2.json | 1.6 |"),
+        "{table}"
+    );
+    assert!(sweep.join("sweep_2.png").exists());
     let _ = std::fs::remove_dir_all(&d);
 }
