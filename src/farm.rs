@@ -335,12 +335,13 @@ mod tests {
             }
         }
         assert!(covered.iter().all(|&c| c == 1));
-        let chunks: Vec<_> = (0..3)
+        let chunks: Vec<_> = (1..=3)
             .map(|k| sample_chunk(&format!("{k}/3"), 10).unwrap())
             .collect();
         assert_eq!(chunks, vec![(0, 3), (3, 3), (6, 4)]);
-        assert!(sample_chunk("3/3", 10).is_err());
-        assert!(sample_chunk("0/11", 10).is_err());
+        assert!(sample_chunk("0/3", 10).is_err());
+        assert!(sample_chunk("4/3", 10).is_err());
+        assert!(sample_chunk("1/11", 10).is_err());
         assert!(parse_region("1,2,3").is_err());
         assert_eq!(parse_samples("4:2").unwrap(), (4, 2));
     }

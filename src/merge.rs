@@ -219,8 +219,8 @@ pub fn merge(parts: &[Part]) -> Result<Merged> {
         for y in r.y0..r.y1 {
             for x in r.x0..r.x1 {
                 let (src, dst) = (at(p, x, y), (y * w + x) as usize);
-                for c in 0..3 {
-                    sums[dst][c] = sums[dst][c].wrapping_add(p.accum.sums[src][c]);
+                for (d, s) in sums[dst].iter_mut().zip(&p.accum.sums[src]) {
+                    *d = d.wrapping_add(*s);
                 }
                 counts[dst] += p.accum.counts[src] as u64;
             }

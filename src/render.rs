@@ -336,8 +336,8 @@ impl TileJob<'_> {
                     let (o, d) = scene.camera.ray(fx, fy, lens);
                     let mut st = SampleStats::default();
                     let l = radiance(scene, o, d, start_list.clone(), &mut rng, &mut st)?;
-                    for c in 0..3 {
-                        acc[c] = acc[c].wrapping_add(to_fixed(l[c]));
+                    for (a, v) in acc.iter_mut().zip(l.to_array()) {
+                        *a = a.wrapping_add(to_fixed(v));
                     }
                     sum += l;
                     sumsq += l * l;
