@@ -15,10 +15,14 @@ t() { /usr/bin/time -f '%e %U %S' -o "$D/t" "$@" >/dev/null; awk '{printf "%.2f 
 single() { t "$S" render "$SCENE" -o "$D/single.exr" --threads "$THREADS" --quiet; }
 split() {
   rm -rf "$D/parts"
-  t bash -c "for x in \$(seq $NX); do for y in \$(seq $NY); do for k in \$(seq $N); do
-      '$S' render '$SCENE' -o '$D/parts/p_\${x}_\${y}_\${k}.exr' --mkdir --threads $THREADS --quiet \
-        --region-cell \$x/$NX,\$y/$NY --sample-chunk \$k/$N
-    done; done; done; '$S' merge -o '$D/merged.exr' '$D/parts' --quiet"
+  cat > "$D/split.sh" <<SPLIT
+for x in \$(seq $NX); do for y in \$(seq $NY); do for k in \$(seq $N); do
+  "$S" render "$SCENE" -o "$D/parts/p_\${x}_\${y}_\${k}.exr" --mkdir --threads $THREADS --quiet \\
+    --region-cell \$x/$NX,\$y/$NY --sample-chunk \$k/$N
+done; done; done
+"$S" merge -o "$D/merged.exr" "$D/parts" --quiet
+SPLIT
+  t bash -e "$D/split.sh"
 }
 echo "$("$S" --version | tr '\n' ' ')"
 echo "scene $SCENE, $NX x $NY regions x $N chunks, $THREADS thread(s) per process"
