@@ -98,10 +98,15 @@ pub fn sample_chunk(s: &str, spp: u32) -> Result<(u32, u32)> {
 /// The farm options of `snell render`.
 #[derive(Debug, Clone, Default)]
 pub struct FarmArgs {
+    /// `--region x0,x1,y0,y1`.
     pub region: Option<String>,
+    /// `--region-cell IX/NX,IY/NY`.
     pub region_cell: Option<String>,
+    /// `--samples START:COUNT`.
     pub samples: Option<String>,
+    /// `--sample-chunk K/N`.
     pub sample_chunk: Option<String>,
+    /// `--resume PART.exr`.
     pub resume: Option<PathBuf>,
     /// Write a part (with exact sums) even for a whole render.
     pub part: bool,
@@ -110,7 +115,9 @@ pub struct FarmArgs {
 /// What to render and how to label the result.
 #[derive(Debug, Clone)]
 pub struct Plan {
+    /// What to render.
     pub spec: PartSpec,
+    /// How to label the part file.
     pub meta: PartMeta,
     /// Whether the output is a part (region, sample range, resume or `--part`).
     pub is_part: bool,

@@ -14,7 +14,9 @@ use std::path::{Path, PathBuf};
 pub struct Merged {
     /// The whole film, all samples.
     pub meta: PartMeta,
+    /// Pixel means, row 0 at the top.
     pub pixels: Vec<V3>,
+    /// The exact sums (every pixel holds all samples).
     pub accum: Accum,
     /// The parts' stats summed (see [`sum_stats`]).
     pub stats: serde_json::Value,

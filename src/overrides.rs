@@ -309,10 +309,16 @@ mod tests {
 
     #[test]
     fn bad_paths_are_located_in_the_argument() {
-        let e = run(&["objects.b.material.ior=1.3"]).err().map(|e| e.to_string()).unwrap_or_default();
+        let e = run(&["objects.b.material.ior=1.3"])
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
         assert!(e.starts_with("--set 'objects.b.material.ior=1.3':1:9:"), "{e}");
         assert!(e.contains("entries: a"), "{e}");
-        let e = run(&["camera.fov.x=1"]).err().map(|e| e.to_string()).unwrap_or_default();
+        let e = run(&["camera.fov.x=1"])
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
         assert!(e.contains(":1:12:") && e.contains("a float"), "{e}");
         assert!(run(&["film.spp"]).is_err());
         assert!(run(&["film..spp=1"]).is_err());

@@ -16,23 +16,30 @@ use std::path::{Path, PathBuf};
 /// Identity of a part: which film, scene, seed, region and sample range.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct PartMeta {
+    /// Width of the whole film.
     pub film_width: u32,
+    /// Height of the whole film.
     pub film_height: u32,
     /// Samples per pixel of the whole render.
     pub spp: u32,
+    /// The film's seed.
     pub seed: u64,
     /// [`scene_id`] of the scene the part was rendered from.
     pub scene_id: String,
+    /// The pixels the part covers (its EXR's data window).
     pub region: Region,
-    /// Sample indices `[sample_start, sample_start + sample_count)`.
+    /// First sample index of the part's range.
     pub sample_start: u32,
+    /// Sample indices in the range: `[sample_start, sample_start + sample_count)`.
     pub sample_count: u32,
 }
 
 /// A part read back from disk.
 #[derive(Debug, Clone)]
 pub struct Part {
+    /// The file it was read from.
     pub path: PathBuf,
+    /// Film, scene, region and sample range.
     pub meta: PartMeta,
     /// Per pixel of the region: pixel i holds samples `[sample_start, sample_start + counts[i])`.
     pub accum: Accum,
@@ -186,6 +193,9 @@ pub fn read_part(path: &Path) -> Result<Part> {
     };
     let (fw, fh) =
         parse_pair::<u32>(&need("snell_film")?, 'x').ok_or_else(|| bad("bad snell_film".into()))?;
+    if fw as u64 * fh as u64 > crate::scene::build::MAX_PIXELS {
+        return Err(bad(format!("film {fw}x{fh} is larger than snell renders")));
+    }
     let spp: u32 = need("snell_spp")?
         .parse()
         .map_err(|_| bad("bad snell_spp".into()))?;
@@ -287,4 +297,47 @@ pub fn part_pixels(accum: &Accum) -> Vec<V3> {
         .zip(&accum.counts)
         .map(|(s, &n)| mean_of(*s, n))
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn part_round_trip_keeps_sums_exactly() {
+        let meta = PartMeta {
+            film_width: 5,
+            film_height: 4,
+            spp: 9,
+            seed: 3,
+            scene_id: scene_id("x", "filter"),
+            region: Region {
+                x0: 1,
+                x1: 4,
+                y0: 2,
+                y1: 4,
+            },
+            sample_start: 2,
+            sample_count: 5,
+        };
+        let sums: Vec<[i128; 3]> = (0..6i128)
+            .map(|i| [i << 90, -(i * 12345) - 1, (1i128 << 100) + i])
+            .collect();
+        let accum = Accum {
+            sums,
+            counts: vec![5, 5, 0, 5, 3, 5],
+        };
+        let dir = std::env::temp_dir().join(format!("snell-part-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("p.exr");
+        let stats = serde_json::json!({"rays": 7});
+        write_part(&p, &meta, &part_pixels(&accum), &accum, &[], Some(&stats)).unwrap();
+        let back = read_part(&p).unwrap();
+        assert_eq!(back.meta, meta);
+        assert_eq!(back.accum, accum);
+        assert_eq!(back.stats, Some(stats));
+        let (w, h, _) = crate::image_io::read_exr_rgb(&p).unwrap();
+        assert_eq!((w, h), (3, 2));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }

@@ -43,11 +43,13 @@ pub struct Rendered {
     /// The pixels rendered (the whole film unless a region was asked for);
     /// `width` x `height` is its size.
     pub region: Region,
-    /// Size of the whole film.
+    /// Width of the whole film.
     pub film_width: u32,
+    /// Height of the whole film.
     pub film_height: u32,
-    /// Sample indices [start, start + count) of the film's spp this render covers.
+    /// First sample index of the range this render covers.
     pub sample_start: u32,
+    /// Number of sample indices in the range (`[sample_start, sample_start + sample_count)`).
     pub sample_count: u32,
     /// Exact per-pixel sums and sample counts (kept when asked for: part files).
     pub accum: Option<Accum>,
@@ -56,9 +58,13 @@ pub struct Rendered {
 /// Half-open pixel bounds `[x0, x1) x [y0, y1)` of the film (pbrt-v4's `--pixelbounds`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Region {
+    /// First column.
     pub x0: u32,
+    /// One past the last column.
     pub x1: u32,
+    /// First row (row 0 at the top).
     pub y0: u32,
+    /// One past the last row.
     pub y1: u32,
 }
 
@@ -133,7 +139,9 @@ pub fn mean_of(sum: [i128; 3], n: u32) -> V3 {
 /// samples and how many samples each pixel holds (indices `[start, start + n)`).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Accum {
+    /// Per pixel, RGB: the sum of `to_fixed(sample)` (wrapping).
     pub sums: Vec<[i128; 3]>,
+    /// Per pixel: how many samples the sums hold.
     pub counts: Vec<u32>,
 }
 
