@@ -2,6 +2,7 @@
 //! get wrong or make slow: nested dielectrics with priorities (false hits
 //! skipped inside an Embree filter), curved rays in gradient-index media, and
 //! analytic refraction warps. See DESIGN.md and docs/.
+pub mod accum;
 pub mod bench;
 pub mod camera;
 pub mod dielectric;
