@@ -219,6 +219,19 @@ pub fn plan(scene: &RenderScene, id: &str, a: &FarmArgs, keep_sums: bool) -> Res
     })
 }
 
+/// Where an interrupted render of `output` is written: `NAME.partial.EXT`.
+pub fn partial_path(output: &Path) -> PathBuf {
+    let stem = output
+        .file_stem()
+        .map(|s| s.to_string_lossy().to_string())
+        .unwrap_or_default();
+    let ext = output
+        .extension()
+        .map(|s| s.to_string_lossy().to_string())
+        .unwrap_or_default();
+    output.with_file_name(format!("{stem}.partial.{ext}"))
+}
+
 /// Create the directory of `path` if it is missing (`--mkdir`).
 pub fn make_parent(path: &Path) -> Result<()> {
     match path.parent().filter(|p| !p.as_os_str().is_empty()) {

@@ -196,6 +196,10 @@ struct FarmFlags {
     /// Continue a partial part EXR (Ctrl-C): render the samples it lacks.
     #[arg(long, value_name = "PART.exr")]
     resume: Option<PathBuf>,
+    /// Continue OUTPUT's own partial (NAME.partial.exr) when there is one, and
+    /// remove it once the render completes (farm tasks that are retried).
+    #[arg(long)]
+    resume_partial: bool,
     /// Write the EXR as a part (with exact sums) even for a whole render.
     #[arg(long)]
     part: bool,
@@ -688,12 +692,21 @@ fn run(cli: Cli) -> snell::Result<()> {
                 s.set_resolution(width.unwrap_or(s.width), height.unwrap_or(s.height))?;
             }
             let is_exr = output.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+            let own_partial = snell::farm::partial_path(&output);
+            let auto_resume = farm.resume_partial && farm.resume.is_none() && own_partial.is_file();
+            if auto_resume && !quiet {
+                eprintln!("resuming {}", own_partial.display());
+            }
             let fa = snell::farm::FarmArgs {
                 region: farm.region,
                 region_cell: farm.region_cell,
                 samples: farm.samples,
                 sample_chunk: farm.sample_chunk,
-                resume: farm.resume,
+                resume: if auto_resume {
+                    Some(own_partial.clone())
+                } else {
+                    farm.resume
+                },
                 part: farm.part,
             };
             let plan = snell::farm::plan(&s, &scene_id, &fa, is_exr)?;
@@ -704,14 +717,16 @@ fn run(cli: Cli) -> snell::Result<()> {
                 ));
             }
             snell::render::PROGRESS_LINES.store(farm.progress_lines, std::sync::atomic::Ordering::Relaxed);
-            // Ctrl-C stops at the next tile boundary and the image so far is
-            // written, clearly named; a second Ctrl-C exits at once.
+            // Ctrl-C (or SIGTERM, SIGHUP: a farm cancelling the task) stops at
+            // the next tile boundary and the image so far is written, clearly
+            // named; a second signal exits at once.
             let _ = ctrlc::set_handler(|| {
                 if snell::render::INTERRUPT.swap(true, std::sync::atomic::Ordering::SeqCst) {
                     std::process::exit(130);
                 }
                 eprintln!("\ninterrupted: finishing the tiles in progress (Ctrl-C again to exit at once)");
             });
+            let complete_output = output.clone();
             let r = snell::render::render_part(
                 &s,
                 &RenderOptions {
@@ -724,15 +739,7 @@ fn run(cli: Cli) -> snell::Result<()> {
             let output = if r.complete {
                 output
             } else {
-                let stem = output
-                    .file_stem()
-                    .map(|s| s.to_string_lossy().to_string())
-                    .unwrap_or_default();
-                let ext = output
-                    .extension()
-                    .map(|s| s.to_string_lossy().to_string())
-                    .unwrap_or_default();
-                let p = output.with_file_name(format!("{stem}.partial.{ext}"));
+                let p = snell::farm::partial_path(&output);
                 eprintln!(
                     "interrupted: {} of {} tiles done ({} spp each, the rest black); writing {}",
                     r.tiles_done,
@@ -798,6 +805,10 @@ fn run(cli: Cli) -> snell::Result<()> {
                 let text =
                     serde_json::to_string_pretty(&st).map_err(|e| snell::Error::Invalid(e.to_string()))?;
                 snell::image_io::write_atomic(&p, text.as_bytes())?;
+            }
+            if auto_resume && r.complete && output == complete_output {
+                // The partial is consumed: a directory of parts must not hold it twice.
+                let _ = std::fs::remove_file(&own_partial);
             }
             if r.stats.nan > 0 {
                 eprintln!(

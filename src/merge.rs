@@ -23,7 +23,8 @@ pub struct Merged {
 }
 
 /// Expand the command line's inputs: a directory stands for its `.exr` files
-/// (sorted by name, temporary and `.partial.` files left out).
+/// (sorted by name; hidden temporaries and `NAME.partial.exr` files, which an
+/// interrupted task leaves and a retried one resumes, are left out).
 pub fn collect_inputs(args: &[PathBuf]) -> Result<Vec<PathBuf>> {
     let mut out = Vec::new();
     for a in args {
@@ -36,7 +37,7 @@ pub fn collect_inputs(args: &[PathBuf]) -> Result<Vec<PathBuf>> {
                         .file_name()
                         .map(|n| n.to_string_lossy().to_string())
                         .unwrap_or_default();
-                    name.ends_with(".exr") && !name.starts_with('.')
+                    name.ends_with(".exr") && !name.starts_with('.') && !name.ends_with(".partial.exr")
                 })
                 .collect();
             v.sort();

@@ -104,6 +104,8 @@ fn regions_times_sample_ranges_merge_bit_for_bit() {
     assert_eq!((one.meta.sample_start, one.meta.sample_count), (0, 1));
     assert!(one.accum.counts.iter().all(|&c| c == 1));
 
+    // A stale partial in the directory (an interrupted task, since retried) is not a part of the merge.
+    std::fs::copy(&parts[0], d.join("parts/stale.partial.exr")).unwrap();
     let merged = d.join("merged.exr");
     let png = d.join("merged.png");
     let mstats = d.join("merged.json");
@@ -328,6 +330,7 @@ fn ctrl_c_partial_resumes_into_the_uninterrupted_render() {
         .args(["render", SCENE, "-o"])
         .arg(&out)
         .args(film)
+        .stdout(std::process::Stdio::null())
         .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
@@ -373,6 +376,36 @@ fn ctrl_c_partial_resumes_into_the_uninterrupted_render() {
         .output()
         .unwrap());
     assert_eq!(rgb_bits(&out), rgb_bits(&whole));
+
+    // A farm cancelling a task sends SIGTERM: the same partial; the retried
+    // task (same command, --resume-partial) continues it and removes it.
+    let task = d.join("task.exr");
+    let run_task = || {
+        snell()
+            .args(["render", SCENE, "-o"])
+            .arg(&task)
+            .args(film)
+            .arg("--resume-partial")
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap()
+    };
+    let mut child = run_task();
+    std::thread::sleep(std::time::Duration::from_millis(1200));
+    assert!(Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .unwrap()
+        .success());
+    assert!(child.wait().unwrap().success());
+    let task_partial = d.join("task.partial.exr");
+    assert!(task_partial.exists() && !task.exists());
+    let retried = run_task().wait_with_output().unwrap();
+    assert!(retried.status.success());
+    assert!(String::from_utf8_lossy(&retried.stderr).is_empty(), "quiet");
+    assert!(!task_partial.exists(), "the consumed partial is removed");
+    assert_eq!(rgb_bits(&task), rgb_bits(&whole));
     // A partial of another scene is refused.
     let e = fails(
         snell()
