@@ -6,7 +6,7 @@ DEMO_SCENE ?= scenes/three_spheres.toml
 DEMO_OUT ?= out/demo.png
 APT_PACKAGES := libembree-dev libclang-dev
 
-.PHONY: deps demo test build bench fmt lint clean fuzz check-memory
+.PHONY: deps demo test build bench fmt lint clean fuzz check-memory openjd
 
 # Probes for exactly what the build loads: Embree's header and libembree3.so, and
 # the libclang that bindgen (clang-sys) opens: libclang.so or libclang-<version>.so*.
@@ -40,8 +40,34 @@ demo: build
 	./target/release/snell render $(DEMO_SCENE) -o $(DEMO_OUT) --quiet
 	@echo "snell: demo image written to $(abspath $(DEMO_OUT))"
 
-test: deps
+test: deps openjd
 	$(CARGO) test --workspace --locked
+
+# openjd-cli (Open Job Description) in a venv for tests/farm.rs and docs/farm.md.
+# Debian's python3 needs python3-venv for `python3 -m venv`: installed when missing.
+OPENJD_VENV ?= .venv
+OPENJD_CLI ?= openjd-cli>=0.8,<0.9
+openjd: $(OPENJD_VENV)/bin/openjd
+
+$(OPENJD_VENV)/bin/openjd:
+	@missing=""; \
+	command -v python3 >/dev/null 2>&1 || missing="python3"; \
+	if [ -z "$$missing" ] && ! python3 -c 'import ensurepip, venv' >/dev/null 2>&1; then missing="python3-venv"; fi; \
+	if [ "$$missing" = python3 ]; then missing="python3 python3-venv"; fi; \
+	if [ -n "$$missing" ]; then \
+	  echo "snell: installing missing system packages: $$missing (for the openjd-cli venv)"; \
+	  if [ "$$(id -u)" = 0 ]; then \
+	    export DEBIAN_FRONTEND=noninteractive; apt-get update && apt-get install -y $$missing || exit 1; \
+	  elif command -v sudo >/dev/null 2>&1; then \
+	    sudo apt-get update && sudo DEBIAN_FRONTEND=noninteractive apt-get install -y $$missing || exit 1; \
+	  else \
+	    echo "snell: not root and no sudo. Run as root: apt-get update && apt-get install -y $$missing"; exit 1; \
+	  fi; \
+	fi
+	rm -rf $(OPENJD_VENV)
+	python3 -m venv $(OPENJD_VENV)
+	$(OPENJD_VENV)/bin/pip install --quiet --disable-pip-version-check '$(OPENJD_CLI)'
+	$(OPENJD_VENV)/bin/openjd --version
 
 # Embree FFI tests and a small render under valgrind memcheck: no invalid reads
 # or writes, no definite leaks from snell's side (TBB's thread pools and
@@ -70,3 +96,4 @@ lint: deps
 
 clean:
 	$(CARGO) clean
+	rm -rf $(OPENJD_VENV)

@@ -4,17 +4,22 @@
 //! analytic refraction warps. See DESIGN.md and docs/.
 #![deny(unsafe_code)]
 
+pub mod accum;
 pub mod bench;
 pub mod camera;
 pub mod dielectric;
 #[allow(unsafe_code)] // the one FFI module: every unsafe block says why it is sound
 pub mod embree;
 pub mod error;
+pub mod farm;
 pub mod fuzz;
 pub mod image_io;
 pub mod integrator;
 pub mod media;
+pub mod merge;
 pub mod optics;
+pub mod overrides;
+pub mod part;
 pub mod provenance;
 pub mod render;
 pub mod sampling;

@@ -2,7 +2,7 @@
 #![deny(unsafe_code)]
 use clap::{Parser, Subcommand};
 use snell::dielectric::NestedStrategy;
-use snell::render::{render, RenderOptions};
+use snell::render::RenderOptions;
 use snell::scene::{load_scene, BuildOptions};
 use std::path::PathBuf;
 
@@ -63,6 +63,47 @@ enum Cmd {
         /// Write render statistics (with provenance) as JSON.
         #[arg(long)]
         stats_json: Option<PathBuf>,
+        /// Override a scene key: objects.water.material.ior=1.34, film.spp=256 (repeatable).
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
+        /// A sweep: with --sweep-index I, the same as --set KEY=VI.
+        #[arg(long, value_name = "KEY=V1,V2,...", requires = "sweep_index")]
+        sweep: Option<String>,
+        /// Which value of --sweep to render (counting from 1).
+        #[arg(long, value_name = "I", requires = "sweep")]
+        sweep_index: Option<u32>,
+        #[command(flatten)]
+        farm: FarmFlags,
+    },
+    /// Merge part EXRs (regions, sample ranges; directories stand for their .exr files)
+    /// into the whole render, bit for bit equal to a single render.
+    Merge {
+        #[arg(short, long)]
+        output: PathBuf,
+        #[arg(required = true)]
+        parts: Vec<PathBuf>,
+        /// Also write an sRGB PNG of the merged image.
+        #[arg(long)]
+        png: Option<PathBuf>,
+        /// Write the parts' stats, summed.
+        #[arg(long)]
+        stats_json: Option<PathBuf>,
+        /// Keep the exact sums in the output (a part covering the whole render).
+        #[arg(long)]
+        part: bool,
+        /// Create the output's directory when it is missing.
+        #[arg(long)]
+        mkdir: bool,
+        #[arg(long)]
+        quiet: bool,
+    },
+    /// Print a Markdown table of stats JSON files (a sweep's tasks; directories
+    /// stand for their .json files), optionally to a file.
+    Table {
+        #[arg(required = true)]
+        stats: Vec<PathBuf>,
+        #[arg(short, long)]
+        output: Option<PathBuf>,
     },
     /// Audits: `snell audit nested SCENE --rays N` compares interior lists with point-in-solid tests.
     Audit {
@@ -136,6 +177,39 @@ enum Cmd {
         #[command(subcommand)]
         which: BenchCmd,
     },
+}
+
+/// Render-farm options of `snell render` (docs/farm.md).
+#[derive(clap::Args)]
+struct FarmFlags {
+    /// Render only pixels x0..x1, y0..y1 (half-open; the EXR's data window).
+    #[arg(long, value_name = "x0,x1,y0,y1")]
+    region: Option<String>,
+    /// Render cell IX,IY of an NX x NY grid over the film.
+    #[arg(long, value_name = "IX/NX,IY/NY")]
+    region_cell: Option<String>,
+    /// Render sample indices START..START+COUNT of the film's spp.
+    #[arg(long, value_name = "START:COUNT")]
+    samples: Option<String>,
+    /// Render chunk K of the film's spp cut into N ranges.
+    #[arg(long, value_name = "K/N")]
+    sample_chunk: Option<String>,
+    /// Continue a partial part EXR (Ctrl-C): render the samples it lacks.
+    #[arg(long, value_name = "PART.exr")]
+    resume: Option<PathBuf>,
+    /// Continue OUTPUT's own partial (NAME.partial.exr) when there is one, and
+    /// remove it once the render completes (farm tasks that are retried).
+    #[arg(long)]
+    resume_partial: bool,
+    /// Write the EXR as a part (with exact sums) even for a whole render.
+    #[arg(long)]
+    part: bool,
+    /// Print progress lines (`openjd_progress: P`) to stderr, for farm logs.
+    #[arg(long)]
+    progress_lines: bool,
+    /// Create the output's directory when it is missing.
+    #[arg(long)]
+    mkdir: bool,
 }
 
 #[derive(Subcommand)]
@@ -507,6 +581,65 @@ fn run(cli: Cli) -> snell::Result<()> {
             }
             Ok(())
         }
+        Cmd::Merge {
+            output,
+            parts,
+            png,
+            stats_json,
+            part,
+            mkdir,
+            quiet,
+        } => {
+            if mkdir {
+                snell::farm::make_parent(&output)?;
+            }
+            let files = snell::merge::collect_inputs(&parts)?;
+            let parts = files
+                .iter()
+                .map(|f| snell::part::read_part(f))
+                .collect::<snell::Result<Vec<_>>>()?;
+            let m = snell::merge::merge(&parts)?;
+            let (w, h) = (m.meta.film_width, m.meta.film_height);
+            let is_exr = output.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+            let attrs = [
+                ("spp", m.meta.spp.to_string()),
+                ("complete", "true".to_string()),
+                ("merged_parts", files.len().to_string()),
+                ("provenance", snell::provenance::line()),
+            ];
+            if part && is_exr {
+                snell::part::write_part(&output, &m.meta, &m.pixels, &m.accum, &attrs, Some(&m.stats))?;
+            } else {
+                snell::image_io::save(&output, w, h, &m.pixels, &[], &attrs)?;
+            }
+            if let Some(p) = &png {
+                snell::image_io::save(p, w, h, &m.pixels, &[], &[])?;
+            }
+            if let Some(p) = stats_json {
+                let text = serde_json::to_string_pretty(&m.stats)
+                    .map_err(|e| snell::Error::Invalid(e.to_string()))?;
+                snell::image_io::write_atomic(&p, text.as_bytes())?;
+            }
+            if !quiet {
+                eprintln!(
+                    "merged {} parts into {w}x{h} at {} spp: {} rays, {:.2} s of task time",
+                    files.len(),
+                    m.meta.spp,
+                    m.stats["rays"],
+                    m.stats["wall_s"].as_f64().unwrap_or(0.0)
+                );
+            }
+            say!("{}", output.display());
+            Ok(())
+        }
+        Cmd::Table { stats, output } => {
+            let t = snell::farm::stats_table(&stats)?;
+            match output {
+                Some(p) => snell::image_io::write_atomic(&p, t.as_bytes())?,
+                None => say!("{}", t.trim_end()),
+            }
+            Ok(())
+        }
         Cmd::Render {
             scene,
             output,
@@ -519,7 +652,17 @@ fn run(cli: Cli) -> snell::Result<()> {
             aov,
             quiet,
             stats_json,
+            mut set,
+            sweep,
+            sweep_index,
+            farm,
         } => {
+            if let (Some(sw), Some(i)) = (&sweep, sweep_index) {
+                set.push(snell::overrides::sweep_value(sw, i)?);
+            }
+            if farm.mkdir {
+                snell::farm::make_parent(&output)?;
+            }
             for a in &aov {
                 if !["false_hits", "list_depth", "tir", "fallbacks"].contains(&a.as_str()) {
                     return Err(snell::Error::Invalid(format!(
@@ -531,7 +674,9 @@ fn run(cli: Cli) -> snell::Result<()> {
                 nested,
                 ..Default::default()
             };
-            let mut s = load_scene(&scene, &opts)?;
+            let load_t = std::time::Instant::now();
+            let (mut s, scene_id) = snell::farm::load(&scene, &set, &opts)?;
+            let load_s = load_t.elapsed().as_secs_f64();
             for w in &s.warnings {
                 eprintln!("warning: {w}");
             }
@@ -547,34 +692,55 @@ fn run(cli: Cli) -> snell::Result<()> {
             if width.is_some() || height.is_some() {
                 s.set_resolution(width.unwrap_or(s.width), height.unwrap_or(s.height))?;
             }
-            // Ctrl-C stops at the next tile boundary and the image so far is
-            // written, clearly named; a second Ctrl-C exits at once.
+            let is_exr = output.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+            let own_partial = snell::farm::partial_path(&output);
+            let auto_resume = farm.resume_partial && farm.resume.is_none() && own_partial.is_file();
+            if auto_resume && !quiet {
+                eprintln!("resuming {}", own_partial.display());
+            }
+            let fa = snell::farm::FarmArgs {
+                region: farm.region,
+                region_cell: farm.region_cell,
+                samples: farm.samples,
+                sample_chunk: farm.sample_chunk,
+                resume: if auto_resume {
+                    Some(own_partial.clone())
+                } else {
+                    farm.resume
+                },
+                part: farm.part,
+            };
+            let plan = snell::farm::plan(&s, &scene_id, &fa, is_exr)?;
+            if plan.is_part && !aov.is_empty() {
+                return Err(snell::Error::Invalid(
+                    "--aov layers are not merged: render them in one piece (no --region, --samples, --resume or --part)"
+                        .into(),
+                ));
+            }
+            snell::render::PROGRESS_LINES.store(farm.progress_lines, std::sync::atomic::Ordering::Relaxed);
+            // Ctrl-C (or SIGTERM, SIGHUP: a farm cancelling the task) stops at
+            // the next tile boundary and the image so far is written, clearly
+            // named; a second signal exits at once.
             let _ = ctrlc::set_handler(|| {
                 if snell::render::INTERRUPT.swap(true, std::sync::atomic::Ordering::SeqCst) {
                     std::process::exit(130);
                 }
                 eprintln!("\ninterrupted: finishing the tiles in progress (Ctrl-C again to exit at once)");
             });
-            let r = render(
+            let complete_output = output.clone();
+            let r = snell::render::render_part(
                 &s,
                 &RenderOptions {
                     threads,
                     quiet,
                     want_aovs: !aov.is_empty(),
                 },
+                &plan.spec,
             )?;
             let output = if r.complete {
                 output
             } else {
-                let stem = output
-                    .file_stem()
-                    .map(|s| s.to_string_lossy().to_string())
-                    .unwrap_or_default();
-                let ext = output
-                    .extension()
-                    .map(|s| s.to_string_lossy().to_string())
-                    .unwrap_or_default();
-                let p = output.with_file_name(format!("{stem}.partial.{ext}"));
+                let p = snell::farm::partial_path(&output);
                 eprintln!(
                     "interrupted: {} of {} tiles done ({} spp each, the rest black); writing {}",
                     r.tiles_done,
@@ -605,15 +771,26 @@ fn run(cli: Cli) -> snell::Result<()> {
                 ("tiles_done", format!("{}/{}", r.tiles_done, r.tiles_total)),
                 ("provenance", snell::provenance::line()),
             ];
-            let is_exr = output.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
-            snell::image_io::save(
-                &output,
-                r.width,
-                r.height,
-                &r.pixels,
-                if is_exr { &layers } else { &[] },
-                &attrs,
-            )?;
+            let mut st = r.stats.to_json(&s, r.spp_done);
+            st["cpu_s"] = serde_json::json!(snell::farm::cpu_seconds());
+            st["load_s"] = serde_json::json!(load_s);
+            st["region"] = serde_json::json!(r.region.to_string());
+            st["samples_range"] = serde_json::json!(format!("{}:{}", r.sample_start, r.sample_count));
+            st["scene_id"] = serde_json::json!(scene_id);
+            st["overrides"] = serde_json::json!(set);
+            match (&r.accum, is_exr && (plan.is_part || !r.complete)) {
+                (Some(acc), true) => {
+                    snell::part::write_part(&output, &plan.meta, &r.pixels, acc, &attrs, Some(&st))?;
+                }
+                _ => snell::image_io::save(
+                    &output,
+                    r.width,
+                    r.height,
+                    &r.pixels,
+                    if is_exr { &layers } else { &[] },
+                    &attrs,
+                )?,
+            }
             if !is_exr {
                 for (name, vals) in layers.iter().filter(|l| l.0 != "spp") {
                     let max = vals.iter().cloned().fold(0.0f32, f32::max).max(1e-9);
@@ -625,11 +802,14 @@ fn run(cli: Cli) -> snell::Result<()> {
                     }
                 }
             }
-            let st = r.stats.to_json(&s, r.spp_done);
             if let Some(p) = stats_json {
                 let text =
                     serde_json::to_string_pretty(&st).map_err(|e| snell::Error::Invalid(e.to_string()))?;
                 snell::image_io::write_atomic(&p, text.as_bytes())?;
+            }
+            if auto_resume && r.complete && output == complete_output {
+                // The partial is consumed: a directory of parts must not hold it twice.
+                let _ = std::fs::remove_file(&own_partial);
             }
             if r.stats.nan > 0 {
                 eprintln!(

@@ -1,5 +1,6 @@
 //! Tiles, threads and progress. Each pixel's samples draw from generators
 //! seeded by (seed, pixel, sample), so the image is the same for any thread count.
+pub use crate::accum::{mean_of, to_fixed, Accum, PartSpec, Region, FIXED_BITS};
 use crate::dielectric::InteriorList;
 use crate::error::{Error, Result};
 use crate::integrator::{radiance, SampleStats};
@@ -40,6 +41,19 @@ pub struct Rendered {
     pub pixel_spp: Vec<f32>,
     pub tiles_done: u32,
     pub tiles_total: u32,
+    /// The pixels rendered (the whole film unless a region was asked for);
+    /// `width` x `height` is its size.
+    pub region: Region,
+    /// Width of the whole film.
+    pub film_width: u32,
+    /// Height of the whole film.
+    pub film_height: u32,
+    /// First sample index of the range this render covers.
+    pub sample_start: u32,
+    /// Number of sample indices in the range (`[sample_start, sample_start + sample_count)`).
+    pub sample_count: u32,
+    /// Exact per-pixel sums and sample counts (kept when asked for: part files).
+    pub accum: Option<Accum>,
 }
 
 /// Totals over a render.
@@ -148,6 +162,10 @@ impl Rendered {
 /// Set by a Ctrl-C handler to stop at the next tile boundary.
 pub static INTERRUPT: AtomicBool = AtomicBool::new(false);
 
+/// Print progress as lines on stderr (`openjd_progress: P`, which farm
+/// managers running Open Job Description read, and a human line) at every 10%.
+pub static PROGRESS_LINES: AtomicBool = AtomicBool::new(false);
+
 struct TileOut {
     x0: u32,
     y0: u32,
@@ -156,110 +174,193 @@ struct TileOut {
     px: Vec<V3>,
     var: Vec<V3>,
     aov: Option<[Vec<f32>; 4]>,
+    sums: Vec<[i128; 3]>,
+    counts: Vec<u32>,
     stats: RenderStats,
     done: bool,
 }
 
-fn render_tile(scene: &RenderScene, x0: u32, y0: u32, want_aovs: bool) -> Result<TileOut> {
-    let w = TILE.min(scene.width - x0);
-    let h = TILE.min(scene.height - y0);
-    let n = (w * h) as usize;
-    let mut px = vec![V3::ZERO; n];
-    let mut var = vec![V3::ZERO; n];
-    let mut aov = want_aovs.then(|| [vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]]);
-    let mut stats = RenderStats::default();
-    let spp = scene.spp;
-    let inv = 1.0 / spp as f32;
-    let start_list = InteriorList::from_slice(&scene.camera_interior);
-    for j in 0..h {
-        for i in 0..w {
-            let (x, y) = (x0 + i, y0 + j);
-            let pixel = y as u64 * scene.width as u64 + x as u64;
-            let mut sum = V3::ZERO;
-            let mut sumsq = V3::ZERO;
-            let k = (j * w + i) as usize;
-            for s in 0..spp {
-                let mut rng = Rng::for_sample(scene.seed, pixel, s as u64);
-                let fx = x as f32 + rng.uniform();
-                let fy = y as f32 + rng.uniform();
-                let lens = (rng.uniform(), rng.uniform());
-                let (o, d) = scene.camera.ray(fx, fy, lens);
-                let mut st = SampleStats::default();
-                let l = radiance(scene, o, d, start_list.clone(), &mut rng, &mut st)?;
-                sum += l;
-                sumsq += l * l;
-                stats.add(&st);
-                if let Some(a) = &mut aov {
-                    a[0][k] += st.counters.false_hits as f32 * inv;
-                    a[1][k] = a[1][k].max(st.counters.max_list_depth as f32);
-                    a[2][k] += st.tir as f32 * inv;
-                    a[3][k] += st.counters.fallbacks as f32 * inv;
-                }
+/// What every tile of one render shares.
+struct TileJob<'a> {
+    scene: &'a RenderScene,
+    region: Region,
+    start: u32,
+    count: u32,
+    base: Option<&'a Accum>,
+    want_aovs: bool,
+}
+
+impl TileJob<'_> {
+    /// Sum and count already held by pixel (x, y).
+    fn base_at(&self, x: u32, y: u32) -> ([i128; 3], u32) {
+        match self.base {
+            Some(b) => {
+                let i = ((y - self.region.y0) * self.region.width() + x - self.region.x0) as usize;
+                (b.sums[i], b.counts[i])
             }
-            stats.samples += spp as u64;
-            px[k] = sum * inv;
-            if spp > 1 {
-                let s2 = ((sumsq - sum * sum * inv) / (spp - 1) as f32).max(V3::ZERO);
-                var[k] = s2 * inv;
-            }
+            None => ([0; 3], 0),
         }
     }
-    // Embree errors and panics in analytic shapes (which made queries miss)
-    // surface here instead of as a silently wrong tile.
-    scene.embree.check()?;
-    Ok(TileOut {
-        x0,
-        y0,
-        w,
-        h,
-        px,
-        var,
-        aov,
-        stats,
-        done: true,
-    })
+
+    /// Render the tile at (x0, y0), or (`skip`) only carry over the samples already held.
+    fn tile(&self, x0: u32, y0: u32, skip: bool) -> Result<TileOut> {
+        let scene = self.scene;
+        let w = TILE.min(self.region.x1 - x0);
+        let h = TILE.min(self.region.y1 - y0);
+        let n = (w * h) as usize;
+        let mut px = vec![V3::ZERO; n];
+        let mut var = vec![V3::ZERO; n];
+        let mut sums = vec![[0i128; 3]; n];
+        let mut counts = vec![0u32; n];
+        let mut aov =
+            (self.want_aovs && !skip).then(|| [vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]]);
+        let mut stats = RenderStats::default();
+        let start_list = InteriorList::from_slice(&scene.camera_interior);
+        for j in 0..h {
+            for i in 0..w {
+                let (x, y) = (x0 + i, y0 + j);
+                let k = (j * w + i) as usize;
+                let (mut acc, held) = self.base_at(x, y);
+                if skip {
+                    sums[k] = acc;
+                    counts[k] = held;
+                    px[k] = mean_of(acc, held);
+                    continue;
+                }
+                let pixel = y as u64 * scene.width as u64 + x as u64;
+                let mut sum = V3::ZERO;
+                let mut sumsq = V3::ZERO;
+                let taken = self.count - held;
+                let inv = 1.0 / taken.max(1) as f32;
+                for s in self.start + held..self.start + self.count {
+                    let mut rng = Rng::for_sample(scene.seed, pixel, s as u64);
+                    let fx = x as f32 + rng.uniform();
+                    let fy = y as f32 + rng.uniform();
+                    let lens = (rng.uniform(), rng.uniform());
+                    let (o, d) = scene.camera.ray(fx, fy, lens);
+                    let mut st = SampleStats::default();
+                    let l = radiance(scene, o, d, start_list.clone(), &mut rng, &mut st)?;
+                    for (a, v) in acc.iter_mut().zip(l.to_array()) {
+                        *a = a.wrapping_add(to_fixed(v));
+                    }
+                    sum += l;
+                    sumsq += l * l;
+                    stats.add(&st);
+                    if let Some(a) = &mut aov {
+                        a[0][k] += st.counters.false_hits as f32 * inv;
+                        a[1][k] = a[1][k].max(st.counters.max_list_depth as f32);
+                        a[2][k] += st.tir as f32 * inv;
+                        a[3][k] += st.counters.fallbacks as f32 * inv;
+                    }
+                }
+                stats.samples += taken as u64;
+                sums[k] = acc;
+                counts[k] = self.count;
+                px[k] = mean_of(acc, self.count);
+                if taken > 1 {
+                    let s2 = ((sumsq - sum * sum * inv) / (taken - 1) as f32).max(V3::ZERO);
+                    var[k] = s2 * inv;
+                }
+            }
+        }
+        // Embree errors and panics in analytic shapes (which made queries miss)
+        // surface here instead of as a silently wrong tile.
+        scene.embree.check()?;
+        Ok(TileOut {
+            x0,
+            y0,
+            w,
+            h,
+            px,
+            var,
+            aov,
+            sums,
+            counts,
+            stats,
+            done: !skip,
+        })
+    }
 }
 
 /// Render `scene` with its film settings.
 pub fn render(scene: &RenderScene, opts: &RenderOptions) -> Result<Rendered> {
+    render_part(scene, opts, &PartSpec::default())
+}
+
+/// Render a part of `scene`: a region, a range of sample indices, optionally
+/// continuing from samples already taken. Every pixel's value is the exact
+/// (fixed-point) sum of its samples divided by their number, so any split of
+/// a render into parts merges into the same image bit for bit.
+pub fn render_part(scene: &RenderScene, opts: &RenderOptions, part: &PartSpec) -> Result<Rendered> {
+    let region = part.region.unwrap_or(Region::full(scene.width, scene.height));
+    if region.x0 >= region.x1 || region.y0 >= region.y1 || region.x1 > scene.width || region.y1 > scene.height
+    {
+        return Err(Error::Invalid(format!(
+            "region {region} (x0,x1,y0,y1, half-open) is empty or outside the {}x{} film",
+            scene.width, scene.height
+        )));
+    }
+    let (start, count) = part.samples.unwrap_or((0, scene.spp));
+    if count == 0 || start as u64 + count as u64 > scene.spp as u64 {
+        return Err(Error::Invalid(format!(
+            "samples {start}:{count} (START:COUNT) must be a non-empty range within the film's {} samples per pixel",
+            scene.spp
+        )));
+    }
+    if let Some(b) = &part.base {
+        if b.sums.len() != region.pixels() || b.counts.len() != region.pixels() {
+            return Err(Error::Invalid(
+                "resume: the part's size does not match the region".into(),
+            ));
+        }
+        if let Some(c) = b.counts.iter().find(|&&c| c > count) {
+            return Err(Error::Invalid(format!(
+                "resume: a pixel holds {c} samples, more than the range's {count}"
+            )));
+        }
+    }
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(opts.threads.unwrap_or(0))
         .build()
         .map_err(|e| Error::Invalid(format!("cannot start render threads: {e}")))?;
+    let job = TileJob {
+        scene,
+        region,
+        start,
+        count,
+        base: part.base.as_ref(),
+        want_aovs: opts.want_aovs,
+    };
     let mut tiles = Vec::new();
-    for y in (0..scene.height).step_by(TILE as usize) {
-        for x in (0..scene.width).step_by(TILE as usize) {
+    for y in (region.y0..region.y1).step_by(TILE as usize) {
+        for x in (region.x0..region.x1).step_by(TILE as usize) {
             tiles.push((x, y));
         }
     }
     let total = tiles.len() as u64;
     let bar = progress_bar(total, opts.quiet);
     let samples_done = AtomicU64::new(0);
-    let start = Instant::now();
+    let tiles_finished = AtomicU64::new(0);
+    let start_t = Instant::now();
     let results: Vec<Result<TileOut>> = pool.install(|| {
         tiles
             .par_iter()
             .map(|&(x, y)| {
-                if INTERRUPT.load(Ordering::Relaxed) {
-                    let w = TILE.min(scene.width - x);
-                    let h = TILE.min(scene.height - y);
-                    return Ok(TileOut {
-                        x0: x,
-                        y0: y,
-                        w,
-                        h,
-                        px: vec![V3::ZERO; (w * h) as usize],
-                        var: vec![V3::ZERO; (w * h) as usize],
-                        aov: None,
-                        stats: RenderStats::default(),
-                        done: false,
-                    });
-                }
-                let t = render_tile(scene, x, y, opts.want_aovs)?;
+                let t = job.tile(x, y, INTERRUPT.load(Ordering::Relaxed))?;
                 let s = samples_done.fetch_add(t.stats.samples, Ordering::Relaxed) + t.stats.samples;
+                let done = tiles_finished.fetch_add(1, Ordering::Relaxed) + 1;
+                if PROGRESS_LINES.load(Ordering::Relaxed) && (done * 10 / total) != ((done - 1) * 10 / total)
+                {
+                    let el = start_t.elapsed().as_secs_f64().max(1e-9);
+                    eprintln!(
+                        "openjd_progress: {:.1}\nsnell: {done}/{total} tiles, {:.2} Msamples/s, {el:.1} s",
+                        100.0 * done as f64 / total as f64,
+                        s as f64 / el / 1e6
+                    );
+                }
                 if let Some(b) = &bar {
                     b.inc(1);
-                    let el = start.elapsed().as_secs_f64().max(1e-9);
+                    let el = start_t.elapsed().as_secs_f64().max(1e-9);
                     b.set_message(format!("{:.2} Msamples/s", s as f64 / el / 1e6));
                 }
                 Ok(t)
@@ -269,8 +370,9 @@ pub fn render(scene: &RenderScene, opts: &RenderOptions) -> Result<Rendered> {
     if let Some(b) = bar {
         b.finish_and_clear();
     }
-    let wall = start.elapsed().as_secs_f64();
-    let n = (scene.width * scene.height) as usize;
+    let wall = start_t.elapsed().as_secs_f64();
+    let rw = region.width();
+    let n = region.pixels();
     let mut pixels = vec![V3::ZERO; n];
     let mut variance = vec![V3::ZERO; n];
     let mut aovs = Aovs::default();
@@ -282,22 +384,28 @@ pub fn render(scene: &RenderScene, opts: &RenderOptions) -> Result<Rendered> {
             fallbacks: vec![0.0; n],
         };
     }
+    let mut accum = part.keep_sums.then(|| Accum {
+        sums: vec![[0; 3]; n],
+        counts: vec![0; n],
+    });
     let mut stats = RenderStats::default();
-    let mut complete = true;
     let mut pixel_spp = vec![0.0f32; n];
     let mut tiles_done = 0;
     for r in results {
         let t = r?;
-        complete &= t.done;
         tiles_done += t.done as u32;
         stats.merge(&t.stats);
         for j in 0..t.h {
             for i in 0..t.w {
-                let dst = ((t.y0 + j) * scene.width + t.x0 + i) as usize;
+                let dst = ((t.y0 - region.y0 + j) * rw + t.x0 - region.x0 + i) as usize;
                 let src = (j * t.w + i) as usize;
                 pixels[dst] = t.px[src];
                 variance[dst] = t.var[src];
-                pixel_spp[dst] = if t.done { scene.spp as f32 } else { 0.0 };
+                pixel_spp[dst] = t.counts[src] as f32;
+                if let Some(a) = &mut accum {
+                    a.sums[dst] = t.sums[src];
+                    a.counts[dst] = t.counts[src];
+                }
                 if let Some(a) = &t.aov {
                     aovs.false_hits[dst] = a[0][src];
                     aovs.list_depth[dst] = a[1][src];
@@ -307,20 +415,27 @@ pub fn render(scene: &RenderScene, opts: &RenderOptions) -> Result<Rendered> {
             }
         }
     }
+    let complete = pixel_spp.iter().all(|&c| c == count as f32);
     stats.wall_s = wall;
     stats.rays = stats.queries + stats.shadow_rays;
     Ok(Rendered {
-        width: scene.width,
-        height: scene.height,
+        width: rw,
+        height: region.height(),
         pixels,
         variance,
         aovs,
         stats,
-        spp_done: scene.spp,
+        spp_done: count,
         complete,
         pixel_spp,
         tiles_done,
         tiles_total: total as u32,
+        region,
+        film_width: scene.width,
+        film_height: scene.height,
+        sample_start: start,
+        sample_count: count,
+        accum,
     })
 }
 

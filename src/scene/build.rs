@@ -222,10 +222,14 @@ pub fn load_scene(path: &Path, opts: &BuildOptions) -> Result<RenderScene> {
 
 /// Build a scene from TOML text; `file` names it in errors and `dir` resolves relative paths.
 pub fn load_scene_str(file: &str, text: &str, dir: &Path, opts: &BuildOptions) -> Result<RenderScene> {
-    let src = Source::new(file, text.to_string());
-    let desc: SceneDesc = toml::from_str(text).map_err(|e| src.toml_error(&e))?;
+    load_scene_source(&Source::new(file, text.to_string()), dir, opts)
+}
+
+/// Build a scene from a [`Source`] (the file's text, or the text after `--set` overrides).
+pub fn load_scene_source(src: &Source, dir: &Path, opts: &BuildOptions) -> Result<RenderScene> {
+    let desc: SceneDesc = toml::from_str(&src.text).map_err(|e| src.toml_error(&e))?;
     Builder {
-        src: &src,
+        src,
         dir: dir.to_path_buf(),
         opts: *opts,
     }

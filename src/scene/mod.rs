@@ -8,5 +8,6 @@ pub mod source;
 pub mod texture;
 
 pub use build::{
-    load_scene, load_scene_str, BuildOptions, Environment, GeomRecord, Light, Material, RenderScene, Solid,
+    load_scene, load_scene_source, load_scene_str, BuildOptions, Environment, GeomRecord, Light, Material,
+    RenderScene, Solid,
 };

@@ -7,6 +7,29 @@ pub struct Source {
     pub file: String,
     pub text: String,
     doc: Option<ImDocument<String>>,
+    /// With `--set` overrides: the file as written (errors at keys not
+    /// overridden are located there) and where each override sits.
+    base: Option<Box<Source>>,
+    overrides: Vec<OverrideLoc>,
+}
+
+/// Where a `--set KEY=VALUE` override sits, for located errors.
+#[derive(Debug, Clone)]
+pub struct OverrideLoc {
+    /// The key path it sets, with array indices (`objects[1].material.ior`).
+    pub path: String,
+    /// The whole argument, `KEY=VALUE`.
+    pub arg: String,
+    /// 1-based column of the value in `arg`.
+    pub value_col: usize,
+}
+
+/// Does key path `key` lie at or below `prefix`?
+fn under(key: &str, prefix: &str) -> bool {
+    key == prefix
+        || key
+            .strip_prefix(prefix)
+            .is_some_and(|r| r.starts_with('.') || r.starts_with('['))
 }
 
 /// One step of a key path.
@@ -47,7 +70,44 @@ impl Source {
             file: file.to_string(),
             text,
             doc,
+            base: None,
+            overrides: Vec::new(),
         }
+    }
+
+    /// The document after `--set` overrides (`text`), locating errors in the
+    /// override's argument when the key is at, below or above an overridden
+    /// one, and in `base` (the file as written) otherwise.
+    pub fn with_overrides(base: Source, text: String, overrides: Vec<OverrideLoc>) -> Source {
+        let mut s = Source::new(&base.file, text);
+        s.base = Some(Box::new(base));
+        s.overrides = overrides;
+        s
+    }
+
+    /// An error at `key` caused by an override, if one sets it or a key around it.
+    fn override_error(&self, key: &str, message: &str) -> Option<Error> {
+        if key == "(document)" {
+            return None;
+        }
+        let o = self
+            .overrides
+            .iter()
+            .find(|o| under(key, &o.path))
+            .or_else(|| self.overrides.iter().find(|o| under(&o.path, key)))?;
+        // Unknown keys are located at the key, everything else at the value.
+        let column = if message.contains("unknown field") {
+            1
+        } else {
+            o.value_col
+        };
+        Some(Error::Input {
+            file: format!("--set '{}'", o.arg),
+            key: key.to_string(),
+            line: 1,
+            column,
+            message: message.to_string(),
+        })
     }
 
     /// 1-based line and column of a byte offset.
@@ -112,6 +172,13 @@ impl Source {
 
     /// An input error at `key` (a path such as `objects[2].shape.radius`).
     pub fn error(&self, key: &str, message: impl Into<String>) -> Error {
+        let message = message.into();
+        if let Some(e) = self.override_error(key, &message) {
+            return e;
+        }
+        if let Some(b) = &self.base {
+            return b.error(key, message);
+        }
         let (line, column) = self
             .offset_of(&parse_path(key))
             .map(|o| self.line_col(o))
@@ -121,13 +188,16 @@ impl Source {
             key: key.to_string(),
             line,
             column,
-            message: message.into(),
+            message,
         }
     }
 
     /// Convert a TOML/serde error into an input error with the key path.
     pub fn toml_error(&self, e: &toml::de::Error) -> Error {
         let offset = e.span().map(|s| s.start).unwrap_or(0);
+        if self.base.is_some() {
+            return self.error(&self.path_at(offset), e.message().trim());
+        }
         let (line, column) = self.line_col(offset);
         Error::Input {
             file: self.file.clone(),
