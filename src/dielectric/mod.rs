@@ -204,14 +204,23 @@ pub struct FalseHitFilter<'a> {
     pub near: [Rejected; NEAR_CAPACITY],
     pub near_len: usize,
     pub near_t: f32,
+    /// `crossing_window` of this query's ray is `win_a + win_b · t`
+    /// (precomputed: no square root per callback).
+    win_a: f32,
+    win_b: f32,
 }
 
 /// Coincident accepted crossings tracked per query.
 pub const NEAR_CAPACITY: usize = 4;
 
 impl<'a> FalseHitFilter<'a> {
-    pub fn new(scene: &'a RenderScene, p0: u32) -> Self {
+    /// A filter for one query of `ray` by a ray whose list's top rank is `p0`.
+    pub fn new(scene: &'a RenderScene, p0: u32, ray: &Ray) -> Self {
+        let dl = ray.dir.length();
+        let k = 2.0 * crate::integrator::OFFSET_ULPS * f32::EPSILON;
         FalseHitFilter {
+            win_a: k * (ray.org.abs().max_element() + 0.5) / dl,
+            win_b: k,
             rank_by_geom: &scene.rank_by_geom,
             solid_by_geom: &scene.solid_by_geom,
             p0,
@@ -269,7 +278,9 @@ impl FalseHitFilter<'_> {
     /// Keep accepted solid hits within the window of the nearest one so far.
     #[inline]
     fn note_accepted(&mut self, solid: u32, h: &FilterHit) {
-        let win = crossing_window(h.org, h.dir, self.near_t.min(h.t));
+        // = crossing_window(h.org, h.dir, min(near_t, t)) for this query's ray.
+        let t = self.near_t.min(h.t);
+        let win = self.win_a + self.win_b * if t.is_finite() { t.abs() } else { 0.0 };
         if h.t > self.near_t + win {
             return;
         }
@@ -511,7 +522,7 @@ pub fn trace(
             let mut filter;
             let mut r = *ray;
             let hit = loop {
-                filter = FalseHitFilter::new(scene, p0);
+                filter = FalseHitFilter::new(scene, p0, &r);
                 let hit = scene.embree.intersect_filtered(&r, &mut filter)?;
                 c.filter_calls += filter.calls as u64;
                 if filter.overflow {

@@ -265,8 +265,17 @@ impl Candidates {
     pub fn as_slice(&self) -> &[Candidate] {
         &self.items[..self.len]
     }
+    /// Insertion sort by t: at most four items (a generic slice sort cost
+    /// 4% of a deep-nesting trace, by callgrind).
+    #[inline]
     fn sort(&mut self) {
-        self.items[..self.len].sort_by(|a, b| a.t.total_cmp(&b.t));
+        for i in 1..self.len {
+            let mut j = i;
+            while j > 0 && self.items[j - 1].t > self.items[j].t {
+                self.items.swap(j - 1, j);
+                j -= 1;
+            }
+        }
     }
 }
 
