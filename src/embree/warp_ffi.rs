@@ -145,8 +145,11 @@ impl DynamicMesh {
         }
         // Embree reads the last vertex with a 16-byte load: keep a spare element.
         self.vertices.reserve(1);
-        let moved = old_ptrs != (self.vertices.as_ptr(), self.indices.as_ptr());
-        topology |= !was_ready || moved || old_lens != (nv, self.indices.len()) || self.attached == 0;
+        let vertices_moved = old_ptrs.0 != self.vertices.as_ptr() || old_lens.0 != nv;
+        topology |= !was_ready
+            || old_ptrs.1 != self.indices.as_ptr()
+            || old_lens.1 != self.indices.len()
+            || self.attached == 0;
         let nt = self.indices.len();
         if nt == 0 {
             if self.attached != 0 {
@@ -166,7 +169,9 @@ impl DynamicMesh {
         // stay unchanged until the next `update` (which needs `&mut self`) and
         // are re-registered there before any query. Handles are valid.
         unsafe {
-            if topology {
+            if topology || vertices_moved {
+                // A new vertex array (e.g. swapped in by the caller) with the
+                // same triangles is still a refit for Embree.
                 sys::rtcSetSharedGeometryBuffer(
                     self.geom,
                     sys::RTC_BUFFER_TYPE_VERTEX,
@@ -177,6 +182,10 @@ impl DynamicMesh {
                     12,
                     nv,
                 );
+            } else {
+                sys::rtcUpdateGeometryBuffer(self.geom, sys::RTC_BUFFER_TYPE_VERTEX, 0);
+            }
+            if topology {
                 sys::rtcSetSharedGeometryBuffer(
                     self.geom,
                     sys::RTC_BUFFER_TYPE_INDEX,
@@ -187,8 +196,6 @@ impl DynamicMesh {
                     12,
                     nt,
                 );
-            } else {
-                sys::rtcUpdateGeometryBuffer(self.geom, sys::RTC_BUFFER_TYPE_VERTEX, 0);
             }
             sys::rtcCommitGeometry(self.geom);
             if self.attached == 0 {
@@ -355,6 +362,18 @@ mod tests {
         m.intersect8(&mut p);
         assert!((p.hit(3).unwrap().t - 3.0).abs() < 1e-5);
         assert!(p.hit(0).is_none());
+        // A new vertex array (z = −4), same triangles: still a refit.
+        let c = m
+            .update(|vs, _| {
+                *vs = vs.iter().map(|p| [p[0], p[1], -4.0]).collect();
+                false
+            })
+            .unwrap();
+        assert_eq!(c, Committed::Refit);
+        let mut p = Packet8::new();
+        p.set(5, V3::ZERO, V3::new(0.0, 0.0, -1.0), f32::INFINITY);
+        m.intersect8(&mut p);
+        assert!((p.hit(5).unwrap().t - 4.0).abs() < 1e-5);
         // One triangle only: a rebuild.
         let c = m.update(|_, is| {
             is.truncate(1);
