@@ -851,7 +851,7 @@ pub fn run(scene: &RenderScene, opts: &WarpRunOptions) -> Result<WarpReport> {
         let t0 = Instant::now();
         let prep = prepare(scene, &spec, spec.subdivide)?;
         let subdivide_s = t0.elapsed().as_secs_f64();
-        let mut pipe = super::pipeline::Pipeline::new(scene, &spec, &prep, true)?;
+        let mut pipe = super::pipeline::Pipeline::new(scene, &spec, &prep, false)?;
         let warped = pipe.warp(scene)?;
         let frame = pipe.render(scene, &spec, &prep);
         let mut exact_build_s = 0.0;
