@@ -290,7 +290,7 @@ pub fn vertex_images(
         WarpGlass::Cylinder(c) => {
             let ims = match method {
                 WarpMethod::Exact => match fast {
-                    Some(f) => f.images(p).unwrap_or_default(),
+                    Some(f) => f.images_no_parity(p).unwrap_or_default(),
                     None => c.images(eye, p).unwrap_or_default(),
                 },
                 WarpMethod::Paper => paper_image(c, eye, p).ok().flatten().into_iter().collect(),
