@@ -7,8 +7,8 @@
 //!   threads, and the memory bandwidth of a plain copy of the same arrays),
 //!   exact cylinder (fast tables + Newton vs the robust sampler), the
 //!   paper's C→B→A (time, and its angular error against exact).
-//! - Frames at 1600×1200, 100k vertices: the frame pipeline (warp + copies
-//!   + packet rays), the one-shot renderer it replaces, the exact trace
+//! - Frames at 1600×1200, 100k vertices: the frame pipeline (warp, copies,
+//!   packet rays), the one-shot renderer it replaces, the exact trace
 //!   (single rays, the reference, and in packets).
 //! - Orbit: the camera circles the tube for N frames (vertices re-solved
 //!   every frame): frames/s of the warp and of the exact trace, and the
@@ -24,7 +24,9 @@ use snell::warp::pipeline::{render_exact_packets, Pipeline};
 use snell::warp::render::{
     build_originals, compare, prepare, render_exact, render_warped, warp_scene, Comparison, Prepared,
 };
-use snell::warp::{fastcyl::CylinderWarper, paper::paper_image, HollowCylinder, Plate, PlateStatus, WarpGlass};
+use snell::warp::{
+    fastcyl::CylinderWarper, paper::paper_image, HollowCylinder, Plate, PlateStatus, WarpGlass,
+};
 use std::path::Path;
 use std::time::Instant;
 
@@ -46,7 +48,10 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 fn pool(threads: usize) -> rayon::ThreadPool {
-    rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap()
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
 }
 
 /// Figures for the summary and the JSON.
@@ -168,11 +173,13 @@ fn solvers(sum: &mut Summary) {
         })
         .collect();
     // The β range of these targets (as the renderer computes it).
-    let (lo, hi) = pts.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
-        let d = *p - eye;
-        let b = d.y / d.length();
-        (lo.min(b), hi.max(b))
-    });
+    let (lo, hi) = pts
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+            let d = *p - eye;
+            let b = d.y / d.length();
+            (lo.min(b), hi.max(b))
+        });
     let (mut tt, mut tf) = (vec![], vec![]);
     let mut imgs = 0usize;
     for _ in 0..reps() {
@@ -268,7 +275,11 @@ fn with_grid(prep: &mut Prepared, vertices: usize) {
         })
         .unwrap();
     let m = &prep.objects[k].mesh;
-    assert_eq!(m.positions.len(), 4, "the bench expects the main surface to be a rect");
+    assert_eq!(
+        m.positions.len(),
+        4,
+        "the bench expects the main surface to be a rect"
+    );
     let c = m
         .positions
         .iter()
@@ -517,16 +528,26 @@ fn orbit(n: usize, w: u32, h: u32, vertices: usize) -> snell::Result<serde_json:
 
 fn main() -> snell::Result<()> {
     let args: Vec<String> = std::env::args().collect();
-    let json_path = args.iter().position(|a| a == "--json").and_then(|i| args.get(i + 1)).cloned();
+    let json_path = args
+        .iter()
+        .position(|a| a == "--json")
+        .and_then(|i| args.get(i + 1))
+        .cloned();
     println!("{}", snell::bench_header());
     println!("threads: {}", rayon::current_num_threads());
     let mut sum = Summary::default();
     solvers(&mut sum);
     let (bw, bh) = if quick() { (640, 480) } else { (1600, 1200) };
-    println!("\n## Frames at {bw}x{bh}, 100k vertices (median of {} interleaved repetitions)\n", reps());
+    println!(
+        "\n## Frames at {bw}x{bh}, 100k vertices (median of {} interleaved repetitions)\n",
+        reps()
+    );
     println!("frame = warp + copies (rebuilt, Embree's fast builder) + packet rays; refit s = the copies' update when the camera did not move (copies built with SAH once, then refitted; 'SAH copies' = the rays against those); one-shot = warp_scene + render_warped (copies built per frame, single rays); vs exact = exact trace (single rays, the reference) / frame; exact 8-packets = the same exact trace with its pieces cast in packets of eight\n");
     header();
-    for (name, scene) in [("plate", "scenes/warp_plate.toml"), ("tube", "scenes/warp_cylinder.toml")] {
+    for (name, scene) in [
+        ("plate", "scenes/warp_plate.toml"),
+        ("tube", "scenes/warp_cylinder.toml"),
+    ] {
         let f = frame_row(scene, bw, bh, 100_000, true)?;
         print_row(&f);
         sum.frames.push(f.json(scene));

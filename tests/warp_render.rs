@@ -238,11 +238,17 @@ fn pipeline_and_packets_match_the_single_ray_renderers() {
             assert_eq!(fw.dropped_triangles, warped.dropped_triangles, "{scene}");
             let b = render_warped(&s, &spec, &prep, &warped);
             let (differ, worst) = same(&a, &b);
-            assert!(differ <= 10 && worst < 1e-4, "{scene} step {step}: warp {differ} pixels, {worst}");
+            assert!(
+                differ <= 10 && worst < 1e-4,
+                "{scene} step {step}: warp {differ} pixels, {worst}"
+            );
             let ea = render_exact_packets(&s, &spec, &prep, &orig);
             let eb = render_exact(&s, &spec, &prep, &orig);
             let (differ, worst) = same(&ea, &eb);
-            assert!(differ <= 10 && worst < 1e-4, "{scene} step {step}: exact {differ} pixels, {worst}");
+            assert!(
+                differ <= 10 && worst < 1e-4,
+                "{scene} step {step}: exact {differ} pixels, {worst}"
+            );
         }
     }
 }

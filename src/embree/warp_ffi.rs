@@ -390,7 +390,8 @@ mod tests {
         m.intersect8(&mut p);
         assert!(p.hit(0).is_none(), "a stale mesh answers no hits");
         // Packets on a committed static scene agree with single rays.
-        let mut b = super::super::SceneBuilder::new(&d, Default::default(), super::super::BuildQuality::Low).unwrap();
+        let mut b =
+            super::super::SceneBuilder::new(&d, Default::default(), super::super::BuildQuality::Low).unwrap();
         let (v, i) = quad(-2.0);
         b.add_triangles(&v, &i).unwrap();
         let s = b.commit().unwrap();

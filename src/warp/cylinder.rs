@@ -661,8 +661,8 @@ impl HollowCylinder {
                     if let Some(nr) = resid(ns.abs(), nbeta) {
                         if norm(nr) < norm(r) {
                             // Keep the Jacobian while full steps converge fast.
-                            jac = (lambda == 1.0 && norm(nr) <= 0.1 * norm(r))
-                                .then_some((j11, j12, j21, j22));
+                            jac =
+                                (lambda == 1.0 && norm(nr) <= 0.1 * norm(r)).then_some((j11, j12, j21, j22));
                             s = ns.abs();
                             beta = nbeta;
                             r = nr;

@@ -320,7 +320,9 @@ impl CylinderWarper {
                         }
                         c.newton_image_opts(fam, e, p, dv, dist, self.eye, b, beta, in_hollow, parity)
                             .or_else(|| {
-                                c.newton_image_opts(fam, e, p, dv, dist, self.eye, b, beta0, in_hollow, parity)
+                                c.newton_image_opts(
+                                    fam, e, p, dv, dist, self.eye, b, beta0, in_hollow, parity,
+                                )
                             })
                             .or_else(|| {
                                 c.refine_public(
@@ -333,10 +335,9 @@ impl CylinderWarper {
                     }
                 };
                 if let Some(img) = img {
-                    if !out
-                        .iter()
-                        .any(|o: &CylImage| o.family == img.family && (o.direction - img.direction).length() < 1e-9)
-                    {
+                    if !out.iter().any(|o: &CylImage| {
+                        o.family == img.family && (o.direction - img.direction).length() < 1e-9
+                    }) {
                         out.push(img);
                     }
                 }

@@ -19,7 +19,9 @@
 //!
 //! The images are the ones `warp_scene` + `render_warped` make (same
 //! solvers, same copies, same shading): tested pixel for pixel.
-use super::render::{d3, f3, pixel_ray, shade, Frame, Originals, Prepared, Shown, VertexImages, VertexSolver};
+use super::render::{
+    d3, f3, pixel_ray, shade, Frame, Originals, Prepared, Shown, VertexImages, VertexSolver,
+};
 use super::{CopyKey, Family, PlateStatus, WarpGlass, WarpSpec};
 use crate::embree::warp_ffi::{Committed, DynamicMesh, Packet8};
 use crate::error::{Error, Result};
@@ -70,6 +72,9 @@ pub struct Pipeline {
 }
 
 const SPAN: usize = 8;
+
+/// A lane's nearest hit so far: (t, copy, primitive, u, v).
+type LaneHit = (f32, usize, u32, f32, f32);
 
 impl Pipeline {
     /// Copies for `prep`'s meshes; `refit` lets unchanged triangle sets refit.
@@ -278,7 +283,7 @@ impl Pipeline {
                         }
                     }
                     // Nearest hit per lane: (t, copy, prim, u, v).
-                    let mut best: [Option<(f32, usize, u32, f32, f32)>; SPAN] = [None; SPAN];
+                    let mut best: [Option<LaneHit>; SPAN] = [None; SPAN];
                     if let Some(di) = direct {
                         packet.clear();
                         for l in 0..n {
@@ -347,7 +352,12 @@ impl Pipeline {
 /// against the unwarped meshes (piece k of every lane still looking). The
 /// same image as `render_exact` (tested); the fair reference for the
 /// packet renderer's speed.
-pub fn render_exact_packets(scene: &RenderScene, spec: &WarpSpec, prep: &Prepared, orig: &Originals) -> Frame {
+pub fn render_exact_packets(
+    scene: &RenderScene,
+    spec: &WarpSpec,
+    prep: &Prepared,
+    orig: &Originals,
+) -> Frame {
     let t0 = Instant::now();
     let (w, h) = (scene.width as usize, scene.height as usize);
     let mut pixels = vec![V3::ZERO; w * h];

@@ -75,7 +75,14 @@ pub struct PlateImage {
 /// need `unsafe` outside `src/embree/`; so the gain over the scalar solver
 /// is fewer steps and no per-vertex branches, not SIMD.
 #[inline(always)]
-fn newton4(h: &[f64; 4], d2: &[f64; 4], w: f64, n2: f64, k: f64, inv_n: f64) -> ([f64; 4], [f64; 4], [f64; 4]) {
+fn newton4(
+    h: &[f64; 4],
+    d2: &[f64; 4],
+    w: f64,
+    n2: f64,
+    k: f64,
+    inv_n: f64,
+) -> ([f64; 4], [f64; 4], [f64; 4]) {
     let mut d = [0.0; 4];
     let mut u = [0.0; 4];
     for l in 0..4 {
@@ -343,7 +350,8 @@ impl Plate {
             };
             guard += 1;
         }
-        if !(f(hi) >= 0.0) {
+        let fh = f(hi);
+        if fh.is_nan() || fh < 0.0 {
             // Beyond reach in f64 (n < 1 within rounding of the critical angle).
             return None;
         }
@@ -458,7 +466,11 @@ mod tests {
     #[test]
     fn batch_lanes_match_the_scalar_solver() {
         let eye = DVec3::new(0.1, 0.2, 0.0);
-        for (normal, n) in [(DVec3::new(0.0, 0.0, -1.0), 1.5), (DVec3::new(0.3, -0.1, -1.0), 1.7), (DVec3::new(0.0, 0.1, -1.0), 0.8)] {
+        for (normal, n) in [
+            (DVec3::new(0.0, 0.0, -1.0), 1.5),
+            (DVec3::new(0.3, -0.1, -1.0), 1.7),
+            (DVec3::new(0.0, 0.1, -1.0), 0.8),
+        ] {
             let p = plate(0.3, n, normal);
             let mut pts = Vec::new();
             for i in 0..40 {
@@ -479,7 +491,11 @@ mod tests {
                     let s = p.warped_position(eye, lanes[l]);
                     match (r[l], s) {
                         (Ok(a), Ok(b)) => {
-                            assert!((a - b).length() <= 1e-12 * (b - eye).length(), "{}: {a} vs {b}", lanes[l]);
+                            assert!(
+                                (a - b).length() <= 1e-12 * (b - eye).length(),
+                                "{}: {a} vs {b}",
+                                lanes[l]
+                            );
                             let dist = (lanes[l] - eye).length();
                             // (n < 1 near the critical angle: a forward trace is
                             // ill-conditioned; the lanes are the scalar answers there.)
