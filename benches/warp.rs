@@ -342,7 +342,14 @@ impl FrameFigures {
 /// A frame of `path` with `vertices` at w×h: the pipeline (first frame:
 /// copies rebuilt; then the same camera again: refit), the one-shot
 /// renderer, the exact trace (single rays and packets); interleaved.
-fn frame_row(path: &str, w: u32, h: u32, vertices: usize, with_render: bool) -> snell::Result<FrameFigures> {
+fn frame_row(
+    path: &str,
+    w: u32,
+    h: u32,
+    vertices: usize,
+    with_render: bool,
+    reps: usize,
+) -> snell::Result<FrameFigures> {
     let (mut scene, prep) = setup(path, w, h, vertices)?;
     let spec = scene.warp.clone().unwrap();
     let orig = build_originals(&scene, &prep)?;
@@ -350,7 +357,7 @@ fn frame_row(path: &str, w: u32, h: u32, vertices: usize, with_render: bool) -> 
         (vec![], vec![], vec![], vec![], vec![], vec![], vec![]);
     let mut refit_rays = vec![];
     let mut cmp = None;
-    for _ in 0..reps() {
+    for _ in 0..reps {
         // Copies rebuilt every frame (Embree's fast builder).
         let mut pipe = Pipeline::new(&scene, &spec, &prep, false)?;
         let f1 = pipe.warp(&scene)?;
@@ -548,7 +555,7 @@ fn main() -> snell::Result<()> {
         ("plate", "scenes/warp_plate.toml"),
         ("tube", "scenes/warp_cylinder.toml"),
     ] {
-        let f = frame_row(scene, bw, bh, 100_000, true)?;
+        let f = frame_row(scene, bw, bh, 100_000, true, reps())?;
         print_row(&f);
         sum.frames.push(f.json(scene));
         if name == "tube" {
@@ -571,17 +578,17 @@ fn main() -> snell::Result<()> {
         &[(640, 480), (800, 600), (1024, 768), (1600, 1200)]
     };
     for scene in ["scenes/warp_plate.toml", "scenes/warp_cylinder.toml"] {
-        println!("\n## {scene}: vertex sweep at {bw}x{bh} (Tables 1, 2)\n");
+        println!("\n## {scene}: vertex sweep at {bw}x{bh} (Tables 1, 2; median of 3)\n");
         header();
         for &v in verts {
-            let f = frame_row(scene, bw, bh, v, false)?;
+            let f = frame_row(scene, bw, bh, v, false, 3)?;
             print_row(&f);
             sum.frames.push(f.json(scene));
         }
-        println!("\n## {scene}: resolution sweep at 100k vertices (Table 3)\n");
+        println!("\n## {scene}: resolution sweep at 100k vertices (Table 3; median of 3)\n");
         header();
         for &(w, h) in films {
-            let f = frame_row(scene, w, h, 100_000, false)?;
+            let f = frame_row(scene, w, h, 100_000, false, 3)?;
             print_row(&f);
             sum.frames.push(f.json(scene));
         }
