@@ -357,7 +357,7 @@ impl FrameFigures {
             "warp_s": self.warp_s, "copies_rebuild_s": self.copies_s, "copies_refit_s": self.refit_s, "rays_refit_copies_s": self.refit_rays_s,
             "rays_s": self.rays_s, "frame_s": self.frame_s, "one_shot_frame_s": self.old_frame_s,
             "exact_s": self.exact_s, "exact_packets_s": self.exact_packets_s,
-            "speedup": self.exact_s / self.frame_s, "speedup_vs_exact_packets": self.exact_packets_s / self.frame_s,
+            "speedup": self.exact_s / self.frame_s, "exact_over_rays": self.exact_s / self.rays_s, "speedup_vs_exact_packets": self.exact_packets_s / self.frame_s,
             "render_1spp_s": self.render_1spp_s,
             "px_mean": self.cmp.px_mean, "px_p95": self.cmp.px_p95,
             "mismatched_fraction": self.cmp.mismatched as f64 / self.cmp.pixels as f64,
@@ -445,13 +445,13 @@ fn frame_row(
 }
 
 fn header() {
-    println!("| vertices | film | warp s | copies s (refit s) | rays s (SAH copies) | frame s | fps | one-shot s | exact s | vs exact | exact 8-packets s | vs exact packets | render 1spp s | px mean | px p95 | mismatch |");
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("| vertices | film | warp s | copies s (refit s) | rays s (SAH copies) | frame s | fps | one-shot s | exact s | vs exact | exact / rays | exact 8-packets s | vs exact packets | render 1spp s | px mean | px p95 | mismatch |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
 }
 
 fn print_row(f: &FrameFigures) {
     println!(
-        "| {} | {}x{} | {:.4} | {:.4} ({:.4}) | {:.4} ({:.4}) | {:.4} | {:.1} | {:.4} | {:.4} | {:.2}x | {:.4} | {:.2}x | {} | {:.4} | {:.3} | {:.2}% |",
+        "| {} | {}x{} | {:.4} | {:.4} ({:.4}) | {:.4} ({:.4}) | {:.4} | {:.1} | {:.4} | {:.4} | {:.2}x | {:.2}x | {:.4} | {:.2}x | {} | {:.4} | {:.3} | {:.2}% |",
         f.vertices,
         f.width,
         f.height,
@@ -465,6 +465,7 @@ fn print_row(f: &FrameFigures) {
         f.old_frame_s,
         f.exact_s,
         f.exact_s / f.frame_s,
+        f.exact_s / f.rays_s,
         f.exact_packets_s,
         f.exact_packets_s / f.frame_s,
         f.render_1spp_s.map(|s| format!("{s:.3}")).unwrap_or_else(|| "-".into()),
@@ -638,16 +639,20 @@ fn main() -> snell::Result<()> {
         sum.cyl_100k_ms, sum.cyl_us_per_vertex, sum.cyl_images
     );
     println!(
-        "| warp frame vs exact trace, tube | {:.2}x at {:.4} px mean error (vs exact in packets {:.2}x; orbit median {:.2}x) | >= 4x at <= 0.5 px |",
+        "| warp frame vs exact trace, tube | {:.2}x at {:.4} px mean error, p95 {:.3} px (exact / warp rays alone {:.2}x; vs exact in packets {:.2}x; orbit median {:.2}x) | >= 4x at <= 0.5 px |",
         tube.exact_s / tube.frame_s,
         tube.cmp.px_mean,
+        tube.cmp.px_p95,
+        tube.exact_s / tube.rays_s,
         tube.exact_packets_s / tube.frame_s,
         orbit["median_speedup"].as_f64().unwrap_or(0.0)
     );
     println!(
-        "| warp frame vs exact trace, plate | {:.2}x at {:.4} px mean error (vs exact in packets {:.2}x) | >= 4x |",
+        "| warp frame vs exact trace, plate | {:.2}x at {:.4} px mean error, p95 {:.3} px (exact / warp rays alone {:.2}x; vs exact in packets {:.2}x) | >= 4x |",
         plate.exact_s / plate.frame_s,
         plate.cmp.px_mean,
+        plate.cmp.px_p95,
+        plate.exact_s / plate.rays_s,
         plate.exact_packets_s / plate.frame_s
     );
     if let Some(p) = json_path {

@@ -187,6 +187,10 @@ struct Path2 {
     dir: DVec2,
     air: f64,
     glass: f64,
+    /// The effective indices √(1 − β²) and √(n² − β²) of the path's β
+    /// (kept so that callers do not take the square roots again).
+    ma: f64,
+    mg: f64,
 }
 
 impl HollowCylinder {
@@ -333,6 +337,8 @@ impl HollowCylinder {
             dir: hf,
             air,
             glass,
+            ma,
+            mg,
         })
     }
 
@@ -364,6 +370,8 @@ impl HollowCylinder {
                     dir: h2,
                     air,
                     glass,
+                    ma,
+                    mg,
                 })
             }
             (Family::Wall2, Some(_)) | (_, None) => None,
@@ -386,6 +394,8 @@ impl HollowCylinder {
                             dir: h3,
                             air,
                             glass,
+                            ma,
+                            mg,
                         })
                     }
                     Some(h2) => match fam {
@@ -394,6 +404,8 @@ impl HollowCylinder {
                             dir: h2,
                             air,
                             glass,
+                            ma,
+                            mg,
                         }),
                         Family::Through4 if !target_in_hollow => {
                             let (_, s2) = circle(q2, h2, small)?;
@@ -409,6 +421,8 @@ impl HollowCylinder {
                                 dir: h4,
                                 air,
                                 glass,
+                                ma,
+                                mg,
                             })
                         }
                         _ => None,
@@ -519,6 +533,9 @@ impl HollowCylinder {
     /// side of `b` (the two-refraction families have a band on each side).
     fn domain(&self, fam: Family, beta: f64, b: f64) -> (f64, f64) {
         let (big, small) = (self.outer_radius, self.inner_radius);
+        if matches!(fam, Family::Through4 | Family::Hollow2 | Family::Direct) {
+            return (-small, small);
+        }
         let ma = (1.0 - beta * beta).sqrt();
         let mg = (self.ior * self.ior - beta * beta).sqrt();
         let tir_edge = (small * mg / ma).min(big);
@@ -582,7 +599,6 @@ impl HollowCylinder {
         in_hollow: bool,
         parity: bool,
     ) -> Option<CylImage> {
-        let n = self.ior;
         let (lo0, hi0) = self.domain(fam, beta0, b0);
         let from_lo = (b0 - lo0) <= (hi0 - b0);
         let side = b0;
@@ -602,9 +618,7 @@ impl HollowCylinder {
             if along <= 0.0 {
                 return None;
             }
-            let ma = (1.0 - beta * beta).sqrt();
-            let mg = (n * n - beta * beta).sqrt();
-            let climb = beta * ((path.air + along) / ma + path.glass / mg);
+            let climb = beta * ((path.air + along) / path.ma + path.glass / path.mg);
             Some((path.dir.perp_dot(rel), climb - dv))
         };
         let norm = |r: (f64, f64)| r.0.abs().max(r.1.abs());
