@@ -143,8 +143,10 @@ impl DynamicMesh {
                 message: "a vertex is not finite".into(),
             });
         }
-        // Embree reads the last vertex with a 16-byte load: keep a spare element.
+        // Embree reads the last vertex with a 16-byte load: keep a spare
+        // element (and one after the triangles, for the same reason).
         self.vertices.reserve(1);
+        self.indices.reserve(1);
         let vertices_moved = old_ptrs.0 != self.vertices.as_ptr() || old_lens.0 != nv;
         topology |= !was_ready
             || old_ptrs.1 != self.indices.as_ptr()
