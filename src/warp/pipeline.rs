@@ -19,6 +19,13 @@
 //!
 //! The images are the ones `warp_scene` + `render_warped` make (same
 //! solvers, same copies, same shading): tested pixel for pixel.
+//!
+//! Departure from the paper: Mukai et al. draw the warped meshes with a GPU
+//! rasteriser. Here the copies are Embree BVHs traced with packets, since a
+//! CPU rasteriser (triangles binned into bands of rows, each pixel centre
+//! tested exactly along its ray) gave the same pixels no faster: the
+//! per-pixel passes (classification, shading, buffers) dominate, not the
+//! visibility query (docs/warp.md, "What did not pay").
 use super::render::{
     d3, f3, pixel_ray, shade, Frame, Originals, Prepared, Shown, VertexImages, VertexSolver,
 };
