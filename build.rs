@@ -29,9 +29,15 @@ fn main() {
     println!("cargo:rustc-env=SNELL_EMBREE_VERSION={embree}");
     println!("cargo:rustc-env=SNELL_RUSTC_VERSION={rustc_version}");
     println!("cargo:rustc-env=SNELL_PROFILE={profile}");
-    if std::path::Path::new(".git/HEAD").exists() {
-        println!("cargo:rerun-if-changed=.git/HEAD");
-        println!("cargo:rerun-if-changed=.git/index");
+    // `git rev-parse --git-path` also finds HEAD and the index of a worktree
+    // (where `.git` is a file): a commit rewrites the index, so the embedded
+    // commit follows it.
+    for f in ["HEAD", "index"] {
+        if let Some(p) = run("git", &["rev-parse", "--git-path", f]) {
+            if std::path::Path::new(&p).exists() {
+                println!("cargo:rerun-if-changed={p}");
+            }
+        }
     }
     println!("cargo:rerun-if-changed=build.rs");
 }

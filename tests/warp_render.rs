@@ -185,3 +185,70 @@ fn fresnel_weights_darken_the_view_through_the_glass() {
     assert!(lo > 0.5 && hi <= 1.0 + 1e-6, "{lo} {hi}");
     assert!(ratios.iter().any(|r| (r - 0.92).abs() < 0.02), "{lo} {hi}");
 }
+
+/// The frame pipeline (copies kept across frames, refit when the triangle
+/// sets are unchanged, packets of eight) shows what the one-shot renderer
+/// shows, and the packet exact trace what the single-ray one shows, on both
+/// scenes, for a first frame, a refitted repeat and a moved camera.
+#[test]
+fn pipeline_and_packets_match_the_single_ray_renderers() {
+    use snell::warp::pipeline::{render_exact_packets, Pipeline};
+    use snell::warp::render::{build_originals, prepare, render_exact, render_warped, warp_scene, Frame};
+    let same = |a: &Frame, b: &Frame| -> (usize, f64) {
+        let mut differ = 0;
+        let mut worst: f64 = 0.0;
+        for (x, y) in a.shown.iter().zip(&b.shown) {
+            match (x, y) {
+                (Some(p), Some(q)) if p.object == q.object => worst = worst.max((p.point - q.point).length()),
+                (None, None) => {}
+                _ => differ += 1,
+            }
+        }
+        (differ, worst)
+    };
+    for scene in ["scenes/warp_cylinder.toml", "scenes/warp_plate.toml"] {
+        let mut s = load_scene(Path::new(scene), &BuildOptions::default()).unwrap();
+        s.set_resolution(160, 120).unwrap();
+        let spec = s.warp.clone().unwrap();
+        let prep = prepare(&s, &spec, spec.subdivide).unwrap();
+        let mut pipe = Pipeline::new(&s, &spec, &prep, true).unwrap();
+        let orig = build_originals(&s, &prep).unwrap();
+        let pos = s.camera.position;
+        for (step, dx) in [(0, 0.0f32), (1, 0.0), (2, 0.05)] {
+            if dx != 0.0 {
+                let cam = snell::camera::Camera::try_new(
+                    pos + glam::Vec3A::new(dx, 0.02, 0.0),
+                    glam::Vec3A::new(0.0, 0.0, 0.0),
+                    glam::Vec3A::Y,
+                    40.0,
+                    160,
+                    120,
+                    0.0,
+                    1.0,
+                )
+                .unwrap();
+                s.camera = cam;
+            }
+            let fw = pipe.warp(&s).unwrap();
+            if step == 1 {
+                assert!(fw.refits >= 1 && fw.rebuilds == 0, "{scene}: {fw:?}");
+            }
+            let a = pipe.render(&s, &spec, &prep);
+            let warped = warp_scene(&s, &spec, &prep).unwrap();
+            assert_eq!(fw.dropped_triangles, warped.dropped_triangles, "{scene}");
+            let b = render_warped(&s, &spec, &prep, &warped);
+            let (differ, worst) = same(&a, &b);
+            assert!(
+                differ <= 10 && worst < 1e-4,
+                "{scene} step {step}: warp {differ} pixels, {worst}"
+            );
+            let ea = render_exact_packets(&s, &spec, &prep, &orig);
+            let eb = render_exact(&s, &spec, &prep, &orig);
+            let (differ, worst) = same(&ea, &eb);
+            assert!(
+                differ <= 10 && worst < 1e-4,
+                "{scene} step {step}: exact {differ} pixels, {worst}"
+            );
+        }
+    }
+}

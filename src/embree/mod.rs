@@ -22,6 +22,7 @@
 //! - No panic crosses `extern "C"`: every callback body runs in `catch_unwind`.
 //!   A panicking filter is reported as `Err` after the query.
 
+pub mod warp_ffi;
 use embree_sys as sys;
 use glam::Vec3A as V3;
 use std::any::Any;

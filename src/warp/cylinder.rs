@@ -66,7 +66,8 @@ pub struct CylImage {
     /// eye + direction·|target − eye|: where the vertex must move.
     pub position: DVec3,
     pub refractions: u32,
-    /// +1 upright, −1 mirrored (horizontally), relative to a direct view.
+    /// +1 upright, −1 mirrored (horizontally), relative to a direct view;
+    /// 0 where it was not computed (the renderer's fast path).
     pub parity: i8,
     /// Signed impact parameter of the eye ray about the axis (metres, the
     /// 2-D `b` of the reduction; its sign tells the side of the axis).
@@ -186,6 +187,10 @@ struct Path2 {
     dir: DVec2,
     air: f64,
     glass: f64,
+    /// The effective indices √(1 − β²) and √(n² − β²) of the path's β
+    /// (kept so that callers do not take the square roots again).
+    ma: f64,
+    mg: f64,
 }
 
 impl HollowCylinder {
@@ -332,6 +337,8 @@ impl HollowCylinder {
             dir: hf,
             air,
             glass,
+            ma,
+            mg,
         })
     }
 
@@ -363,6 +370,8 @@ impl HollowCylinder {
                     dir: h2,
                     air,
                     glass,
+                    ma,
+                    mg,
                 })
             }
             (Family::Wall2, Some(_)) | (_, None) => None,
@@ -385,6 +394,8 @@ impl HollowCylinder {
                             dir: h3,
                             air,
                             glass,
+                            ma,
+                            mg,
                         })
                     }
                     Some(h2) => match fam {
@@ -393,6 +404,8 @@ impl HollowCylinder {
                             dir: h2,
                             air,
                             glass,
+                            ma,
+                            mg,
                         }),
                         Family::Through4 if !target_in_hollow => {
                             let (_, s2) = circle(q2, h2, small)?;
@@ -408,6 +421,8 @@ impl HollowCylinder {
                                 dir: h4,
                                 air,
                                 glass,
+                                ma,
+                                mg,
                             })
                         }
                         _ => None,
@@ -518,6 +533,9 @@ impl HollowCylinder {
     /// side of `b` (the two-refraction families have a band on each side).
     fn domain(&self, fam: Family, beta: f64, b: f64) -> (f64, f64) {
         let (big, small) = (self.outer_radius, self.inner_radius);
+        if matches!(fam, Family::Through4 | Family::Hollow2 | Family::Direct) {
+            return (-small, small);
+        }
         let ma = (1.0 - beta * beta).sqrt();
         let mg = (self.ior * self.ior - beta * beta).sqrt();
         let tir_edge = (small * mg / ma).min(big);
@@ -556,7 +574,31 @@ impl HollowCylinder {
         beta0: f64,
         in_hollow: bool,
     ) -> Option<CylImage> {
-        let n = self.ior;
+        self.newton_image_opts(fam, e, p, dv, dist, eye, b0, beta0, in_hollow, true)
+    }
+
+    /// `newton_image`; without `parity` the image's parity is left 0 (the
+    /// renderer does not need it; it costs three path evaluations).
+    ///
+    /// The Jacobian (finite differences, two path evaluations) is reused
+    /// while full steps keep cutting the residual at least tenfold (a chord
+    /// step; from the tables' first guess the second step then needs no new
+    /// Jacobian); a step that fails with a reused Jacobian is retried with a
+    /// fresh one, so the stall test below only ever judges fresh ones.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn newton_image_opts(
+        &self,
+        fam: Family,
+        e: DVec2,
+        p: DVec2,
+        dv: f64,
+        dist: f64,
+        eye: DVec3,
+        b0: f64,
+        beta0: f64,
+        in_hollow: bool,
+        parity: bool,
+    ) -> Option<CylImage> {
         let (lo0, hi0) = self.domain(fam, beta0, b0);
         let from_lo = (b0 - lo0) <= (hi0 - b0);
         let side = b0;
@@ -576,9 +618,7 @@ impl HollowCylinder {
             if along <= 0.0 {
                 return None;
             }
-            let ma = (1.0 - beta * beta).sqrt();
-            let mg = (n * n - beta * beta).sqrt();
-            let climb = beta * ((path.air + along) / ma + path.glass / mg);
+            let climb = beta * ((path.air + along) / path.ma + path.glass / path.mg);
             Some((path.dir.perp_dot(rel), climb - dv))
         };
         let norm = |r: (f64, f64)| r.0.abs().max(r.1.abs());
@@ -592,11 +632,13 @@ impl HollowCylinder {
         let mut r = resid(s, beta)?;
         let tol = 1e-13 * dist;
         let mut converged = false;
+        let mut jac: Option<(f64, f64, f64, f64)> = None;
         for _ in 0..40 {
             if norm(r) <= tol {
                 converged = true;
                 break;
             }
+            let reused = jac.is_some();
             // Relative 1e-5 in s: a change of b of ~2e-5·s² stays thousands of
             // ulps of b even 1e-9 from an edge (1e-7 would be below b's ulp).
             // and at least 1e-6·√R, so that b moves by ≥ ~1e-12·R when s ≈ 0.
@@ -610,10 +652,14 @@ impl HollowCylinder {
                     _ => None,
                 }
             };
-            let (ds0, ds1, _) = fd(resid(s + hs, beta), resid(s - hs, beta))?;
-            let (dt0, dt1, _) = fd(resid(s, beta + hbeta), resid(s, beta - hbeta))?;
-            let (j11, j12) = (ds0 / hs, dt0 / hbeta);
-            let (j21, j22) = (ds1 / hs, dt1 / hbeta);
+            let (j11, j12, j21, j22) = match jac {
+                Some(j) => j,
+                None => {
+                    let (ds0, ds1, _) = fd(resid(s + hs, beta), resid(s - hs, beta))?;
+                    let (dt0, dt1, _) = fd(resid(s, beta + hbeta), resid(s, beta - hbeta))?;
+                    (ds0 / hs, dt0 / hbeta, ds1 / hs, dt1 / hbeta)
+                }
+            };
             let det = j11 * j22 - j12 * j21;
             if det == 0.0 || !det.is_finite() {
                 return None;
@@ -622,11 +668,15 @@ impl HollowCylinder {
             let d_beta = -(j11 * r.1 - j21 * r.0) / det;
             let mut lambda = 1.0;
             let mut accepted = false;
-            for _ in 0..12 {
+            // With a reused Jacobian only the full step is tried.
+            for _ in 0..if reused { 1 } else { 12 } {
                 let (ns, nbeta) = (s + lambda * d_s, beta + lambda * d_beta);
                 if nbeta.abs() < 0.999_999 {
                     if let Some(nr) = resid(ns.abs(), nbeta) {
                         if norm(nr) < norm(r) {
+                            // Keep the Jacobian while full steps converge fast.
+                            jac =
+                                (lambda == 1.0 && norm(nr) <= 0.1 * norm(r)).then_some((j11, j12, j21, j22));
                             s = ns.abs();
                             beta = nbeta;
                             r = nr;
@@ -636,6 +686,10 @@ impl HollowCylinder {
                     }
                 }
                 lambda *= 0.5;
+            }
+            if !accepted && reused {
+                jac = None;
+                continue;
             }
             if !accepted {
                 // Stalled at rounding level: near an edge dg/db is ~1e5, so
@@ -648,7 +702,7 @@ impl HollowCylinder {
             return None;
         }
         let f = self.frame();
-        self.finish(fam, e, p, dist, eye, &f, to_b(s, beta), beta, in_hollow)
+        self.finish(fam, e, p, dist, eye, &f, to_b(s, beta), beta, in_hollow, parity)
     }
 
     /// All images of `target` seen from `eye`.
@@ -837,7 +891,7 @@ impl HollowCylinder {
         if r.abs() > 1e-9 * dist || gval(b, beta)?.abs() > 1e-9 * dist {
             return None;
         }
-        self.finish(fam, e, p, dist, eye, f, b, beta, in_hollow)
+        self.finish(fam, e, p, dist, eye, f, b, beta, in_hollow, true)
     }
 
     /// The image for a solved (b, β): direction, position and parity.
@@ -853,10 +907,21 @@ impl HollowCylinder {
         b: f64,
         beta: f64,
         in_hollow: bool,
+        with_parity: bool,
     ) -> Option<CylImage> {
         let gval = |b: f64, beta: f64| self.signed_miss(fam, e, p, b, beta, in_hollow);
         let h = Self::dir_for(e, b);
         let dir = (f.u * h.x + f.w * h.y) * (1.0 - beta * beta).sqrt() + f.a * beta;
+        if !with_parity {
+            return Some(CylImage {
+                family: fam,
+                direction: dir.normalize(),
+                position: eye + dir.normalize() * dist,
+                refractions: fam.refractions(),
+                parity: 0,
+                impact: b,
+            });
+        }
         // Parity: orientation of b → crossing position against a straight view.
         // One-sided near a family edge (the other side is outside the family).
         let (lo, hi) = self.domain(fam, beta, b);

@@ -13,7 +13,7 @@
 //! image (checked to 1e-9 like the slow path); what can differ is a pair of
 //! images within a bin's width of a caustic, where the pair exists at the
 //! target's β but not at the bin's (or the reverse).
-use super::cylinder::{scan_candidates, Candidate, CylImage, CylStatus, Family, HollowCylinder};
+use super::cylinder::{Candidate, CylImage, CylStatus, Family, HollowCylinder};
 use glam::{DVec2, DVec3};
 
 /// Width of a β bin (the table's β is the bin centre).
@@ -34,9 +34,86 @@ struct Table {
     /// for the first guess of β.
     air: Vec<f64>,
     glass: Vec<f64>,
+    /// Per block of `BLOCK` consecutive entries: the middle entry's linear
+    /// forms and the largest deviation of the block's coefficients from them.
+    blocks: Vec<Block>,
+}
+
+/// Entries per block of the bounded scan.
+const BLOCK: usize = 16;
+
+/// Bounds of a block: for any target p, every entry's
+/// `g = gx·p.x + gy·p.y − gc` is within `dx·|p.x| + dy·|p.y| + dc` of the
+/// middle entry's, and its `along = gy·p.x − gx·p.y − ac` within
+/// `dy·|p.x| + dx·|p.y| + da`.
+#[derive(Clone, Copy, Default)]
+struct Block {
+    gx: f64,
+    gy: f64,
+    gc: f64,
+    ac: f64,
+    dx: f64,
+    dy: f64,
+    dc: f64,
+    da: f64,
 }
 
 impl Table {
+    /// The bounded scan: a block whose entries all have the same sign of g,
+    /// |g| above the edge tolerance and along > 0 (by its bounds) can hold
+    /// no candidate; only its first and last entries go through the scanner
+    /// (the same candidates as the full scan, see `Scanner`). The others are
+    /// evaluated entry by entry.
+    fn candidates(&self, p: DVec2, edge_tol: f64) -> Vec<Candidate> {
+        let n = self.b.len();
+        let gk = |k: usize| self.gx[k] * p.x + self.gy[k] * p.y - self.gc[k];
+        let ak = |k: usize| self.gy[k] * p.x - self.gx[k] * p.y - self.ac[k];
+        let (ax, ay) = (p.x.abs(), p.y.abs());
+        let mut sc = Scanner::new(edge_tol);
+        for (j, bl) in self.blocks.iter().enumerate() {
+            let (lo, hi) = (j * BLOCK, ((j + 1) * BLOCK).min(n));
+            let m = bl.gx * p.x + bl.gy * p.y - bl.gc;
+            let r = bl.dx * ax + bl.dy * ay + bl.dc;
+            let ma = bl.gy * p.x - bl.gx * p.y - bl.ac;
+            let ra = bl.dy * ax + bl.dx * ay + bl.da;
+            // Rounding margin of the linear forms (a few ulps of their terms).
+            let slack = 1e-12 * (bl.gx.abs() * ax + bl.gy.abs() * ay + bl.gc.abs() + bl.ac.abs() + 1.0);
+            if hi - lo >= 2 && m.abs() > r + edge_tol + slack && ma > ra + slack {
+                sc.push(lo, Some(gk(lo)));
+                sc.push(hi - 1, Some(gk(hi - 1)));
+            } else {
+                for k in lo..hi {
+                    sc.push(k, (ak(k) > 0.0).then(|| gk(k)));
+                }
+            }
+        }
+        sc.finish()
+    }
+
+    fn finish_blocks(&mut self) {
+        let n = self.b.len();
+        self.blocks = (0..n.div_ceil(BLOCK))
+            .map(|j| {
+                let (lo, hi) = (j * BLOCK, ((j + 1) * BLOCK).min(n));
+                let m = (lo + hi) / 2;
+                let mut bl = Block {
+                    gx: self.gx[m],
+                    gy: self.gy[m],
+                    gc: self.gc[m],
+                    ac: self.ac[m],
+                    ..Default::default()
+                };
+                for k in lo..hi {
+                    bl.dx = bl.dx.max((self.gx[k] - bl.gx).abs());
+                    bl.dy = bl.dy.max((self.gy[k] - bl.gy).abs());
+                    bl.dc = bl.dc.max((self.gc[k] - bl.gc).abs());
+                    bl.da = bl.da.max((self.ac[k] - bl.ac).abs());
+                }
+                bl
+            })
+            .collect();
+    }
+
     fn push(&mut self, b: f64, origin: DVec2, dir: DVec2, air: f64, glass: f64) {
         // dir × (p − o) = −dir.y·p.x + dir.x·p.y − dir × o
         self.b.push(b);
@@ -49,8 +126,73 @@ impl Table {
     }
 }
 
-thread_local! {
-    static GBUF: std::cell::RefCell<(Vec<f64>, Vec<f64>)> = const { std::cell::RefCell::new((Vec::new(), Vec::new())) };
+/// `scan_candidates` as a stream: entries are pushed in ascending order
+/// (index, g or None where the family's ray does not reach the target).
+/// Pushing only the first and last entries of a run of same-sign entries
+/// with |g| above the edge tolerance finds the same candidates as pushing
+/// them all: inside such a run there is no sign change and no falling end
+/// (|g| never reaches the tolerance), and the state after it (previous
+/// value, run started) is the same. Tested against `scan_candidates`.
+struct Scanner {
+    out: Vec<Candidate>,
+    prev: Option<(usize, f64)>,
+    prev2: Option<(usize, f64)>,
+    run_start: bool,
+    tol: f64,
+}
+
+impl Scanner {
+    fn new(tol: f64) -> Scanner {
+        Scanner {
+            out: Vec::new(),
+            prev: None,
+            prev2: None,
+            run_start: true,
+            tol,
+        }
+    }
+
+    #[inline]
+    fn falling(&self, g0: f64, g1: f64) -> bool {
+        g1.abs() < g0.abs() && g1.abs() <= self.tol && (g0 < 0.0) == (g1 < 0.0)
+    }
+
+    #[inline]
+    fn push(&mut self, k: usize, g: Option<f64>) {
+        match g {
+            Some(gk) => {
+                if let Some((k0, g0)) = self.prev {
+                    if g0 == 0.0 || (g0 < 0.0) != (gk < 0.0) {
+                        self.out.push(Candidate::Bracket(k0, k));
+                    } else if self.run_start && self.falling(gk, g0) {
+                        self.out.push(Candidate::Edge(k0));
+                    }
+                    self.run_start = false;
+                }
+                self.prev2 = self.prev;
+                self.prev = Some((k, gk));
+            }
+            None => {
+                self.end_run();
+                self.prev = None;
+                self.prev2 = None;
+                self.run_start = true;
+            }
+        }
+    }
+
+    fn end_run(&mut self) {
+        if let (Some((_, g0)), Some((b1, g1))) = (self.prev2, self.prev) {
+            if !self.run_start && self.falling(g0, g1) {
+                self.out.push(Candidate::Edge(b1));
+            }
+        }
+    }
+
+    fn finish(mut self) -> Vec<Candidate> {
+        self.end_run();
+        self.out
+    }
 }
 
 /// Tables for one eye and one tube.
@@ -106,6 +248,7 @@ impl CylinderWarper {
                             t.push(b, o, d, air, glass);
                         }
                     }
+                    t.finish_blocks();
                     t
                 })
             })
@@ -120,6 +263,15 @@ impl CylinderWarper {
 
     /// All images of `target` (as `HollowCylinder::images`).
     pub fn images(&self, target: DVec3) -> Result<Vec<CylImage>, CylStatus> {
+        self.images_opts(target, true)
+    }
+
+    /// The same images without their parity (0): what the renderer needs.
+    pub fn images_no_parity(&self, target: DVec3) -> Result<Vec<CylImage>, CylStatus> {
+        self.images_opts(target, false)
+    }
+
+    fn images_opts(&self, target: DVec3, parity: bool) -> Result<Vec<CylImage>, CylStatus> {
         let c = &self.cyl;
         let (e, ev) = c.to2(self.eye);
         let (p, pv) = c.to2(target);
@@ -146,59 +298,50 @@ impl CylinderWarper {
                 continue;
             }
             let t = &table[fi];
-            let n = t.b.len();
-            GBUF.with(|buf| {
-                let mut buf = buf.borrow_mut();
-                let (gs, along) = &mut *buf;
-                gs.resize(n, 0.0);
-                along.resize(n, 0.0);
-                // Tight loops over the table (vectorisable): g and the
-                // distance along the final ray for every sample.
-                for k in 0..n {
-                    gs[k] = t.gx[k] * p.x + t.gy[k] * p.y - t.gc[k];
-                    along[k] = t.gy[k] * p.x - t.gx[k] * p.y - t.ac[k];
-                }
-                let gval = |k: usize| (along[k] > 0.0).then(|| gs[k]);
-                // A bin is BIN wide in β; roots move by ~dist·Δβ at most.
-                for cand in scan_candidates(&t.b, gval, 0.1 * BIN * dist) {
-                    let img = match cand {
-                        Candidate::Bracket(k0, k1) => {
-                            // First guesses: b by the secant through the two
-                            // samples, β from the climb with their lengths.
-                            let (g0, g1) = (gs[k0], gs[k1]);
-                            let w = if g0 == g1 { 0.5 } else { g0 / (g0 - g1) };
-                            let lerp = |v: &[f64]| v[k0] + w * (v[k1] - v[k0]);
-                            let b = lerp(&t.b);
-                            let (air, glass) = (lerp(&t.air) + lerp(along), lerp(&t.glass));
-                            let mut beta = beta0;
-                            for _ in 0..2 {
-                                let ma = (1.0 - beta * beta).sqrt();
-                                let mg = (c.ior * c.ior - beta * beta).sqrt();
-                                beta = (dv / (air / ma + glass / mg)).clamp(-0.999, 0.999);
-                            }
-                            c.newton_image(fam, e, p, dv, dist, self.eye, b, beta, in_hollow)
-                                .or_else(|| {
-                                    c.newton_image(fam, e, p, dv, dist, self.eye, b, beta0, in_hollow)
-                                })
-                                .or_else(|| {
-                                    c.refine_public(
-                                        fam, e, p, dv, dist, self.eye, t.b[k0], t.b[k1], beta0, in_hollow,
-                                    )
-                                })
+            let gk = |k: usize| t.gx[k] * p.x + t.gy[k] * p.y - t.gc[k];
+            let ak = |k: usize| t.gy[k] * p.x - t.gx[k] * p.y - t.ac[k];
+            let edge_tol = 0.1 * BIN * dist;
+            for cand in t.candidates(p, edge_tol) {
+                let img = match cand {
+                    Candidate::Bracket(k0, k1) => {
+                        // First guesses: b by the secant through the two
+                        // samples, β from the climb with their lengths.
+                        let (g0, g1) = (gk(k0), gk(k1));
+                        let w = if g0 == g1 { 0.5 } else { g0 / (g0 - g1) };
+                        let lerp = |v: &[f64]| v[k0] + w * (v[k1] - v[k0]);
+                        let b = lerp(&t.b);
+                        let along = ak(k0) + w * (ak(k1) - ak(k0));
+                        let (air, glass) = (lerp(&t.air) + along, lerp(&t.glass));
+                        let mut beta = beta0;
+                        for _ in 0..2 {
+                            let ma = (1.0 - beta * beta).sqrt();
+                            let mg = (c.ior * c.ior - beta * beta).sqrt();
+                            beta = (dv / (air / ma + glass / mg)).clamp(-0.999, 0.999);
                         }
-                        Candidate::Edge(k) => {
-                            c.newton_image(fam, e, p, dv, dist, self.eye, t.b[k], beta0, in_hollow)
-                        }
-                    };
-                    if let Some(img) = img {
-                        if !out.iter().any(|o: &CylImage| {
-                            o.family == img.family && (o.direction - img.direction).length() < 1e-9
-                        }) {
-                            out.push(img);
-                        }
+                        c.newton_image_opts(fam, e, p, dv, dist, self.eye, b, beta, in_hollow, parity)
+                            .or_else(|| {
+                                c.newton_image_opts(
+                                    fam, e, p, dv, dist, self.eye, b, beta0, in_hollow, parity,
+                                )
+                            })
+                            .or_else(|| {
+                                c.refine_public(
+                                    fam, e, p, dv, dist, self.eye, t.b[k0], t.b[k1], beta0, in_hollow,
+                                )
+                            })
+                    }
+                    Candidate::Edge(k) => {
+                        c.newton_image_opts(fam, e, p, dv, dist, self.eye, t.b[k], beta0, in_hollow, parity)
+                    }
+                };
+                if let Some(img) = img {
+                    if !out.iter().any(|o: &CylImage| {
+                        o.family == img.family && (o.direction - img.direction).length() < 1e-9
+                    }) {
+                        out.push(img);
                     }
                 }
-            });
+            }
         }
         Ok(out)
     }
@@ -265,6 +408,54 @@ mod tests {
                 "r={inner}: {same} of {total} targets: all robust images found; {extra} extra (verified)"
             );
             assert!(total > 200 && same == total, "r={inner}: {same} of {total} agree");
+        }
+    }
+}
+
+#[cfg(test)]
+mod scan_tests {
+    use super::*;
+    use crate::warp::cylinder::scan_candidates;
+
+    /// The bounded scan finds exactly the candidates of the full scan
+    /// (every table entry), over targets near and far, in and around the
+    /// tube, for every family and β bin they fall in.
+    #[test]
+    fn bounded_scan_equals_the_full_scan() {
+        let eye = DVec3::new(0.3, 0.1, 4.0);
+        for inner in [0.8, 0.5] {
+            let c = HollowCylinder::try_new(DVec3::ZERO, DVec3::Y, 1.0, inner, 1.5).unwrap();
+            let w = CylinderWarper::new(c, eye, -0.6, 0.6).unwrap();
+            let (e, _) = c.to2(eye);
+            let mut skipped = 0usize;
+            let mut total = 0usize;
+            for i in 0..400 {
+                let a = i as f64 * 0.0157;
+                let rad = 0.3 + 6.0 * ((i * 7919) % 400) as f64 / 400.0;
+                let p = DVec2::new(rad * a.sin(), rad * a.cos() * 0.9 - 0.5);
+                if (p - e).length() < 0.2 || (p.length() > inner && p.length() < 1.0) {
+                    continue;
+                }
+                for table in w.tables.iter().step_by(7) {
+                    for t in table.iter() {
+                        for tol in [1e-3, 0.05] {
+                            let full = scan_candidates(
+                                &t.b,
+                                |k| {
+                                    let along = t.gy[k] * p.x - t.gx[k] * p.y - t.ac[k];
+                                    (along > 0.0).then(|| t.gx[k] * p.x + t.gy[k] * p.y - t.gc[k])
+                                },
+                                tol,
+                            );
+                            let fast = t.candidates(p, tol);
+                            assert_eq!(full, fast, "r={inner} p={p} tol={tol}");
+                            total += t.b.len();
+                            skipped += t.blocks.len();
+                        }
+                    }
+                }
+            }
+            assert!(total > 100_000 && skipped > 0, "{total}");
         }
     }
 }

@@ -148,23 +148,34 @@ impl WarpGlass {
 
     /// Classify a primary ray from `eye` along unit `d`.
     pub fn classify(&self, eye: DVec3, d: DVec3) -> RayClass {
+        let (t_enter, keys) = self.classify_keys(eye, d);
+        RayClass {
+            t_enter,
+            copies: keys.into_iter().flatten().collect(),
+        }
+    }
+
+    /// `classify` without allocating (the renderer's per-pixel call): the
+    /// distance to the glass and up to two copy keys.
+    #[inline]
+    pub fn classify_keys(&self, eye: DVec3, d: DVec3) -> (f64, [Option<CopyKey>; 2]) {
         match self {
             WarpGlass::Plate(p) => {
                 let dn = d.dot(p.normal);
                 let gap = (p.near_face_point - eye).dot(p.normal);
                 if dn <= 0.0 || gap <= 0.0 {
-                    return RayClass {
-                        t_enter: f64::INFINITY,
-                        copies: vec![],
-                    };
+                    return (f64::INFINITY, [None, None]);
                 }
-                RayClass {
-                    t_enter: gap / dn,
-                    copies: vec![CopyKey {
-                        family: Family::Wall2,
-                        side: 0,
-                    }],
-                }
+                (
+                    gap / dn,
+                    [
+                        Some(CopyKey {
+                            family: Family::Wall2,
+                            side: 0,
+                        }),
+                        None,
+                    ],
+                )
             }
             WarpGlass::Cylinder(c) => {
                 let (b, beta) = c.impact_of(eye, d);
@@ -176,31 +187,28 @@ impl WarpGlass {
                     _ => f64::INFINITY,
                 };
                 if !t_enter.is_finite() {
-                    return RayClass {
-                        t_enter,
-                        copies: vec![],
-                    };
+                    return (t_enter, [None, None]);
                 }
                 let ma = (1.0 - beta * beta).max(0.0).sqrt();
                 let mg = (c.ior * c.ior - beta * beta).max(0.0).sqrt();
                 let ab = b.abs();
-                let copies = if ab < c.inner_radius {
-                    vec![
-                        CopyKey {
+                let keys = if ab < c.inner_radius {
+                    [
+                        Some(CopyKey {
                             family: Family::Hollow2,
                             side: 0,
-                        },
-                        CopyKey {
+                        }),
+                        Some(CopyKey {
                             family: Family::Through4,
                             side: 0,
-                        },
+                        }),
                     ]
                 } else if ab * ma < c.inner_radius * mg {
-                    vec![Self::key_for(Family::Tir2, b)]
+                    [Some(Self::key_for(Family::Tir2, b)), None]
                 } else {
-                    vec![Self::key_for(Family::Wall2, b)]
+                    [Some(Self::key_for(Family::Wall2, b)), None]
                 };
-                RayClass { t_enter, copies }
+                (t_enter, keys)
             }
         }
     }

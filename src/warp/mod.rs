@@ -6,6 +6,7 @@ pub mod cylinder;
 pub mod fastcyl;
 pub mod glass;
 pub mod paper;
+pub mod pipeline;
 pub mod plate;
 pub mod points;
 pub mod render;

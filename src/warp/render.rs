@@ -54,7 +54,7 @@ pub struct Prepared {
     pub triangles: usize,
 }
 
-fn d3(p: [f32; 3]) -> DVec3 {
+pub(crate) fn d3(p: [f32; 3]) -> DVec3 {
     DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64)
 }
 
@@ -290,7 +290,7 @@ pub fn vertex_images(
         WarpGlass::Cylinder(c) => {
             let ims = match method {
                 WarpMethod::Exact => match fast {
-                    Some(f) => f.images(p).unwrap_or_default(),
+                    Some(f) => f.images_no_parity(p).unwrap_or_default(),
                     None => c.images(eye, p).unwrap_or_default(),
                 },
                 WarpMethod::Paper => paper_image(c, eye, p).ok().flatten().into_iter().collect(),
@@ -437,7 +437,7 @@ pub struct Frame {
     pub render_s: f64,
 }
 
-fn shade(
+pub(crate) fn shade(
     scene: &RenderScene,
     prep: &Prepared,
     object: u32,
@@ -483,14 +483,14 @@ fn shade(
     (col * weight as f32, p)
 }
 
-fn pixel_ray(scene: &RenderScene, x: u32, y: u32) -> (DVec3, DVec3) {
+pub(crate) fn pixel_ray(scene: &RenderScene, x: u32, y: u32) -> (DVec3, DVec3) {
     let (o, d) = scene.camera.ray(x as f32 + 0.5, y as f32 + 0.5, (0.0, 0.0));
     let o = DVec3::new(o.x as f64, o.y as f64, o.z as f64);
     let d = DVec3::new(d.x as f64, d.y as f64, d.z as f64).normalize();
     (o, d)
 }
 
-fn f3(v: DVec3) -> V3 {
+pub(crate) fn f3(v: DVec3) -> V3 {
     V3::new(v.x as f32, v.y as f32, v.z as f32)
 }
 
@@ -851,13 +851,14 @@ pub fn run(scene: &RenderScene, opts: &WarpRunOptions) -> Result<WarpReport> {
         let t0 = Instant::now();
         let prep = prepare(scene, &spec, spec.subdivide)?;
         let subdivide_s = t0.elapsed().as_secs_f64();
-        let warped = warp_scene(scene, &spec, &prep)?;
-        let frame = render_warped(scene, &spec, &prep, &warped);
+        let mut pipe = super::pipeline::Pipeline::new(scene, &spec, &prep, false)?;
+        let warped = pipe.warp(scene)?;
+        let frame = pipe.render(scene, &spec, &prep);
         let mut exact_build_s = 0.0;
         let exact = if opts.compare {
             let orig = build_originals(scene, &prep)?;
             exact_build_s = orig.build_s;
-            let ex = render_exact(scene, &spec, &prep, &orig);
+            let ex = super::pipeline::render_exact_packets(scene, &spec, &prep, &orig);
             let (cmp, heat) = compare(scene, &frame, &ex);
             Some((ex, cmp, heat))
         } else {
@@ -872,11 +873,7 @@ pub fn run(scene: &RenderScene, opts: &WarpRunOptions) -> Result<WarpReport> {
             build_s: warped.build_s,
             images: warped.images,
             dropped_triangles: warped.dropped_triangles,
-            copies: warped
-                .copies
-                .iter()
-                .map(|c| (c.key.label(), c.source.len()))
-                .collect(),
+            copies: pipe.copy_sizes(),
             frame,
             exact,
             exact_build_s,
