@@ -71,6 +71,22 @@ pub fn to_fixed(v: f32) -> i128 {
         return 0;
     }
     let x = (v as f64).clamp(-FIXED_CLAMP, FIXED_CLAMP) * 2f64.powi(FIXED_BITS);
+    // Fast path (every sample below 2^14 in magnitude): f64 → i64 is one
+    // instruction, while f64 → i128 and `round` are library calls (4% of a
+    // three_spheres render by callgrind). Rounds half away from zero, as
+    // `f64::round`: `x − trunc(x)` is exact here.
+    if x.abs() < 9.2e18 {
+        let t = x as i64;
+        let frac = x - t as f64;
+        let r = if frac >= 0.5 {
+            t + 1
+        } else if frac <= -0.5 {
+            t - 1
+        } else {
+            t
+        };
+        return r as i128;
+    }
     x.round() as i128
 }
 
@@ -106,4 +122,33 @@ pub struct PartSpec {
     /// Samples already taken per pixel of the region (from a partial part):
     /// pixel i holds indices `[start, start + counts[i])`; the render adds the rest.
     pub base: Option<Accum>,
+}
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fast_fixed_conversion_equals_round() {
+        let mut rng = crate::sampling::Rng::new(3);
+        let mut vals = vec![
+            0.0f32,
+            -0.0,
+            1.0,
+            -1.0,
+            0.5,
+            f32::MIN_POSITIVE,
+            1e-20,
+            3e4,
+            -7e3,
+            1.5e18,
+            -2e16,
+        ];
+        vals.extend(
+            (0..20000).map(|_| (rng.uniform() - 0.5) * 10f32.powi((rng.uniform() * 30.0) as i32 - 20)),
+        );
+        for v in vals {
+            let slow = ((v as f64).clamp(-FIXED_CLAMP, FIXED_CLAMP) * 2f64.powi(FIXED_BITS)).round() as i128;
+            assert_eq!(to_fixed(v), slow, "{v}");
+        }
+    }
 }

@@ -556,7 +556,10 @@ unsafe fn intersect_lanes(args: *const sys::RTCIntersectFunctionNArguments) {
                     instID: [(*a.context).instID[0]],
                 };
                 let mut lane_valid: i32 = -1;
-                if n == 1 {
+                // Without a context filter there is nothing to call: user
+                // geometries never get per-geometry filters (`add_user`), so
+                // rtcFilterIntersection would accept the hit anyway.
+                if n == 1 && (*a.context).filter.is_some() {
                     let fargs = sys::RTCFilterFunctionNArguments {
                         valid: &mut lane_valid,
                         geometryUserPtr: a.geometryUserPtr,
@@ -630,7 +633,8 @@ unsafe extern "C" fn user_occluded(args: *const sys::RTCOccludedFunctionNArgumen
                         instID: [(*a.context).instID[0]],
                     };
                     let mut lane_valid: i32 = -1;
-                    if n == 1 {
+                    // As in `intersect_lanes`: no context filter, nothing to call.
+                    if n == 1 && (*a.context).filter.is_some() {
                         let fargs = sys::RTCFilterFunctionNArguments {
                             valid: &mut lane_valid,
                             geometryUserPtr: a.geometryUserPtr,

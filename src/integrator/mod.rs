@@ -69,7 +69,7 @@ pub fn surface_point(scene: &RenderScene, ray: &Ray, hit: &Hit) -> SurfacePoint 
                 p,
                 ng,
                 ns: ng,
-                uv: a.uv(pd),
+                uv: if rec.needs_uv() { a.uv(pd) } else { [0.0, 0.0] },
             }
         }
     }

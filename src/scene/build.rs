@@ -76,6 +76,15 @@ pub struct GeomRecord {
     pub light: Option<u32>,
 }
 
+impl GeomRecord {
+    /// Does shading read texture coordinates here? (Analytic shapes' uv costs
+    /// atan2/acos: 5% of a three_spheres render before it was made lazy.)
+    pub fn needs_uv(&self) -> bool {
+        let m = matches!(&self.material, Material::Diffuse { reflectance, .. } if reflectance.needs_uv());
+        m || self.emission.as_ref().is_some_and(Texture::needs_uv)
+    }
+}
+
 /// A priority solid (Schmidt & Budge).
 #[derive(Debug, Clone)]
 pub struct Solid {

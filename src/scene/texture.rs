@@ -119,6 +119,12 @@ pub enum Texture {
 
 impl Texture {
     #[inline]
+    /// Does `eval` read its `uv` argument? (Only image textures do; the
+    /// checker is in world space.)
+    pub fn needs_uv(&self) -> bool {
+        matches!(self, Texture::Image { .. })
+    }
+
     pub fn eval(&self, p: V3, uv: [f32; 2]) -> V3 {
         match self {
             Texture::Constant(c) => *c,
