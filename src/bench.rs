@@ -192,6 +192,10 @@ pub struct NestedRun {
     pub median_of: usize,
     pub rays: u64,
     pub samples_per_s: Option<f64>,
+    /// Wall time of every repetition, in the interleaved order (repetition k
+    /// of every strategy ran back to back, so per-repetition ratios compare
+    /// runs that saw the same machine load).
+    pub walls: Vec<f64>,
 }
 
 fn trace_only(
@@ -303,6 +307,7 @@ pub fn nested(opts: &NestedBenchOptions, mut progress: impl FnMut(&str)) -> Resu
                 median_of: opts.reps,
                 rays: rays.len() as u64,
                 samples_per_s: None,
+                walls: trace_t[k].clone(),
             });
             let wall = median(render_t[k].clone());
             let st = render_stats[k].expect("at least one repeat");
@@ -316,26 +321,44 @@ pub fn nested(opts: &NestedBenchOptions, mut progress: impl FnMut(&str)) -> Resu
                 median_of: opts.reps,
                 rays: st.rays,
                 samples_per_s: Some(st.samples as f64 / wall),
+                walls: render_t[k].clone(),
             });
         }
     }
     Ok(runs)
 }
 
-/// Ratio table: filter/recast and filter/off, per scene and mode.
+/// Speed ratio `other / filter` per interleaved repetition: (median, min,
+/// max). A ratio whose range straddles 1 is within noise.
+pub fn ratio_spread(filter: &[f64], other: &[f64]) -> (f64, f64, f64) {
+    let r: Vec<f64> = filter.iter().zip(other).map(|(f, o)| o / f.max(1e-12)).collect();
+    if r.is_empty() {
+        return (f64::NAN, f64::NAN, f64::NAN);
+    }
+    let lo = r.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = r.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    (median(r), lo, hi)
+}
+
+/// Ratio table: filter/recast and filter/off, per scene and mode, each as the
+/// median of per-repetition ratios with its range; `~` marks a ratio whose
+/// range includes 1 (the two strategies are within noise of each other).
 pub fn nested_ratios(runs: &[NestedRun]) -> String {
     let mut out = String::from(
-        "scene                   mode    filter Mrays/s  recast  toggle  off   filter/recast  filter/off  false hits/ray\n",
+        "scene                   mode    filter Mrays/s  recast  toggle  off   filter/recast (min-max)   filter/off (min-max)      false hits/ray\n",
     );
     let mut scenes: Vec<&str> = runs.iter().map(|r| r.scene.as_str()).collect();
     scenes.dedup();
+    let fmt = |(m, lo, hi): (f64, f64, f64)| {
+        let tilde = if lo <= 1.0 && hi >= 1.0 { "~" } else { " " };
+        format!("{tilde}{m:>6.3} ({lo:.3}-{hi:.3})")
+    };
     for s in scenes {
         for mode in ["trace", "render"] {
             // Render speed is compared by wall time (the same samples for all).
             let get = |st: &str| {
                 runs.iter()
                     .find(|r| r.scene == s && r.mode == mode && r.strategy == st)
-                    .map(|r| (r.rays_per_s, r.wall_s, r.false_hits_per_ray))
             };
             let (Some(f), Some(rc), Some(tg), Some(off)) =
                 (get("filter"), get("recast"), get("toggle"), get("off"))
@@ -343,18 +366,18 @@ pub fn nested_ratios(runs: &[NestedRun]) -> String {
                 continue;
             };
             out.push_str(&format!(
-                "{s:<23} {mode:<7} {:>13.3} {:>7.3} {:>7.3} {:>6.3} {:>14.3} {:>11.3} {:>15.3}\n",
-                f.0 / 1e6,
-                rc.0 / 1e6,
-                tg.0 / 1e6,
-                off.0 / 1e6,
-                rc.1 / f.1,
-                off.1 / f.1,
-                f.2
+                "{s:<23} {mode:<7} {:>13.3} {:>7.3} {:>7.3} {:>6.3} {:>24} {:>24} {:>15.3}\n",
+                f.rays_per_s / 1e6,
+                rc.rays_per_s / 1e6,
+                tg.rays_per_s / 1e6,
+                off.rays_per_s / 1e6,
+                fmt(ratio_spread(&f.walls, &rc.walls)),
+                fmt(ratio_spread(&f.walls, &off.walls)),
+                f.false_hits_per_ray
             ));
         }
     }
-    out.push_str("(ratios are speed ratios: time of the other strategy / time of filter; > 1 means filter is faster)\n");
+    out.push_str("(speed ratios: time of the other strategy / time of filter, median over interleaved repetitions with their range; > 1 means filter is faster; ~ = within noise)\n");
     out
 }
 
@@ -425,4 +448,15 @@ pub fn chord_sweep(
             }
         })
         .collect())
+}
+
+#[cfg(test)]
+mod ratio_tests {
+    use super::ratio_spread;
+
+    #[test]
+    fn per_repetition_ratios_and_their_range() {
+        let (m, lo, hi) = ratio_spread(&[1.0, 2.0, 1.0], &[2.0, 2.0, 1.5]);
+        assert_eq!((m, lo, hi), (1.5, 1.0, 2.0));
+    }
 }
