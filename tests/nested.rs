@@ -45,20 +45,35 @@ const NESTED_SCENES: [&str; 5] = [
     "scenes/deep_nesting.toml",
 ];
 
+/// Share of pixels equal to 1e-4 (relative) between two images.
+fn equal_share(a: &Rendered, b: &Rendered) -> f64 {
+    let equal = a
+        .pixels
+        .iter()
+        .zip(&b.pixels)
+        .filter(|(x, y)| {
+            (**x - **y).abs().max_element() <= 1e-4 * x.max_element().max(y.max_element()).max(1e-6)
+        })
+        .count();
+    equal as f64 / a.pixels.len() as f64
+}
+
 #[test]
 fn filter_and_recast_agree_pixel_for_pixel() {
+    // Power: the paper's Fig. 1 in the other priority order (a wrong order
+    // for scene a) must fail the 99% criterion that filter vs recast passes.
+    let a = go(&load(NESTED_SCENES[0], NestedStrategy::Filter, 48, 36, 2, 7));
+    let wrong = go(&load(NESTED_SCENES[1], NestedStrategy::Recast, 48, 36, 2, 7));
+    let share = equal_share(&a, &wrong);
+    assert!(
+        share < 0.99,
+        "no power: the wrong priority order matches {:.2}% of pixels",
+        share * 100.0
+    );
     for path in NESTED_SCENES {
         let a = go(&load(path, NestedStrategy::Filter, 48, 36, 2, 7));
         let b = go(&load(path, NestedStrategy::Recast, 48, 36, 2, 7));
-        let equal = a
-            .pixels
-            .iter()
-            .zip(&b.pixels)
-            .filter(|(x, y)| {
-                (**x - **y).abs().max_element() <= 1e-4 * x.max_element().max(y.max_element()).max(1e-6)
-            })
-            .count();
-        let share = equal as f64 / a.pixels.len() as f64;
+        let share = equal_share(&a, &b);
         assert!(
             share >= 0.99,
             "{path}: only {:.2}% of pixels equal",

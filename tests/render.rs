@@ -73,6 +73,16 @@ fn furnace_glass_sphere_returns_the_environment() {
         assert!((m - 0.5).abs() < 5.0 * se + 1e-4, "{mat}: mean {m} ± {se}");
         assert_eq!(r.stats.nan, 0);
     }
+    // Power: a glass that loses 5% of the light per unit length (a wrong
+    // "lossless" glass) must fail the same threshold.
+    let lossy =
+        r#"{ type = "dielectric", ior = 1.5, absorption = { color = [0.95, 0.95, 0.95], distance = 1.0 } }"#;
+    let r = render_str(&FURNACE.replace("SPP", "64").replace("MATERIAL", lossy), 2);
+    let (m, se) = mean_se(&r, 1);
+    assert!(
+        (m - 0.5).abs() >= 5.0 * se + 1e-4,
+        "no power: a lossy glass passes as lossless ({m} ± {se})"
+    );
 }
 
 #[test]
@@ -158,6 +168,38 @@ fn reference_scenes_have_no_nan_and_match_stored_means() {
                 "{name} channel {ch}: {m} vs stored {want} (tol {tol})"
             );
         }
+        // Power: the same scene with a light 5% too dim must fail the same
+        // tolerance in some channel (three_spheres and glass_of_water have a
+        // rect key light; cylinder_refraction an emissive backdrop).
+        let text = std::fs::read_to_string(&path).unwrap();
+        let dim = text
+            .replace("radiance = [6.0, 6.0, 6.0]", "radiance = [5.7, 5.7, 5.7]")
+            .replace(
+                "color0 = [1.0, 1.0, 1.0], color1 = [0.1, 0.2, 0.6]",
+                "color0 = [0.95, 0.95, 0.95], color1 = [0.095, 0.19, 0.57]",
+            );
+        assert_ne!(dim, text, "{name}: no light to dim");
+        let mut w =
+            snell::scene::load_scene_str(&path, &dim, Path::new("scenes"), &BuildOptions::default()).unwrap();
+        w.set_resolution(80, 60).unwrap();
+        w.spp = 16;
+        w.seed = 12345;
+        let rw = render(
+            &w,
+            &RenderOptions {
+                threads: Some(2),
+                quiet: true,
+                want_aovs: false,
+            },
+        )
+        .unwrap();
+        let caught = (0..3).any(|ch| {
+            let (m, se) = mean_se(&rw, ch);
+            let want = stored[name]["mean"][ch].as_f64().unwrap();
+            let want_se = stored[name]["se"][ch].as_f64().unwrap();
+            (m - want).abs() >= 5.0 * (se * se + want_se * want_se).sqrt() + 1e-4
+        });
+        assert!(caught, "{name}: no power: a 5% dimmer light passes");
     }
 }
 
