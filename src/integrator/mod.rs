@@ -95,13 +95,16 @@ pub fn offset_origin(p: V3, side: V3) -> V3 {
 /// stays on its line: a normal offset moves the line sideways, and next to a
 /// solid the line only grazes (the paper's Fig. 1 spheres where they meet)
 /// that sideways step can take the ray out of a solid whose entry was
-/// recorded, leaving it in the interior list after the ray left it. Grazing
-/// exits (|cos| < 1/4) keep the normal offset, whose step is bounded.
+/// recorded, leaving it in the interior list after the ray left it. The step
+/// along the ray, err/cos, must stay inside the crossing window (2·err) or a
+/// surface just past the hit would be stepped over unseen (a ray through
+/// the circle where two spheres meet missed the second one's entry at
+/// cos < 1/2): exits with cos < 0.6 keep the normal offset.
 pub fn offset_through(p: V3, exit_side: V3, dir: V3) -> V3 {
     let err = OFFSET_ULPS * f32::EPSILON * (p.abs().max_element() + 0.5);
     let (n, d) = (exit_side.normalize_or_zero(), dir.normalize_or_zero());
     let cos = n.dot(d);
-    if cos >= 0.25 {
+    if cos >= 0.6 {
         p + d * (err / cos)
     } else {
         p + exit_side * err
