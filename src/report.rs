@@ -9,7 +9,7 @@ use crate::bench::{self, NestedBenchOptions, NESTED_SCENES, REFERENCE_SCENES};
 use crate::dielectric::{audit::audit_scene, NestedStrategy};
 use crate::error::{Error, Result};
 use crate::image_io::{encode_png, write_atomic};
-use crate::media::grin_trace::{trace, Query, Stop};
+use crate::media::grin_trace::{trace, Query};
 use crate::media::{IndexField, Method};
 use crate::render::{render, RenderOptions, Rendered};
 use crate::scene::{load_scene, BuildOptions, RenderScene};
@@ -155,11 +155,6 @@ fn plot(id: &str, title: &str, x: &str, y: &str, log: (bool, bool), series: Vec<
         log_y: log.1,
         series: series.into_iter().filter(|s| !s.points.is_empty()).collect(),
     }
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
 }
 
 /// Root-mean-square difference of two images over pixels and channels, and
@@ -507,32 +502,6 @@ fn nested(o: &ReportOptions, z: &Sizes, log: &mut dyn FnMut(&str)) -> Result<Sec
     })
 }
 
-fn grin_query(
-    field: &IndexField,
-    start: DVec3,
-    dir: DVec3,
-    len: f64,
-    method: Method,
-    tol: f64,
-    step: f64,
-) -> Query {
-    Query {
-        id: String::new(),
-        field: field.clone(),
-        start,
-        direction: dir.normalize(),
-        stop: Stop {
-            x: None,
-            s: Some(len),
-        },
-        method,
-        tolerance: Some(tol),
-        step: Some(step),
-        steps: None,
-        max_length: None,
-    }
-}
-
 /// 3. Gradient-index media: method accuracy vs evaluations; chord tolerance vs image error.
 fn grin(o: &ReportOptions, z: &Sizes, log: &mut dyn FnMut(&str)) -> Result<Section> {
     let deg = |a: f64| DVec3::new(a.to_radians().cos(), a.to_radians().sin(), 0.0);
@@ -587,7 +556,7 @@ fn grin(o: &ReportOptions, z: &Sizes, log: &mut dyn FnMut(&str)) -> Result<Secti
         } else {
             (Method::Rk45, 1e-13)
         };
-        let reference = trace(&grin_query(field, *p, *d, *len, rm, rt, 1.0))
+        let reference = trace(&Query::along(field, *p, *d, *len, rm, rt, 1.0))
             .map_err(|e| Error::Invalid(format!("report: grin reference: {e}")))?
             .end
             .ok_or_else(|| Error::Invalid("report: grin reference has no end".into()))?;
@@ -603,7 +572,7 @@ fn grin(o: &ReportOptions, z: &Sizes, log: &mut dyn FnMut(&str)) -> Result<Secti
         for (m, tol, h) in settings {
             // A method that fails at a setting (a paper method at a turning
             // point) has no point there.
-            let Ok(a) = trace(&grin_query(field, *p, *d, *len, m, tol, h)) else {
+            let Ok(a) = trace(&Query::along(field, *p, *d, *len, m, tol, h)) else {
                 continue;
             };
             let Some(end) = a.end else { continue };
@@ -748,8 +717,8 @@ fn warp_row(path: &str, w: u32, h: u32, vertices: usize, reps: usize) -> Result<
     Ok(WarpRow {
         vertices: prep.vertices,
         pixels: f64::from(w * h),
-        frame_s: median(ft),
-        exact_s: median(et),
+        frame_s: bench::median(ft),
+        exact_s: bench::median(et),
         px_mean: cmp.px_mean,
         px_p95: cmp.px_p95,
         last: (frame, exact, heat),
