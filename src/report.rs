@@ -939,7 +939,11 @@ fn pictures(
     let (mut pics, mut summary, mut plot_pts) = (vec![], vec![], vec![]);
     for (k, (a, b, spp, what)) in pairs.into_iter().enumerate() {
         let ra = render(&scene_at(&o.scenes_dir, a, w, h, spp, 1)?, &quiet())?;
-        let rb = render(&scene_at(&o.scenes_dir, b, w, h, spp, 1)?, &quiet())?;
+        // b and a second a with another seed: the a-b difference is judged
+        // against the a-a' difference (pure noise), block means of 16x16.
+        let rb = render(&scene_at(&o.scenes_dir, b, w, h, spp, 2)?, &quiet())?;
+        let ra2 = render(&scene_at(&o.scenes_dir, a, w, h, spp, 2)?, &quiet())?;
+        let noise = image_errors(&ra.pixels, &ra2.pixels, w, h, 16).1;
         let diff: Vec<V3> = ra
             .pixels
             .iter()
@@ -957,9 +961,11 @@ fn pictures(
             format!("|{a} - {b}| x 4: RMSE {e_px:.4}, 16x16 block RMSE {e_blk:.4}"),
         )?);
         summary.push(format!(
-            "{what}: RMSE {e_px:.3e}, block-mean RMSE {e_blk:.3e} ({w}x{h}, {spp} spp)"
+            "{what}: RMSE {e_px:.3e}, block-mean RMSE {e_blk:.3e} = {:.2}x the block-mean RMSE of {a} against itself with another seed ({noise:.3e}; about 1 = noise only) ({w}x{h}, {spp} spp)",
+            e_blk / noise
         ));
-        plot_pts.push(([k as f64 + 1.0, e_px], [k as f64 + 1.0, e_blk]));
+        let x = k as f64 + 1.0;
+        plot_pts.push(([x, e_px], [x, e_blk], [x, noise]));
         log(&format!("pictures: {a} / {b}"));
     }
     pics.extend(warp_pics);
@@ -978,6 +984,10 @@ fn pictures(
             vec![
                 series("per pixel", plot_pts.iter().map(|p| p.0).collect()),
                 series("16x16 block means", plot_pts.iter().map(|p| p.1).collect()),
+                series(
+                    "block means, same scene, two seeds",
+                    plot_pts.iter().map(|p| p.2).collect(),
+                ),
             ],
         )],
         pictures: pics,
