@@ -8,35 +8,9 @@
 use std::time::Instant;
 
 use glam::DVec3;
-use snell::media::grin_trace::{trace, Query, Stop};
+use snell::media::grin_trace::{trace, Query};
 use snell::media::stepper::State;
 use snell::media::{paper, IndexField, Method};
-
-fn query(
-    field: &IndexField,
-    start: DVec3,
-    dir: DVec3,
-    len: f64,
-    method: Method,
-    tol: f64,
-    step: f64,
-) -> Query {
-    Query {
-        id: String::new(),
-        field: field.clone(),
-        start,
-        direction: dir,
-        stop: Stop {
-            x: None,
-            s: Some(len),
-        },
-        method,
-        tolerance: Some(tol),
-        step: Some(step),
-        steps: None,
-        max_length: None,
-    }
-}
 
 /// (end, evaluations, steps, seconds per trace) or the failure message.
 fn run(q: &Query) -> Result<(DVec3, u64, u64, f64), String> {
@@ -221,9 +195,9 @@ fn main() {
         println!("\n## {name}");
         let is_linear = matches!(field, IndexField::Linear { .. });
         let reference = if is_linear {
-            run(&query(field, *p, *d, *len, Method::Exact, 1.0, 1.0)).map(|r| r.0)
+            run(&Query::along(field, *p, *d, *len, Method::Exact, 1.0, 1.0)).map(|r| r.0)
         } else {
-            run(&query(field, *p, *d, *len, Method::Rk45, 1e-13, 1.0)).map(|r| r.0)
+            run(&Query::along(field, *p, *d, *len, Method::Rk45, 1e-13, 1.0)).map(|r| r.0)
         };
         let Ok(reference) = reference else {
             println!("reference failed: {reference:?}");
@@ -234,7 +208,7 @@ fn main() {
             if is_linear { "exact" } else { "rk45 tol 1e-13" },
             reference
         );
-        let base = run(&query(field, *p, *d, *len, Method::Rk45, 1e-8, 1.0))
+        let base = run(&Query::along(field, *p, *d, *len, Method::Rk45, 1e-8, 1.0))
             .map(|r| r.3)
             .unwrap_or(f64::NAN);
         println!(
@@ -258,7 +232,7 @@ fn main() {
         }
         let mut curves: Vec<Curve> = Vec::new();
         for (m, tol, h, label) in settings {
-            match run(&query(field, *p, *d, *len, m, tol, h)) {
+            match run(&Query::along(field, *p, *d, *len, m, tol, h)) {
                 Ok((end, evals, steps, secs)) => {
                     let err = (end - reference).length() / len;
                     match curves.iter_mut().find(|c| c.0 == m.name()) {
@@ -382,7 +356,7 @@ fn main() {
                 (Method::Rk4, 1.0, arc / f64::from(n_steps)),
                 (Method::Rk45, 1e-9, 1.0),
             ] {
-                let q = query(&field, DVec3::ZERO, d, arc, m, tol, step);
+                let q = Query::along(&field, DVec3::ZERO, d, arc, m, tol, step);
                 let e = trace(&q).ok().and_then(|a| a.end).map_or(f64::NAN, |e| e.x);
                 row.push((e - x_exact).abs() / x_exact * 100.0);
             }

@@ -19,15 +19,13 @@
 use glam::{DVec3, Vec3A};
 use rayon::prelude::*;
 use snell::camera::Camera;
-use snell::scene::{load_scene, meshgen, BuildOptions, RenderScene};
 use snell::warp::pipeline::{render_exact_packets, Pipeline};
 use snell::warp::render::{
-    build_originals, compare, prepare, render_exact, render_warped, warp_scene, Comparison, Prepared,
+    build_originals, compare, grid_scene as setup, render_exact, render_warped, warp_scene, Comparison,
 };
 use snell::warp::{
     fastcyl::CylinderWarper, paper::paper_image, HollowCylinder, Plate, PlateStatus, WarpGlass,
 };
-use std::path::Path;
 use std::time::Instant;
 
 fn quick() -> bool {
@@ -283,51 +281,6 @@ fn solvers(sum: &mut Summary) {
             q(1.0) / px
         );
     }
-}
-
-/// Replace the scene's largest object by a grid of about `vertices` vertices.
-fn with_grid(prep: &mut Prepared, vertices: usize) {
-    let (k, _) = prep
-        .objects
-        .iter()
-        .enumerate()
-        .max_by(|a, b| {
-            let area = |o: &snell::warp::render::WarpObject| {
-                let (lo, hi) = o.mesh.aabb();
-                let d = hi - lo;
-                d.x * d.y + d.y * d.z + d.z * d.x
-            };
-            area(a.1).total_cmp(&area(b.1))
-        })
-        .unwrap();
-    let m = &prep.objects[k].mesh;
-    assert_eq!(
-        m.positions.len(),
-        4,
-        "the bench expects the main surface to be a rect"
-    );
-    let c = m
-        .positions
-        .iter()
-        .map(|p| DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64))
-        .collect::<Vec<_>>();
-    let (su, sv) = ((c[1] - c[0]).length(), (c[3] - c[0]).length());
-    let nx = ((vertices as f64 * su / sv).sqrt().round() as u32).max(2);
-    let ny = ((vertices as f64 / nx as f64).round() as u32).max(2);
-    let normal = (c[1] - c[0]).cross(c[3] - c[0]).normalize();
-    prep.objects[k].mesh = meshgen::grid([c[0], c[1], c[2], c[3]], normal, nx, ny);
-    prep.objects[k].levels = 0;
-    prep.vertices = prep.objects.iter().map(|o| o.mesh.positions.len()).sum();
-    prep.triangles = prep.objects.iter().map(|o| o.mesh.indices.len()).sum();
-}
-
-fn setup(path: &str, w: u32, h: u32, vertices: usize) -> snell::Result<(RenderScene, Prepared)> {
-    let mut scene = load_scene(Path::new(path), &BuildOptions::default())?;
-    scene.set_resolution(w, h)?;
-    let spec = scene.warp.clone().expect("a [warp] scene");
-    let mut prep = prepare(&scene, &spec, 1e9)?;
-    with_grid(&mut prep, vertices);
-    Ok((scene, prep))
 }
 
 /// One frame's figures (medians over interleaved repetitions).

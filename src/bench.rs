@@ -16,9 +16,17 @@ use glam::Vec3A as V3;
 use std::path::Path;
 use std::time::Instant;
 
-fn median(mut v: Vec<f64>) -> f64 {
+/// Median of a non-empty set of timings.
+pub(crate) fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     v[v.len() / 2]
+}
+
+/// Fastest and slowest of a set of timings.
+fn spread(v: &[f64]) -> [f64; 2] {
+    let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    [lo, hi]
 }
 
 /// Figures of the bare-Embree benchmark (Mrays/s, one thread).
@@ -190,6 +198,8 @@ pub struct NestedRun {
     pub false_hits_per_ray: f64,
     pub wall_s: f64,
     pub median_of: usize,
+    /// Fastest and slowest of the repetitions (seconds).
+    pub spread_s: [f64; 2],
     pub rays: u64,
     pub samples_per_s: Option<f64>,
     /// Wall time of every repetition, in the interleaved order (repetition k
@@ -305,6 +315,7 @@ pub fn nested(opts: &NestedBenchOptions, mut progress: impl FnMut(&str)) -> Resu
                 false_hits_per_ray: trace_c[k].false_hits as f64 / rays.len() as f64,
                 wall_s: wall,
                 median_of: opts.reps,
+                spread_s: spread(&trace_t[k]),
                 rays: rays.len() as u64,
                 samples_per_s: None,
                 walls: trace_t[k].clone(),
@@ -319,6 +330,7 @@ pub fn nested(opts: &NestedBenchOptions, mut progress: impl FnMut(&str)) -> Resu
                 false_hits_per_ray: st.false_hits as f64 / st.queries.max(1) as f64,
                 wall_s: wall,
                 median_of: opts.reps,
+                spread_s: spread(&render_t[k]),
                 rays: st.rays,
                 samples_per_s: Some(st.samples as f64 / wall),
                 walls: render_t[k].clone(),

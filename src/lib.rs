@@ -22,6 +22,7 @@ pub mod overrides;
 pub mod part;
 pub mod provenance;
 pub mod render;
+pub mod report;
 pub mod sampling;
 pub mod scene;
 pub mod warp;

@@ -172,6 +172,16 @@ enum Cmd {
         #[arg(long, default_value = "tests/data/fuzz")]
         json_dir: PathBuf,
     },
+    /// Run the measurements and write DIR/index.html (plots, pictures) and DIR/figures.json.
+    Report {
+        #[arg(short, long, value_name = "DIR")]
+        output: PathBuf,
+        /// Small images and few repetitions (about 3 minutes on 2 cores).
+        #[arg(long)]
+        quick: bool,
+        #[arg(long, default_value = "scenes")]
+        scenes_dir: PathBuf,
+    },
     /// Benchmarks that print ratios measured in one run, with provenance.
     Bench {
         #[command(subcommand)]
@@ -285,6 +295,21 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> snell::Result<()> {
     match cli.cmd {
+        Cmd::Report {
+            output,
+            quick,
+            scenes_dir,
+        } => {
+            let opts = snell::report::ReportOptions {
+                out: output,
+                quick,
+                scenes_dir,
+            };
+            let command = std::env::args().collect::<Vec<_>>().join(" ");
+            let index = snell::report::run(&opts, &command, |m| eprintln!("{m}"))?;
+            say!("{}", index.display());
+            Ok(())
+        }
         Cmd::GrinTrace { queries, output } => {
             let text = std::fs::read_to_string(&queries).map_err(|e| snell::Error::io(&queries, e))?;
             let out = snell::media::grin_trace_json(&text)

@@ -47,6 +47,35 @@ pub struct Query {
     pub max_length: Option<f64>,
 }
 
+impl Query {
+    /// A query stopping at arc length `len` (the accuracy bench and `snell report`).
+    pub fn along(
+        field: &IndexField,
+        start: DVec3,
+        direction: DVec3,
+        len: f64,
+        method: Method,
+        tolerance: f64,
+        step: f64,
+    ) -> Query {
+        Query {
+            id: String::new(),
+            field: field.clone(),
+            start,
+            direction,
+            stop: Stop {
+                x: None,
+                s: Some(len),
+            },
+            method,
+            tolerance: Some(tolerance),
+            step: Some(step),
+            steps: None,
+            max_length: None,
+        }
+    }
+}
+
 /// A point where the height component of the direction changes sign.
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
 pub struct Extremum {

@@ -753,6 +753,54 @@ pub fn compare(scene: &RenderScene, warp: &Frame, exact: &Frame) -> (Comparison,
     )
 }
 
+/// Replace the scene's largest object (a rect) by a grid of about `vertices`
+/// vertices: the vertex sweeps of the warp bench and `snell report`.
+pub fn with_grid(prep: &mut Prepared, vertices: usize) -> Result<()> {
+    let area = |o: &WarpObject| {
+        let (lo, hi) = o.mesh.aabb();
+        let d = hi - lo;
+        d.x * d.y + d.y * d.z + d.z * d.x
+    };
+    let k = (0..prep.objects.len())
+        .max_by(|&a, &b| area(&prep.objects[a]).total_cmp(&area(&prep.objects[b])))
+        .ok_or_else(|| Error::Invalid("warp grid: the scene has no warp objects".into()))?;
+    let m = &prep.objects[k].mesh;
+    if m.positions.len() != 4 {
+        return Err(Error::Invalid(
+            "warp grid: the scene's main surface must be a rect (4 vertices)".into(),
+        ));
+    }
+    let c: Vec<DVec3> = m
+        .positions
+        .iter()
+        .map(|p| DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64))
+        .collect();
+    let (su, sv) = ((c[1] - c[0]).length(), (c[3] - c[0]).length());
+    let nx = ((vertices as f64 * su / sv).sqrt().round() as u32).max(2);
+    let ny = ((vertices as f64 / nx as f64).round() as u32).max(2);
+    let normal = (c[1] - c[0]).cross(c[3] - c[0]).normalize();
+    prep.objects[k].mesh = crate::scene::meshgen::grid([c[0], c[1], c[2], c[3]], normal, nx, ny);
+    prep.objects[k].levels = 0;
+    prep.vertices = prep.objects.iter().map(|o| o.mesh.positions.len()).sum();
+    prep.triangles = prep.objects.iter().map(|o| o.mesh.indices.len()).sum();
+    Ok(())
+}
+
+/// Load a `[warp]` scene at `w`×`h` and replace its main surface by a grid of
+/// about `vertices` vertices (no subdivision).
+pub fn grid_scene(path: &str, w: u32, h: u32, vertices: usize) -> Result<(RenderScene, Prepared)> {
+    let mut scene =
+        crate::scene::load_scene(std::path::Path::new(path), &crate::scene::BuildOptions::default())?;
+    scene.set_resolution(w, h)?;
+    let spec = scene
+        .warp
+        .clone()
+        .ok_or_else(|| Error::Invalid(format!("{path}: not a [warp] scene")))?;
+    let mut prep = prepare(&scene, &spec, 1e9)?;
+    with_grid(&mut prep, vertices)?;
+    Ok((scene, prep))
+}
+
 /// What `snell warp-render` does, as a library call (the bench and tests use it).
 #[derive(Debug, Clone, Default)]
 pub struct WarpRunOptions {
