@@ -141,30 +141,38 @@ fn same_image_with_one_or_two_threads_bit_for_bit() {
 fn reference_scenes_have_no_nan_and_match_stored_means() {
     let stored: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string("tests/data/reference_means.json").unwrap()).unwrap();
-    for name in ["three_spheres", "glass_of_water", "cylinder_refraction"] {
-        let path = format!("scenes/{name}.toml");
-        let mut s = load_scene(Path::new(&path), &BuildOptions::default()).unwrap();
+    let render_80x60 = |mut s: snell::scene::RenderScene| {
         s.set_resolution(80, 60).unwrap();
         s.spp = 16;
         s.seed = 12345;
-        let r = render(
-            &s,
-            &RenderOptions {
-                threads: Some(2),
-                quiet: true,
-                want_aovs: false,
-            },
-        )
-        .unwrap();
+        let opts = RenderOptions {
+            threads: Some(2),
+            quiet: true,
+            want_aovs: false,
+        };
+        render(&s, &opts).unwrap()
+    };
+    for name in ["three_spheres", "glass_of_water", "cylinder_refraction"] {
+        let path = format!("scenes/{name}.toml");
+        // Channel ch of `r` against the stored mean: (|difference|, tolerance).
+        let off_by = |r: &Rendered, ch: usize| {
+            let (m, se) = mean_se(r, ch);
+            let want = stored[name]["mean"][ch].as_f64().unwrap();
+            let want_se = stored[name]["se"][ch].as_f64().unwrap();
+            (
+                (m - want).abs(),
+                5.0 * (se * se + want_se * want_se).sqrt() + 1e-4,
+                m,
+                want,
+            )
+        };
+        let r = render_80x60(load_scene(Path::new(&path), &BuildOptions::default()).unwrap());
         assert_eq!(r.stats.nan, 0, "{name}: NaN/Inf samples");
         assert!(r.pixels.iter().all(|p| p.is_finite()));
         for ch in 0..3 {
-            let (m, se) = mean_se(&r, ch);
-            let want = stored[name]["mean"][ch].as_f64().unwrap();
-            let want_se = stored[name]["se"][ch].as_f64().unwrap();
-            let tol = 5.0 * (se * se + want_se * want_se).sqrt() + 1e-4;
+            let (diff, tol, m, want) = off_by(&r, ch);
             assert!(
-                (m - want).abs() < tol,
+                diff < tol,
                 "{name} channel {ch}: {m} vs stored {want} (tol {tol})"
             );
         }
@@ -179,25 +187,12 @@ fn reference_scenes_have_no_nan_and_match_stored_means() {
                 "color0 = [0.95, 0.95, 0.95], color1 = [0.095, 0.19, 0.57]",
             );
         assert_ne!(dim, text, "{name}: no light to dim");
-        let mut w =
-            snell::scene::load_scene_str(&path, &dim, Path::new("scenes"), &BuildOptions::default()).unwrap();
-        w.set_resolution(80, 60).unwrap();
-        w.spp = 16;
-        w.seed = 12345;
-        let rw = render(
-            &w,
-            &RenderOptions {
-                threads: Some(2),
-                quiet: true,
-                want_aovs: false,
-            },
-        )
-        .unwrap();
+        let rw = render_80x60(
+            snell::scene::load_scene_str(&path, &dim, Path::new("scenes"), &BuildOptions::default()).unwrap(),
+        );
         let caught = (0..3).any(|ch| {
-            let (m, se) = mean_se(&rw, ch);
-            let want = stored[name]["mean"][ch].as_f64().unwrap();
-            let want_se = stored[name]["se"][ch].as_f64().unwrap();
-            (m - want).abs() >= 5.0 * (se * se + want_se * want_se).sqrt() + 1e-4
+            let (diff, tol, _, _) = off_by(&rw, ch);
+            diff >= tol
         });
         assert!(caught, "{name}: no power: a 5% dimmer light passes");
     }

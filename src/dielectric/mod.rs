@@ -245,11 +245,10 @@ impl<'a> FalseHitFilter<'a> {
     /// A filter for one query of `ray` by a ray whose list's top rank is `p0`,
     /// recording into `rec` (whose old contents are ignored).
     pub fn new(scene: &'a RenderScene, p0: u32, ray: &Ray, rec: &'a mut FilterRecords) -> Self {
-        let dl = ray.dir.length();
-        let k = 2.0 * crate::integrator::OFFSET_ULPS * f32::EPSILON;
+        let (win_a, win_b) = window_coefficients(ray.org, ray.dir);
         FalseHitFilter {
-            win_a: k * (ray.org.abs().max_element() + 0.5) / dl,
-            win_b: k,
+            win_a,
+            win_b,
             rank_by_geom: &scene.rank_by_geom,
             solid_by_geom: &scene.solid_by_geom,
             p0,
@@ -382,9 +381,16 @@ pub struct TrueHit {
 /// (twice its size here) cannot be told apart by the next ray.
 #[inline]
 pub fn crossing_window(org: glam::Vec3A, dir: glam::Vec3A, t: f32) -> f32 {
-    let dl = dir.length();
-    let t = if t.is_finite() { t } else { 0.0 };
-    2.0 * crate::integrator::OFFSET_ULPS * f32::EPSILON * (org.abs().max_element() + t.abs() * dl + 0.5) / dl
+    let (a, b) = window_coefficients(org, dir);
+    a + b * if t.is_finite() { t.abs() } else { 0.0 }
+}
+
+/// `crossing_window(org, dir, t) = a + b·|t|`: the two coefficients, so a
+/// filter can evaluate the window per callback without a square root.
+#[inline]
+fn window_coefficients(org: glam::Vec3A, dir: glam::Vec3A) -> (f32, f32) {
+    let k = 2.0 * crate::integrator::OFFSET_ULPS * f32::EPSILON;
+    (k * (org.abs().max_element() + 0.5) / dir.length(), k)
 }
 
 #[inline]

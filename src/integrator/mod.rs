@@ -89,25 +89,33 @@ pub fn offset_origin(p: V3, side: V3) -> V3 {
     p + side * err
 }
 
-/// The origin of a ray that passes straight through an index-matched
-/// boundary (n1 = n2, direction unchanged). It is moved *along* the ray by the
-/// distance that clears the surface by `offset_origin`'s margin, so the ray
-/// stays on its line: a normal offset moves the line sideways, and next to a
-/// solid the line only grazes (the paper's Fig. 1 spheres where they meet)
-/// that sideways step can take the ray out of a solid whose entry was
-/// recorded, leaving it in the interior list after the ray left it. The step
-/// along the ray, err/cos, must stay inside the crossing window (2·err) or a
-/// surface just past the hit would be stepped over unseen (a ray through
-/// the circle where two spheres meet missed the second one's entry at
-/// cos < 1/2): exits with cos < 0.6 keep the normal offset.
-pub fn offset_through(p: V3, exit_side: V3, dir: V3) -> V3 {
-    let err = OFFSET_ULPS * f32::EPSILON * (p.abs().max_element() + 0.5);
-    let (n, d) = (exit_side.normalize_or_zero(), dir.normalize_or_zero());
-    let cos = n.dot(d);
+/// The ray transmitted at `p` into the side `exit_side` (a unit normal),
+/// arriving along `dir_in` and refracted to `refracted`, between indices
+/// `n1` and `n2`: (origin, unit direction). The one place every integrator
+/// spawns a transmitted ray.
+///
+/// Through an index-matched boundary (n1 = n2) the ray keeps its direction
+/// and is moved *along* itself by the distance that clears the surface by
+/// `offset_origin`'s margin, so it stays on its line: a normal offset moves
+/// the line sideways, and next to a solid the line only grazes (the paper's
+/// Fig. 1 spheres where they meet) that sideways step can take the ray out of
+/// a solid whose entry was recorded, leaving it in the interior list after
+/// the ray left it. The step along the ray, err/cos, must stay inside the
+/// crossing window (2·err) or a surface just past the hit would be stepped
+/// over unseen (a ray through the circle where two spheres meet missed the
+/// second one's entry at cos < 1/2): exits with cos < 0.6 keep the normal
+/// offset.
+pub fn spawn_transmitted(p: V3, exit_side: V3, dir_in: V3, refracted: V3, n1: f32, n2: f32) -> (V3, V3) {
+    if n1 != n2 {
+        return (offset_origin(p, exit_side), refracted);
+    }
+    let d = dir_in.normalize_or_zero();
+    let cos = exit_side.normalize_or_zero().dot(d);
     if cos >= 0.6 {
-        p + d * (err / cos)
+        let err = OFFSET_ULPS * f32::EPSILON * (p.abs().max_element() + 0.5);
+        (p + d * (err / cos), d)
     } else {
-        p + exit_side * err
+        (offset_origin(p, exit_side), d)
     }
 }
 
@@ -647,13 +655,8 @@ fn path(
                     if let Some(nl) = c.refract_list {
                         list = nl;
                     }
-                    let org = if c.n1 == c.n2 {
-                        wi = ray.dir.normalize();
-                        offset_through(sp.p, -incident_side, wi)
-                    } else {
-                        offset_origin(sp.p, -incident_side)
-                    };
-                    ray = Ray::new(org, wi);
+                    let (org, wt) = spawn_transmitted(sp.p, -incident_side, ray.dir, wi, c.n1, c.n2);
+                    ray = Ray::new(org, wt);
                 }
                 specular = true;
                 prev_p = sp.p;
@@ -768,12 +771,7 @@ fn whitted(
             if let Some(t) = optics::refract(d, n, c.n1 as f64, c.n2 as f64) {
                 let nl = c.refract_list.unwrap_or(list);
                 let k = c.n1 / c.n2;
-                let (org, wt) = if c.n1 == c.n2 {
-                    let wt = dir.normalize();
-                    (offset_through(sp.p, -side, wt), wt)
-                } else {
-                    (offset_origin(sp.p, -side), to_f(t.normalize()))
-                };
+                let (org, wt) = spawn_transmitted(sp.p, -side, dir, to_f(t.normalize()), c.n1, c.n2);
                 l += (1.0 - fr) * k * k * whitted(scene, org, wt, nl, rng, st, depth + 1)?;
             } else {
                 st.tir += 1;
@@ -855,12 +853,10 @@ pub fn refraction_path(
             }
             None => (to_f(optics::reflect(d, n).normalize()), true),
         };
-        let straight = !tir && c.n1 == c.n2;
-        let wi = if straight { ray.dir.normalize() } else { wi };
-        let next_org = if straight {
-            offset_through(sp.p, -incident_side, wi)
+        let (next_org, wi) = if tir {
+            (offset_origin(sp.p, incident_side), wi)
         } else {
-            offset_origin(sp.p, if tir { incident_side } else { -incident_side })
+            spawn_transmitted(sp.p, -incident_side, ray.dir, wi, c.n1, c.n2)
         };
         events.push(PathEvent {
             geom: hit.geom_id,
