@@ -6,9 +6,10 @@
 //!   no-overlap reference scenes, trace-only (a fixed set of rays taken from
 //!   real refraction paths) and full render, repeats interleaved.
 use crate::dielectric::{self, InteriorList, NestedStrategy, TraceCounters};
-use crate::embree::{BuildQuality, Device, FilterHit, HitFilter, Ray, SceneBuilder, SceneFlags};
+use crate::embree::{BuildQuality, Device, FilterHit, HitFilter, SceneBuilder, SceneFlags};
 use crate::error::Result;
 use crate::integrator::refraction_path;
+use crate::ray::Ray;
 use crate::render::{render, RenderOptions};
 use crate::sampling::{uniform_sphere, Rng};
 use crate::scene::{load_scene, meshgen, BuildOptions, RenderScene};

@@ -21,6 +21,7 @@ pub mod optics;
 pub mod overrides;
 pub mod part;
 pub mod provenance;
+pub mod ray;
 pub mod render;
 pub mod report;
 pub mod sampling;

@@ -18,7 +18,8 @@
 //! an infinitesimal (`Solid::rank`). This makes true/false a total order.
 pub mod audit;
 
-use crate::embree::{FilterHit, Hit, HitFilter, Ray};
+use crate::embree::{FilterHit, HitFilter};
+use crate::ray::{crossing_window, window_coefficients, Hit, Ray};
 use crate::scene::RenderScene;
 
 /// How false hits are found and skipped.
@@ -373,24 +374,6 @@ impl Coincident {
 pub struct TrueHit {
     pub hit: Hit,
     pub coincident: Coincident,
-}
-
-/// Two reports within this distance (in units of t) are the same crossing:
-/// Embree reports shared edges twice with t an ulp or two apart, and surfaces
-/// of two solids closer than the spawn offset of `integrator::offset_origin`
-/// (twice its size here) cannot be told apart by the next ray.
-#[inline]
-pub fn crossing_window(org: glam::Vec3A, dir: glam::Vec3A, t: f32) -> f32 {
-    let (a, b) = window_coefficients(org, dir);
-    a + b * if t.is_finite() { t.abs() } else { 0.0 }
-}
-
-/// `crossing_window(org, dir, t) = a + b·|t|`: the two coefficients, so a
-/// filter can evaluate the window per callback without a square root.
-#[inline]
-fn window_coefficients(org: glam::Vec3A, dir: glam::Vec3A) -> (f32, f32) {
-    let k = 2.0 * crate::integrator::OFFSET_ULPS * f32::EPSILON;
-    (k * (org.abs().max_element() + 0.5) / dir.length(), k)
 }
 
 #[inline]

@@ -23,6 +23,7 @@
 //!   A panicking filter is reported as `Err` after the query.
 
 pub mod warp_ffi;
+pub use crate::ray::{Hit, Ray};
 use embree_sys as sys;
 use glam::Vec3A as V3;
 use std::any::Any;
@@ -685,53 +686,6 @@ impl Drop for Scene {
         // SAFETY: `raw` is a valid scene owned solely by this value.
         unsafe { sys::rtcReleaseScene(self.raw) };
     }
-}
-
-/// A ray: `org + t·dir` for `t` in `[tnear, tfar]`. `dir` need not be unit
-/// length; `t` is then in units of `|dir|`.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Ray {
-    pub org: V3,
-    pub dir: V3,
-    pub tnear: f32,
-    pub tfar: f32,
-}
-
-impl Ray {
-    /// What Embree's `ray.valid()` demands (Debian's build asserts on it and
-    /// aborts): finite origin and direction, 0 <= tnear, tnear <= tfar, no NaN.
-    #[inline]
-    pub fn is_valid(&self) -> bool {
-        self.org.is_finite()
-            && self.dir.is_finite()
-            && self.tnear >= 0.0
-            && self.tnear.is_finite()
-            && !self.tfar.is_nan()
-            && self.tnear <= self.tfar
-    }
-
-    pub fn new(org: V3, dir: V3) -> Ray {
-        Ray {
-            org,
-            dir,
-            tnear: 0.0,
-            tfar: f32::INFINITY,
-        }
-    }
-}
-
-/// The nearest accepted hit of a query.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Hit {
-    pub geom_id: u32,
-    pub prim_id: u32,
-    pub t: f32,
-    /// Unnormalised geometric normal as Embree reports it (for triangles
-    /// `(v1-v0)×(v2-v0)`, i.e. facing the side from which the winding is
-    /// counter-clockwise; for user shapes, the shape's own normal).
-    pub ng: V3,
-    pub u: f32,
-    pub v: f32,
 }
 
 /// A hit as a filter sees it, before it is accepted.

@@ -5,9 +5,9 @@
 //! Depth follows Mitsuba: `max_depth` counts path segments including the
 //! camera ray (1 = directly visible emitters only, 2 = direct lighting).
 use crate::dielectric::{self, InteriorList, NestedStrategy, TraceCounters};
-use crate::embree::{Hit, Ray};
 use crate::error::Result;
 use crate::optics;
+use crate::ray::{offset_origin, offset_size, spawn_transmitted, Hit, Ray};
 use crate::sampling::{cosine_hemisphere, power_heuristic, uniform_cone, Rng};
 use crate::scene::build::{IntegratorKind, Shape};
 use crate::scene::{Light, Material, RenderScene};
@@ -72,50 +72,6 @@ pub fn surface_point(scene: &RenderScene, ray: &Ray, hit: &Hit) -> SurfacePoint 
                 uv: if rec.needs_uv() { a.uv(pd) } else { [0.0, 0.0] },
             }
         }
-    }
-}
-
-/// Relative size of the spawn offset, in units of f32 epsilon times the hit
-/// point's largest coordinate: a bound on the error of `surface_point` (a few
-/// ulps from reconstruction and rounding to f32) with a safety factor of 2.
-pub const OFFSET_ULPS: f32 = 8.0;
-
-/// Origin for a ray leaving `p` to the side `side` (a unit normal pointing to
-/// where the new ray goes): offset along the normal by the error bound of the
-/// hit point, which scales with the magnitude of its coordinates.
-#[inline]
-pub fn offset_origin(p: V3, side: V3) -> V3 {
-    let err = OFFSET_ULPS * f32::EPSILON * (p.abs().max_element() + 0.5);
-    p + side * err
-}
-
-/// The ray transmitted at `p` into the side `exit_side` (a unit normal),
-/// arriving along `dir_in` and refracted to `refracted`, between indices
-/// `n1` and `n2`: (origin, unit direction). The one place every integrator
-/// spawns a transmitted ray.
-///
-/// Through an index-matched boundary (n1 = n2) the ray keeps its direction
-/// and is moved *along* itself by the distance that clears the surface by
-/// `offset_origin`'s margin, so it stays on its line: a normal offset moves
-/// the line sideways, and next to a solid the line only grazes (the paper's
-/// Fig. 1 spheres where they meet) that sideways step can take the ray out of
-/// a solid whose entry was recorded, leaving it in the interior list after
-/// the ray left it. The step along the ray, err/cos, must stay inside the
-/// crossing window (2·err) or a surface just past the hit would be stepped
-/// over unseen (a ray through the circle where two spheres meet missed the
-/// second one's entry at cos < 1/2): exits with cos < 0.6 keep the normal
-/// offset.
-pub fn spawn_transmitted(p: V3, exit_side: V3, dir_in: V3, refracted: V3, n1: f32, n2: f32) -> (V3, V3) {
-    if n1 != n2 {
-        return (offset_origin(p, exit_side), refracted);
-    }
-    let d = dir_in.normalize_or_zero();
-    let cos = exit_side.normalize_or_zero().dot(d);
-    if cos >= 0.6 {
-        let err = OFFSET_ULPS * f32::EPSILON * (p.abs().max_element() + 0.5);
-        (p + d * (err / cos), d)
-    } else {
-        (offset_origin(p, exit_side), d)
     }
 }
 
@@ -241,7 +197,7 @@ fn unoccluded(scene: &RenderScene, from: V3, side: V3, wi: V3, dist: f32, st: &m
     let o = offset_origin(from, side);
     let mut r = Ray::new(o, wi);
     if dist.is_finite() {
-        r.tfar = dist * (1.0 - 1e-4) - 2.0 * OFFSET_ULPS * f32::EPSILON * (from.abs().max_element() + 0.5);
+        r.tfar = dist * (1.0 - 1e-4) - 2.0 * offset_size(from);
         if r.tfar <= 0.0 {
             return true;
         }

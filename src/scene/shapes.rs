@@ -29,15 +29,13 @@ fn sphere_ts(c: DVec3, r: f64, o: DVec3, d: DVec3) -> Option<(f64, f64)> {
 
 /// Two roots this close are one tangent touch, not an entry and an exit.
 /// Two roots closer than the renderer's crossing window (twice the spawn
-/// offset, `dielectric::crossing_window`, in the same units) are a tangent
+/// offset, `ray::crossing_window`, in the same units) are a tangent
 /// touch, not a crossing: the ray spawned past one of them could not see the
 /// other, so reporting only one would leave the solid in the interior list.
 /// (The earlier fixed 1e-6 + 4e-7·t left a gap below the window: grazing rays
 /// through the circle where two spheres meet kept the second sphere.)
 fn is_touch(t0: f64, t1: f64, o: DVec3, d: DVec3) -> bool {
-    let dl = d.length();
-    let t = t0.abs().max(t1.abs());
-    let win = 2.0 * 8.0 * f32::EPSILON as f64 * (o.abs().max_element() + t * dl + 0.5) / dl;
+    let win = crate::ray::crossing_window_f64(o, d, t0.abs().max(t1.abs()));
     (t1 - t0).abs() <= 1e-6 + t0.abs() * 4e-7 || (t1 - t0).abs() <= win
 }
 
