@@ -5,6 +5,7 @@
 #![deny(unsafe_code)]
 
 pub mod accum;
+pub mod audit;
 pub mod bench;
 pub mod camera;
 pub mod dielectric;

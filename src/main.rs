@@ -522,7 +522,7 @@ fn run(cli: Cli) -> snell::Result<()> {
                     },
                 )?;
                 let t = std::time::Instant::now();
-                let r = pool.install(|| snell::dielectric::audit::audit_scene(&s, rays, seed))?;
+                let r = pool.install(|| snell::audit::audit_scene(&s, rays, seed))?;
                 say!(
                     "{:<7} {} rays ({} at vertices/edges, {} at silhouettes), {} segments: {} mismatches (+{} within f32 resolution of a surface), {} left non-empty, {} wrong rays ({:.4}%) [{:.1} s]",
                     strategy.name(),

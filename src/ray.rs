@@ -67,6 +67,14 @@ pub struct Hit {
     pub v: f32,
 }
 
+/// Does a ray along `dir` meet the surface with geometric normal `ng` from
+/// the side `ng` points to? For a closed solid (normals point out, checked at
+/// load) this is "the ray enters": the one test of entering vs leaving.
+#[inline]
+pub fn front_facing(ng: V3, dir: V3) -> bool {
+    ng.dot(dir) < 0.0
+}
+
 /// Relative size of the spawn offset, in units of f32 epsilon times the hit
 /// point's largest coordinate: a bound on the error of the reconstructed hit
 /// point (a few ulps from reconstruction and rounding to f32) with a safety

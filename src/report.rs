@@ -5,8 +5,9 @@
 //! pictures side by side. Everything is measured in this one run.
 mod page;
 
+use crate::audit::audit_scene;
 use crate::bench::{self, NestedBenchOptions, NESTED_SCENES, REFERENCE_SCENES};
-use crate::dielectric::{audit::audit_scene, NestedStrategy};
+use crate::dielectric::NestedStrategy;
 use crate::error::{Error, Result};
 use crate::image_io::{encode_png, write_atomic};
 use crate::media::grin_trace::{trace, Query};

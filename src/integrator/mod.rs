@@ -4,10 +4,10 @@
 //!
 //! Depth follows Mitsuba: `max_depth` counts path segments including the
 //! camera ray (1 = directly visible emitters only, 2 = direct lighting).
-use crate::dielectric::{self, InteriorList, NestedStrategy, TraceCounters};
+use crate::dielectric::{self, InteriorList, TraceCounters};
 use crate::error::Result;
 use crate::optics;
-use crate::ray::{offset_origin, offset_size, spawn_transmitted, Hit, Ray};
+use crate::ray::{front_facing, offset_origin, offset_size, spawn_transmitted, Hit, Ray};
 use crate::sampling::{cosine_hemisphere, power_heuristic, uniform_cone, Rng};
 use crate::scene::build::{IntegratorKind, Shape};
 use crate::scene::{Light, Material, RenderScene};
@@ -205,128 +205,11 @@ fn unoccluded(scene: &RenderScene, from: V3, side: V3, wi: V3, dist: f32, st: &m
     !scene.embree.occluded(&r)
 }
 
-/// Indices (n1 on the incident side, n2 beyond) at a dielectric hit, and
-/// whether the ray enters; also the interior list a refracted ray carries.
-struct Crossing {
-    n1: f32,
-    n2: f32,
-    /// List after refraction (the reflected ray keeps the current one).
-    refract_list: Option<InteriorList>,
-}
-
-fn crossing(
-    scene: &RenderScene,
-    material: &Material,
-    entering_by_normal: bool,
-    list: &InteriorList,
-    strategy: NestedStrategy,
-    coincident: &[(u32, bool)],
-) -> Crossing {
-    let rank = |s: u32| scene.solids[s as usize].rank;
-    let ior_of = |l: &InteriorList| {
-        l.top(rank)
-            .map(|s| scene.solids[s as usize].ior)
-            .unwrap_or(scene.ambient_ior)
-    };
-    // Solid surfaces coincident with the true hit are crossed with it.
-    let with_coincident = |mut l: InteriorList| {
-        for &(c, entering) in coincident {
-            if entering {
-                l.insert(c)
-            } else {
-                l.remove(c)
-            }
-        }
-        l
-    };
-    match *material {
-        Material::Interface { int_ior, ext_ior } => {
-            let refract_list = (!coincident.is_empty()).then(|| with_coincident(list.clone()));
-            if entering_by_normal {
-                Crossing {
-                    n1: ext_ior,
-                    n2: int_ior,
-                    refract_list,
-                }
-            } else {
-                Crossing {
-                    n1: int_ior,
-                    n2: ext_ior,
-                    refract_list,
-                }
-            }
-        }
-        Material::Solid(s) => {
-            let entering = match strategy {
-                NestedStrategy::Toggle => !list.contains(s),
-                _ => entering_by_normal,
-            };
-            let mut after = list.clone();
-            if entering {
-                // Entering O: from the highest in the list (or ambient) to O
-                // (O is the highest after entering: its hit is true). With
-                // coincident surfaces: to the highest of the list after all of them.
-                let n1 = ior_of(list);
-                after.insert(s);
-                let after = with_coincident(after);
-                let n2 = if coincident.is_empty() {
-                    scene.solids[s as usize].ior
-                } else {
-                    ior_of(&after)
-                };
-                Crossing {
-                    n1,
-                    n2,
-                    refract_list: Some(after),
-                }
-            } else {
-                // Leaving O: from O to the highest remaining (or ambient).
-                after.remove(s);
-                let after = with_coincident(after);
-                Crossing {
-                    n1: scene.solids[s as usize].ior,
-                    n2: ior_of(&after),
-                    refract_list: Some(after),
-                }
-            }
-        }
-        _ => Crossing {
-            n1: 1.0,
-            n2: 1.0,
-            refract_list: None,
-        },
-    }
-}
-
-/// A true hit that leaves solid O while O is not in the list means its entry
-/// was never seen (a ray through a mesh vertex, where Embree's robust mode can
-/// leak): the ray was inside O, so O goes into the list before the crossing.
-/// Sound by the orientation check at load (normals point out of every solid).
-fn repair_missed_entry(list: &mut InteriorList, m: &Material, front: bool, strategy: NestedStrategy) {
-    if let Material::Solid(s) = *m {
-        if !front && strategy != NestedStrategy::Toggle && !list.contains(s) {
-            list.insert(s);
-        }
-    }
-}
-
 fn to_d(v: V3) -> DVec3 {
     DVec3::new(v.x as f64, v.y as f64, v.z as f64)
 }
 fn to_f(v: DVec3) -> V3 {
     V3::new(v.x as f32, v.y as f32, v.z as f32)
-}
-
-/// Absorption coefficient of the medium a ray inside `list` travels through.
-#[inline]
-fn medium_sigma(scene: &RenderScene, list: &InteriorList) -> Option<V3> {
-    if list.is_empty() {
-        return None;
-    }
-    let rank = |s: u32| scene.solids[s as usize].rank;
-    let s = list.top(rank)?;
-    let sigma = scene.solids[s as usize].sigma_a;
-    (sigma.max_element() > 0.0).then_some(sigma)
 }
 
 /// One path segment: the first true hit (if any) and the straight chord it
@@ -486,7 +369,7 @@ fn path(
     let mut depth = 1u32; // segment index of `ray`
     loop {
         st.segments += 1;
-        let sigma = medium_sigma(scene, &list);
+        let sigma = dielectric::medium_of(scene, &list);
         let seg = cast(scene, &ray, &mut list, st)?;
         if seg.failed {
             st.grin_failures += 1;
@@ -505,7 +388,7 @@ fn path(
         // Shade with the direction the (possibly curved) ray arrives with.
         ray.dir = seg.dir;
         let rec = &scene.geoms[hit.geom_id as usize];
-        let front = sp.ng.dot(ray.dir) < 0.0;
+        let front = front_facing(sp.ng, ray.dir);
 
         if let Some(em) = &rec.emission {
             if front {
@@ -574,8 +457,10 @@ fn path(
                 ray = Ray::new(offset_origin(sp.p, side), wi);
             }
             m @ (Material::Interface { .. } | Material::Solid(_)) => {
-                repair_missed_entry(&mut list, m, front, scene.strategy);
-                let c = crossing(scene, m, front, &list, scene.strategy, coincident.as_slice());
+                let Some(c) = dielectric::boundary(scene, scene.strategy, m, front, &coincident, &mut list)
+                else {
+                    break;
+                };
                 let d = to_d(ray.dir);
                 let n = to_d(sp.ns);
                 let cos_i = d.dot(n).abs();
@@ -608,10 +493,8 @@ fn path(
                     let k = c.n1 / c.n2;
                     beta *= k * k;
                     eta_scale /= k * k;
-                    if let Some(nl) = c.refract_list {
-                        list = nl;
-                    }
                     let (org, wt) = spawn_transmitted(sp.p, -incident_side, ray.dir, wi, c.n1, c.n2);
+                    c.transmit(&mut list);
                     ray = Ray::new(org, wt);
                 }
                 specular = true;
@@ -647,7 +530,7 @@ fn whitted(
 ) -> Result<V3> {
     st.segments += 1;
     let ray = Ray::new(org, dir);
-    let sigma = medium_sigma(scene, &list);
+    let sigma = dielectric::medium_of(scene, &list);
     // The same (curved through a medium) cast as the path tracer.
     let seg = cast(scene, &ray, &mut list, st)?;
     if seg.failed {
@@ -665,7 +548,7 @@ fn whitted(
     let sp = surface_point(scene, &seg.chord, &hit);
     let dir = seg.dir;
     let rec = &scene.geoms[hit.geom_id as usize];
-    let front = sp.ng.dot(dir) < 0.0;
+    let front = front_facing(sp.ng, dir);
     let mut l = V3::ZERO;
     if let (Some(em), true) = (&rec.emission, front) {
         l += em.eval(sp.p, sp.uv);
@@ -707,8 +590,10 @@ fn whitted(
             l += *reflectance * whitted(scene, offset_origin(sp.p, side), wi, list, rng, st, depth + 1)?;
         }
         m @ (Material::Interface { .. } | Material::Solid(_)) => {
-            repair_missed_entry(&mut list, m, front, scene.strategy);
-            let c = crossing(scene, m, front, &list, scene.strategy, coincident.as_slice());
+            let Some(c) = dielectric::boundary(scene, scene.strategy, m, front, &coincident, &mut list)
+            else {
+                return Ok(att * l);
+            };
             let d = to_d(dir);
             let n = to_d(sp.ns);
             let fr = optics::fresnel_dielectric(d.dot(n).abs(), c.n1 as f64, c.n2 as f64) as f32;
@@ -725,9 +610,11 @@ fn whitted(
                     depth + 1,
                 )?;
             if let Some(t) = optics::refract(d, n, c.n1 as f64, c.n2 as f64) {
-                let nl = c.refract_list.unwrap_or(list);
                 let k = c.n1 / c.n2;
-                let (org, wt) = spawn_transmitted(sp.p, -side, dir, to_f(t.normalize()), c.n1, c.n2);
+                let (n1, n2) = (c.n1, c.n2);
+                let mut nl = list;
+                c.transmit(&mut nl);
+                let (org, wt) = spawn_transmitted(sp.p, -side, dir, to_f(t.normalize()), n1, n2);
                 l += (1.0 - fr) * k * k * whitted(scene, org, wt, nl, rng, st, depth + 1)?;
             } else {
                 st.tir += 1;
@@ -771,7 +658,7 @@ pub fn refraction_path(
     max_events: usize,
     counters: &mut TraceCounters,
 ) -> Result<RefractionPath> {
-    let mut list = InteriorList::from_slice(start);
+    let mut list = InteriorList::from_solids(scene, start);
     let mut ray = Ray::new(org, dir.normalize());
     let mut events = Vec::new();
     for _ in 0..max_events {
@@ -786,7 +673,7 @@ pub fn refraction_path(
         };
         let sp = surface_point(scene, &ray, &hit);
         let rec = &scene.geoms[hit.geom_id as usize];
-        let front = sp.ng.dot(ray.dir) < 0.0;
+        let front = front_facing(sp.ng, ray.dir);
         let m = &rec.material;
         if !matches!(m, Material::Interface { .. } | Material::Solid(_)) {
             return Ok(RefractionPath {
@@ -795,15 +682,16 @@ pub fn refraction_path(
                 escaped: false,
             });
         }
-        repair_missed_entry(&mut list, m, front, scene.strategy);
-        let c = crossing(scene, m, front, &list, scene.strategy, coincident.as_slice());
+        let Some(c) = dielectric::boundary(scene, scene.strategy, m, front, &coincident, &mut list) else {
+            unreachable!("a dielectric material, checked above");
+        };
         let d = to_d(ray.dir);
         let n = to_d(sp.ng);
         let incident_side = if front { sp.ng } else { -sp.ng };
         let (wi, tir) = match optics::refract(d, n, c.n1 as f64, c.n2 as f64) {
             Some(t) => {
-                if let Some(nl) = c.refract_list.clone() {
-                    list = nl;
+                if let Some(nl) = c.transmitted_list() {
+                    list = nl.clone();
                 }
                 (to_f(t.normalize()), false)
             }

@@ -1,0 +1,229 @@
+//! Finding the first true hit along a ray: [`trace`] with every strategy, the
+//! re-cast baseline, and the point-in-solid verification near mesh edges.
+use super::filter::{
+    apply_rejected, near_edge, Coincident, FalseHitFilter, Rejected, TrueHit, NEAR_CAPACITY, RECORDS,
+};
+use super::{InteriorList, NestedStrategy, TraceCounters};
+use crate::ray::{crossing_window, front_facing, Hit, Ray};
+use crate::scene::RenderScene;
+
+#[inline]
+fn window(r: &Ray, t: f32) -> f32 {
+    crossing_window(r.org, r.dir, t)
+}
+
+/// Is the crossing of `solid` at distance `t` along `ray` a real crossing?
+/// Point-in-solid tests just before and after: `None` for a touch (no change),
+/// `Some(inside_after)` otherwise. Used only near mesh edges and vertices.
+fn verify_crossing(scene: &RenderScene, solid: u32, ray: &Ray, t: f32) -> Option<bool> {
+    let d = glam::DVec3::new(ray.dir.x as f64, ray.dir.y as f64, ray.dir.z as f64).normalize();
+    let o = glam::DVec3::new(ray.org.x as f64, ray.org.y as f64, ray.org.z as f64);
+    let len = (ray.dir.length() as f64) * t as f64;
+    let p = o + d * len;
+    let delta = 2e-5 * (1.0 + p.abs().max_element());
+    let before = scene.solid_contains(solid, p - d * delta);
+    let after = scene.solid_contains(solid, p + d * delta);
+    (before != after).then_some(after)
+}
+
+/// Replace near-edge events by their verified meaning (dropping touches).
+fn verify_rejected(scene: &RenderScene, ray: &Ray, rejected: &mut [Rejected]) -> usize {
+    let mut k = 0;
+    for i in 0..rejected.len() {
+        let mut r = rejected[i];
+        if r.near_edge && (r.solid as usize) < scene.solids.len() {
+            match verify_crossing(scene, r.solid, ray, r.t) {
+                None => continue,
+                Some(inside) => r.entering = inside,
+            }
+        }
+        rejected[k] = r;
+        k += 1;
+    }
+    k
+}
+
+/// A true hit near a mesh edge that only touches its solid is no crossing.
+fn is_touch(scene: &RenderScene, ray: &Ray, h: &Hit) -> bool {
+    match scene.solid_by_geom[h.geom_id as usize] {
+        Some(s)
+            if near_edge(h.u, h.v)
+                && matches!(
+                    scene.geoms[h.geom_id as usize].shape,
+                    crate::scene::build::Shape::Mesh(_)
+                ) =>
+        {
+            verify_crossing(scene, s, ray, h.t).is_none()
+        }
+        _ => false,
+    }
+}
+
+/// Offset for re-casting past a false hit (recast strategies).
+#[inline]
+fn recast_tnear(r: &Ray, t: f32) -> f32 {
+    t + window(r, t)
+}
+
+/// Find the first true hit along `ray` for a ray inside `list`, updating the
+/// list with every false crossing before it. `None` when nothing true is hit
+/// (the list then reflects all false crossings to infinity).
+pub fn trace(
+    scene: &RenderScene,
+    strategy: NestedStrategy,
+    ray: &Ray,
+    list: &mut InteriorList,
+    c: &mut TraceCounters,
+) -> crate::error::Result<Option<TrueHit>> {
+    c.queries += 1;
+    let plain = |h: Option<Hit>| {
+        h.map(|hit| TrueHit {
+            hit,
+            coincident: Coincident::default(),
+        })
+    };
+    // Model only what the scene needs: without overlapping solids no hit can
+    // be false and no two solid surfaces coincide.
+    if !scene.has_overlap || strategy == NestedStrategy::Off {
+        return Ok(plain(scene.embree.intersect(ray)));
+    }
+    match strategy {
+        NestedStrategy::Filter if list.is_empty() => {
+            // Outside every solid nothing is false: a plain query, as cheap as
+            // the re-cast baseline's. (Entering two solids through coincident
+            // faces at once from outside is therefore resolved when the ray
+            // leaves them, not on entry; inside a solid the filter sees them.)
+            let mut r = *ray;
+            loop {
+                match scene.embree.intersect(&r) {
+                    Some(h) if is_touch(scene, &r, &h) => {
+                        r.tnear = recast_tnear(&r, h.t);
+                        c.queries += 1;
+                    }
+                    h => return Ok(plain(h)),
+                }
+            }
+        }
+        NestedStrategy::Filter => RECORDS.with_borrow_mut(|rec| {
+            let p0 = list.top_rank().unwrap_or(0);
+            let mut filter;
+            let mut r = *ray;
+            let hit = loop {
+                filter = FalseHitFilter::new(scene, p0, &r, &mut *rec);
+                let hit = scene.embree.intersect_filtered(&r, &mut filter)?;
+                c.filter_calls += filter.calls as u64;
+                if filter.overflow {
+                    break None;
+                }
+                match hit {
+                    Some(h) if is_touch(scene, &r, &h) => {
+                        // Touching a mesh solid at an edge or vertex: not a crossing.
+                        // Apply the false hits before it and continue past it.
+                        let n = verify_rejected(scene, &r, &mut filter.rec.rejected[..filter.len]);
+                        let win = window(&r, h.t);
+                        let limit = h.t + win;
+                        c.false_hits +=
+                            apply_rejected(list, &mut filter.rec.rejected[..n], limit, win) as u64;
+                        // Other solids' surfaces at the touch point are crossed there.
+                        let touched = scene.solid_by_geom[h.geom_id as usize];
+                        let mut near = filter.rec.near;
+                        let m = verify_rejected(scene, &r, &mut near[..filter.near_len]);
+                        let mut others = [near[0]; NEAR_CAPACITY];
+                        let mut k = 0;
+                        for e in &near[..m] {
+                            if Some(e.solid) != touched && (e.t - h.t).abs() <= win {
+                                others[k] = *e;
+                                k += 1;
+                            }
+                        }
+                        apply_rejected(list, &mut others[..k], limit, win);
+                        r.tnear = recast_tnear(&r, h.t);
+                        c.queries += 1;
+                    }
+                    h => break Some(h),
+                }
+            };
+            let Some(hit) = hit else {
+                // Too many false hits to record: the correct slow path.
+                c.fallbacks += 1;
+                return Ok(plain(recast(scene, &r, list, c, false)?));
+            };
+            let t_hit = hit.map(|h| h.t).unwrap_or(f32::INFINITY);
+            let n = verify_rejected(scene, &r, &mut filter.rec.rejected[..filter.len]);
+            // False crossings up to and including those coincident with the true hit.
+            let win = window(&r, if t_hit.is_finite() { t_hit } else { 0.0 });
+            let limit = t_hit + win;
+            c.false_hits += apply_rejected(list, &mut filter.rec.rejected[..n], limit, win) as u64;
+            c.max_list_depth = c.max_list_depth.max(list.len() as u64);
+            if list.spilled() {
+                c.spills += 1;
+            }
+            Ok(hit.map(|hit| {
+                let mut coincident = Coincident::default();
+                let own = scene.solid_by_geom[hit.geom_id as usize];
+                for r in &filter.rec.near[..filter.near_len] {
+                    if Some(r.solid) != own && (r.t - hit.t).abs() <= win {
+                        coincident.push(r.solid, r.rank, r.entering);
+                    }
+                }
+                TrueHit { hit, coincident }
+            }))
+        }),
+        NestedStrategy::Recast => Ok(plain(recast(scene, ray, list, c, false)?)),
+        NestedStrategy::Toggle => Ok(plain(recast(scene, ray, list, c, true)?)),
+        NestedStrategy::Off => unreachable!("handled above"),
+    }
+}
+
+fn recast(
+    scene: &RenderScene,
+    ray: &Ray,
+    list: &mut InteriorList,
+    c: &mut TraceCounters,
+    toggle: bool,
+) -> crate::error::Result<Option<Hit>> {
+    let mut r = *ray;
+    // Bound the loop: a ray cannot cross more surfaces than this without a bug.
+    for _ in 0..100_000 {
+        let Some(h) = scene.embree.intersect(&r) else {
+            return Ok(None);
+        };
+        if is_touch(scene, &r, &h) {
+            r.tnear = recast_tnear(&r, h.t);
+            c.queries += 1;
+            continue;
+        }
+        if list.is_empty() {
+            return Ok(Some(h));
+        }
+        let rank = scene.rank_by_geom[h.geom_id as usize];
+        let p0 = list.top_rank();
+        let is_false = p0.is_some_and(|p| rank < p);
+        if !is_false {
+            return Ok(Some(h));
+        }
+        c.false_hits += 1;
+        let s = scene.solid_by_geom[h.geom_id as usize].expect("ranked geometry is a solid");
+        let entering = if near_edge(h.u, h.v) && !toggle {
+            verify_crossing(scene, s, &r, h.t).unwrap_or(front_facing(h.ng, r.dir))
+        } else {
+            front_facing(h.ng, r.dir)
+        };
+        if toggle {
+            list.toggle(s, rank);
+        } else if entering {
+            list.insert(s, rank);
+        } else {
+            list.remove(s);
+        }
+        c.max_list_depth = c.max_list_depth.max(list.len() as u64);
+        if list.spilled() {
+            c.spills += 1;
+        }
+        r.tnear = recast_tnear(&r, h.t);
+        c.queries += 1;
+    }
+    Err(crate::error::Error::Invalid(
+        "a ray crossed more than 100000 false surfaces; the scene geometry is degenerate".into(),
+    ))
+}
