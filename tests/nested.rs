@@ -3,7 +3,7 @@
 //! solids, rays through vertices and edges, grazing rays, coincident faces and
 //! cameras inside media.
 use glam::{DVec3, Vec3A as V3};
-use snell::dielectric::audit::audit_ray;
+use snell::audit::audit_ray;
 use snell::dielectric::{NestedStrategy, TraceCounters};
 use snell::integrator::refraction_path;
 use snell::render::{render, RenderOptions, Rendered};
