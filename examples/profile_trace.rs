@@ -21,7 +21,7 @@ fn main() -> snell::Result<()> {
     let mut sink = 0u64;
     for _ in 0..reps {
         for r in &rays {
-            let mut list = InteriorList::from_solids(&scene, &r.list);
+            let mut list = InteriorList::from_solids(&scene.solids, &r.list);
             let h = dielectric::trace(&scene, strategy, &r.ray, &mut list, &mut c)?;
             sink += h.map(|h| h.hit.geom_id as u64).unwrap_or(3) + list.len() as u64;
         }

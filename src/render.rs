@@ -215,7 +215,7 @@ impl TileJob<'_> {
         let mut aov =
             (self.want_aovs && !skip).then(|| [vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]]);
         let mut stats = RenderStats::default();
-        let start_list = InteriorList::from_solids(scene, &scene.camera_interior);
+        let start_list = InteriorList::from_solids(&scene.solids, &scene.camera_interior);
         for j in 0..h {
             for i in 0..w {
                 let (x, y) = (x0 + i, y0 + j);

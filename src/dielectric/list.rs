@@ -1,5 +1,5 @@
 //! The per-ray interior list: the solids a ray is inside, each with its rank.
-use crate::scene::RenderScene;
+use crate::scene::Solid;
 
 const INLINE: usize = 6;
 
@@ -27,14 +27,15 @@ impl InteriorList {
         Self::default()
     }
 
-    /// The list of the given solids of `scene` (e.g. the camera's interior).
+    /// The list of the solids `inside` (indices into `solids`, e.g. a
+    /// scene's `solids` and the camera's interior).
     ///
     /// # Panics
-    /// If a solid index is not one of `scene`'s solids.
-    pub fn from_solids(scene: &RenderScene, solids: &[u32]) -> Self {
+    /// If an index is out of range of `solids`.
+    pub fn from_solids(solids: &[Solid], inside: &[u32]) -> Self {
         let mut l = Self::new();
-        for &s in solids {
-            l.insert(s, scene.solids[s as usize].rank);
+        for &s in inside {
+            l.insert(s, solids[s as usize].rank);
         }
         l
     }

@@ -21,7 +21,7 @@ mod filter;
 mod list;
 mod trace;
 
-pub use boundary::{boundary, medium_of, Boundary};
+pub use boundary::{boundary, medium_of, Boundary, Nesting};
 pub use filter::{
     apply_rejected, Coincident, FalseHitFilter, FilterRecords, Rejected, TrueHit, EDGE_EPS, NEAR_CAPACITY,
     REJECT_CAPACITY,

@@ -369,7 +369,7 @@ fn path(
     let mut depth = 1u32; // segment index of `ray`
     loop {
         st.segments += 1;
-        let sigma = dielectric::medium_of(scene, &list);
+        let sigma = dielectric::medium_of(dielectric::Nesting::of(scene), &list);
         let seg = cast(scene, &ray, &mut list, st)?;
         if seg.failed {
             st.grin_failures += 1;
@@ -457,8 +457,14 @@ fn path(
                 ray = Ray::new(offset_origin(sp.p, side), wi);
             }
             m @ (Material::Interface { .. } | Material::Solid(_)) => {
-                let Some(c) = dielectric::boundary(scene, scene.strategy, m, front, &coincident, &mut list)
-                else {
+                let Some(c) = dielectric::boundary(
+                    dielectric::Nesting::of(scene),
+                    scene.strategy,
+                    m,
+                    front,
+                    &coincident,
+                    &mut list,
+                ) else {
                     break;
                 };
                 let d = to_d(ray.dir);
@@ -530,7 +536,7 @@ fn whitted(
 ) -> Result<V3> {
     st.segments += 1;
     let ray = Ray::new(org, dir);
-    let sigma = dielectric::medium_of(scene, &list);
+    let sigma = dielectric::medium_of(dielectric::Nesting::of(scene), &list);
     // The same (curved through a medium) cast as the path tracer.
     let seg = cast(scene, &ray, &mut list, st)?;
     if seg.failed {
@@ -590,8 +596,14 @@ fn whitted(
             l += *reflectance * whitted(scene, offset_origin(sp.p, side), wi, list, rng, st, depth + 1)?;
         }
         m @ (Material::Interface { .. } | Material::Solid(_)) => {
-            let Some(c) = dielectric::boundary(scene, scene.strategy, m, front, &coincident, &mut list)
-            else {
+            let Some(c) = dielectric::boundary(
+                dielectric::Nesting::of(scene),
+                scene.strategy,
+                m,
+                front,
+                &coincident,
+                &mut list,
+            ) else {
                 return Ok(att * l);
             };
             let d = to_d(dir);
@@ -658,7 +670,7 @@ pub fn refraction_path(
     max_events: usize,
     counters: &mut TraceCounters,
 ) -> Result<RefractionPath> {
-    let mut list = InteriorList::from_solids(scene, start);
+    let mut list = InteriorList::from_solids(&scene.solids, start);
     let mut ray = Ray::new(org, dir.normalize());
     let mut events = Vec::new();
     for _ in 0..max_events {
@@ -682,7 +694,14 @@ pub fn refraction_path(
                 escaped: false,
             });
         }
-        let Some(c) = dielectric::boundary(scene, scene.strategy, m, front, &coincident, &mut list) else {
+        let Some(c) = dielectric::boundary(
+            dielectric::Nesting::of(scene),
+            scene.strategy,
+            m,
+            front,
+            &coincident,
+            &mut list,
+        ) else {
             unreachable!("a dielectric material, checked above");
         };
         let d = to_d(ray.dir);
