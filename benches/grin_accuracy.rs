@@ -407,11 +407,10 @@ fn chord_sweeps() {
                 continue;
             }
         };
-        if s.set_resolution(w, h).is_err() {
+        let Ok(set) = snell::render::RenderSettings::from_scene(&s).with_resolution(w, h) else {
             continue;
-        }
-        s.spp = spp;
-        match snell::bench::chord_sweep(&mut s, &tols, None) {
+        };
+        match snell::bench::chord_sweep(&mut s, &set.with_spp(spp), &tols, None) {
             Ok(runs) => {
                 println!(
                     "\n{path} ({w}x{h}, {spp} spp); reference = tolerance {} m",

@@ -329,7 +329,7 @@ fn frame_row(
     with_render: bool,
     reps: usize,
 ) -> snell::Result<FrameFigures> {
-    let (mut scene, prep) = setup(path, w, h, vertices)?;
+    let (scene, prep) = setup(path, w, h, vertices)?;
     let spec = scene.warp.clone().unwrap();
     let orig = build_originals(&scene, &prep)?;
     let (mut warp, mut copies, mut refit, mut rays, mut old, mut ex, mut exp) =
@@ -364,10 +364,10 @@ fn frame_row(
         cmp.get_or_insert_with(|| compare(&scene, &frame, &e).0);
     }
     let render_1spp_s = if with_render {
-        scene.spp = 1;
         let t = Instant::now();
         let _ = snell::render::render(
             &scene,
+            &snell::render::RenderSettings::from_scene(&scene).with_spp(1),
             &snell::render::RenderOptions {
                 threads: None,
                 quiet: true,

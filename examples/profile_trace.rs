@@ -9,13 +9,8 @@ fn main() -> snell::Result<()> {
     let a: Vec<String> = std::env::args().collect();
     let strategy: NestedStrategy = a[2].parse().map_err(snell::Error::Invalid)?;
     let reps: usize = a.get(3).and_then(|r| r.parse().ok()).unwrap_or(1);
-    let opts = BuildOptions {
-        nested: strategy,
-        ..Default::default()
-    };
-    let scene = load_scene(std::path::Path::new(&a[1]), &opts)?;
-    let base = load_scene(std::path::Path::new(&a[1]), &BuildOptions::default())?;
-    let rays = path_rays(&base, 160, 120)?;
+    let scene = load_scene(std::path::Path::new(&a[1]), &BuildOptions::default())?;
+    let rays = path_rays(&scene, 160, 120)?;
     let mut c = TraceCounters::default();
     let t = std::time::Instant::now();
     let mut sink = 0u64;

@@ -1,7 +1,7 @@
 //! Regenerates tests/data/reference_means.json: image means of the reference
 //! scenes at 80×60 with many samples, and their Monte Carlo standard errors.
 //! Run: cargo run --release --example reference_means -- 2048 > tests/data/reference_means.json
-use snell::render::{render, RenderOptions};
+use snell::render::{render, RenderOptions, RenderSettings};
 use snell::scene::{load_scene, BuildOptions};
 use std::path::Path;
 
@@ -20,15 +20,17 @@ fn main() -> snell::Result<()> {
         .into(),
     );
     for name in ["three_spheres", "glass_of_water", "cylinder_refraction"] {
-        let mut s = load_scene(
+        let s = load_scene(
             Path::new(&format!("scenes/{name}.toml")),
             &BuildOptions::default(),
         )?;
-        s.set_resolution(80, 60)?;
-        s.spp = spp;
-        s.seed = 999;
+        let set = RenderSettings::from_scene(&s)
+            .with_resolution(80, 60)?
+            .with_spp(spp)
+            .with_seed(999);
         let r = render(
             &s,
+            &set,
             &RenderOptions {
                 threads: None,
                 quiet: true,

@@ -2,19 +2,12 @@
 //! `cargo run --release --example trace_one -- SCENE STRATEGY ox oy oz dx dy dz [list]`
 use glam::Vec3A as V3;
 use snell::dielectric::{NestedStrategy, TraceCounters};
-use snell::integrator::refraction_path;
+use snell::integrator::{refraction_path, Tracer};
 use snell::scene::{load_scene, BuildOptions};
 fn main() {
     let a: Vec<String> = std::env::args().collect();
     let strat: NestedStrategy = a[2].parse().unwrap();
-    let s = load_scene(
-        std::path::Path::new(&a[1]),
-        &BuildOptions {
-            nested: strat,
-            ..Default::default()
-        },
-    )
-    .unwrap();
+    let s = load_scene(std::path::Path::new(&a[1]), &BuildOptions::default()).unwrap();
     let v: Vec<f32> = a[3..9].iter().map(|x| x.parse().unwrap()).collect();
     let o = V3::new(v[0], v[1], v[2]);
     let d = V3::new(v[3], v[4], v[5]);
@@ -23,7 +16,18 @@ fn main() {
         .get(9)
         .map(|x| x.split(",").map(|y| y.parse().unwrap()).collect())
         .unwrap_or_default();
-    let p = refraction_path(&s, o, d, &start, 512, &mut c).unwrap();
+    let p = refraction_path(
+        Tracer {
+            scene: &s,
+            strategy: strat,
+        },
+        o,
+        d,
+        &start,
+        512,
+        &mut c,
+    )
+    .unwrap();
     for e in &p.events {
         println!(
             "geom {} t {} point {:?} n {}->{} list {:?} next_org {:?}",

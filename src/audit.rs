@@ -5,7 +5,7 @@
 //! check that a ray which has left everything has an empty list.
 use crate::dielectric::TraceCounters;
 use crate::error::Result;
-use crate::integrator::refraction_path;
+use crate::integrator::{refraction_path, Tracer};
 use crate::scene::RenderScene;
 use glam::{DVec3, Vec3A as V3};
 
@@ -25,10 +25,11 @@ pub struct RayAudit {
 }
 
 /// Audit one ray from `org` (the start list is found by point-in-solid tests).
-pub fn audit_ray(scene: &RenderScene, org: V3, dir: V3, counters: &mut TraceCounters) -> Result<RayAudit> {
+pub fn audit_ray(tr: Tracer<'_>, org: V3, dir: V3, counters: &mut TraceCounters) -> Result<RayAudit> {
+    let scene = tr.scene;
     let to_d = |v: V3| DVec3::new(v.x as f64, v.y as f64, v.z as f64);
     let start = scene.solids_containing(to_d(org));
-    let path = refraction_path(scene, org, dir, &start, 512, counters)?;
+    let path = refraction_path(tr, org, dir, &start, 512, counters)?;
     let mut a = RayAudit::default();
     let mut prev = org;
     let mut claimed = start.clone();
@@ -87,7 +88,8 @@ pub struct AuditReport {
 /// Audit `n` rays: a third aimed exactly at mesh vertices and edge midpoints,
 /// a third grazing analytic silhouettes, the rest random rays through the
 /// solids' bounds. Deterministic in `seed`; parallel over chunks.
-pub fn audit_scene(scene: &RenderScene, n: u64, seed: u64) -> Result<AuditReport> {
+pub fn audit_scene(tr: Tracer<'_>, n: u64, seed: u64) -> Result<AuditReport> {
+    let scene = tr.scene;
     use crate::sampling::{uniform_sphere, Rng};
     use crate::scene::build::Shape;
     use crate::scene::shapes::Analytic;
@@ -163,7 +165,7 @@ pub fn audit_scene(scene: &RenderScene, n: u64, seed: u64) -> Result<AuditReport
                 if dir == V3::ZERO {
                     continue;
                 }
-                let a = audit_ray(scene, eye, dir, &mut counters)?;
+                let a = audit_ray(tr, eye, dir, &mut counters)?;
                 if (a.mismatches > 0 || a.left_nonempty) && std::env::var_os("SNELL_AUDIT_VERBOSE").is_some()
                 {
                     eprintln!("wrong ray: eye {eye:?} dir {dir:?} kind {kind} {a:?}");

@@ -8,9 +8,9 @@
 use crate::dielectric::{self, InteriorList, NestedStrategy, TraceCounters};
 use crate::embree::{BuildQuality, Device, FilterHit, HitFilter, SceneBuilder, SceneFlags};
 use crate::error::Result;
-use crate::integrator::refraction_path;
+use crate::integrator::{refraction_path, Tracer};
 use crate::ray::Ray;
-use crate::render::{render, RenderOptions};
+use crate::render::{render, RenderOptions, RenderSettings};
 use crate::sampling::{uniform_sphere, Rng};
 use crate::scene::{load_scene, meshgen, BuildOptions, RenderScene};
 use glam::Vec3A as V3;
@@ -177,7 +177,11 @@ pub fn path_rays(scene: &RenderScene, w: u32, h: u32) -> Result<Vec<ListedRay>> 
                 ray: Ray::new(o, d),
                 list: scene.camera_interior.clone(),
             });
-            let p = refraction_path(scene, o, d, &scene.camera_interior, 24, &mut c)?;
+            let tr = Tracer {
+                scene,
+                strategy: NestedStrategy::Filter,
+            };
+            let p = refraction_path(tr, o, d, &scene.camera_interior, 24, &mut c)?;
             for e in &p.events {
                 out.push(ListedRay {
                     ray: Ray::new(e.next_org, e.next_dir),
@@ -265,23 +269,14 @@ pub fn nested(opts: &NestedBenchOptions, mut progress: impl FnMut(&str)) -> Resu
     let mut runs = Vec::new();
     for name in &opts.scenes {
         let path = opts.scenes_dir.join(format!("{name}.toml"));
-        let scenes: Vec<RenderScene> = strategies
-            .iter()
-            .map(|&s| {
-                let mut sc = load_scene(
-                    Path::new(&path),
-                    &BuildOptions {
-                        nested: s,
-                        ..Default::default()
-                    },
-                )?;
-                sc.set_resolution(opts.render.0, opts.render.1)?;
-                sc.spp = opts.render.2;
-                sc.seed = 1;
-                Ok(sc)
-            })
-            .collect::<Result<_>>()?;
-        let rays = path_rays(&scenes[0], opts.trace_grid.0, opts.trace_grid.1)?;
+        // One scene for every strategy: the context-filter flag is set
+        // whenever solids overlap and costs the others nothing.
+        let scene = load_scene(Path::new(&path), &BuildOptions::default())?;
+        let settings = RenderSettings::from_scene(&scene)
+            .with_resolution(opts.render.0, opts.render.1)?
+            .with_spp(opts.render.2)
+            .with_seed(1);
+        let rays = path_rays(&scene, opts.trace_grid.0, opts.trace_grid.1)?;
         progress(&format!("{name}: {} trace rays", rays.len()));
         let mut trace_t = vec![vec![]; strategies.len()];
         let mut trace_c = vec![TraceCounters::default(); strategies.len()];
@@ -289,13 +284,14 @@ pub fn nested(opts: &NestedBenchOptions, mut progress: impl FnMut(&str)) -> Resu
         let mut render_stats = vec![None; strategies.len()];
         for _ in 0..opts.reps {
             for (k, &s) in strategies.iter().enumerate() {
-                let (t, c) = trace_only(&scenes[k], s, &rays)?;
+                let (t, c) = trace_only(&scene, s, &rays)?;
                 trace_t[k].push(t);
                 trace_c[k] = c;
             }
-            for (k, _) in strategies.iter().enumerate() {
+            for (k, &s) in strategies.iter().enumerate() {
                 let r = render(
-                    &scenes[k],
+                    &scene,
+                    &settings.with_strategy(s),
                     &RenderOptions {
                         threads: Some(opts.threads),
                         quiet: true,
@@ -412,6 +408,7 @@ pub struct ChordRun {
 /// compare every image with the render at the last (finest) one.
 pub fn chord_sweep(
     scene: &mut RenderScene,
+    settings: &RenderSettings,
     tolerances: &[f64],
     threads: Option<usize>,
 ) -> Result<Vec<ChordRun>> {
@@ -427,6 +424,7 @@ pub fn chord_sweep(
         scene.medium = Some(m);
         let r = crate::render::render(
             scene,
+            settings,
             &crate::render::RenderOptions {
                 threads,
                 quiet: true,

@@ -2,20 +2,30 @@
 //! turning `--region`/`--samples` (or their grid forms `--region-cell` and
 //! `--sample-chunk`, convenient in job templates) and `--resume` into a
 //! [`PartSpec`], process CPU time, and the stats table of a sweep. See docs/farm.md.
+use crate::dielectric::NestedStrategy;
 use crate::error::{Error, Result};
 use crate::part::{read_part, scene_id, PartMeta};
-use crate::render::{Accum, PartSpec, Region};
+use crate::render::{Accum, PartSpec, Region, RenderSettings};
 use crate::scene::source::Source;
 use crate::scene::{load_scene_source, BuildOptions, RenderScene};
 use std::path::{Path, PathBuf};
 
-/// Load a scene file with `--set` overrides; returns the scene and its [`scene_id`].
-pub fn load(path: &Path, sets: &[String], opts: &BuildOptions) -> Result<(RenderScene, String)> {
+/// Load a scene file with `--set` overrides; returns the scene and its
+/// [`scene_id`] (of the text after overrides and the nested strategy).
+///
+/// # Errors
+/// An unreadable file, a bad override, or a scene error.
+pub fn load(
+    path: &Path,
+    sets: &[String],
+    opts: &BuildOptions,
+    strategy: NestedStrategy,
+) -> Result<(RenderScene, String)> {
     let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
     let src = crate::overrides::apply(Source::new(&path.display().to_string(), text), sets)?;
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
     let scene = load_scene_source(&src, &dir, opts)?;
-    Ok((scene, scene_id(&src.text, opts.nested.name())))
+    Ok((scene, scene_id(&src.text, strategy.name())))
 }
 
 /// `x0,x1,y0,y1`: half-open pixel bounds.
@@ -123,9 +133,9 @@ pub struct Plan {
     pub is_part: bool,
 }
 
-/// Turn the farm options into a plan for `scene`. With `--resume` the region
+/// Turn the farm options into a plan for a render with `settings`. With `--resume` the region
 /// and sample range default to the part's, and must match when given.
-pub fn plan(scene: &RenderScene, id: &str, a: &FarmArgs, keep_sums: bool) -> Result<Plan> {
+pub fn plan(settings: &RenderSettings, id: &str, a: &FarmArgs, keep_sums: bool) -> Result<Plan> {
     if a.region.is_some() && a.region_cell.is_some() {
         return Err(Error::Invalid("give --region or --region-cell, not both".into()));
     }
@@ -136,12 +146,12 @@ pub fn plan(scene: &RenderScene, id: &str, a: &FarmArgs, keep_sums: bool) -> Res
     }
     let mut region = match (&a.region, &a.region_cell) {
         (Some(r), _) => Some(parse_region(r)?),
-        (_, Some(c)) => Some(region_cell(c, scene.width, scene.height)?),
+        (_, Some(c)) => Some(region_cell(c, settings.width, settings.height)?),
         _ => None,
     };
     let mut samples = match (&a.samples, &a.sample_chunk) {
         (Some(s), _) => Some(parse_samples(s)?),
-        (_, Some(c)) => Some(sample_chunk(c, scene.spp)?),
+        (_, Some(c)) => Some(sample_chunk(c, settings.spp)?),
         _ => None,
     };
     let mut base = None;
@@ -154,18 +164,18 @@ pub fn plan(scene: &RenderScene, id: &str, a: &FarmArgs, keep_sums: bool) -> Res
                 path.display()
             )))
         };
-        if (m.film_width, m.film_height) != (scene.width, scene.height) {
+        if (m.film_width, m.film_height) != (settings.width, settings.height) {
             return bad(
                 "film",
                 format!("{}x{}", m.film_width, m.film_height),
-                format!("{}x{}", scene.width, scene.height),
+                format!("{}x{}", settings.width, settings.height),
             );
         }
-        if m.spp != scene.spp {
-            return bad("spp", m.spp.to_string(), scene.spp.to_string());
+        if m.spp != settings.spp {
+            return bad("spp", m.spp.to_string(), settings.spp.to_string());
         }
-        if m.seed != scene.seed {
-            return bad("seed", m.seed.to_string(), scene.seed.to_string());
+        if m.seed != settings.seed {
+            return bad("seed", m.seed.to_string(), settings.seed.to_string());
         }
         if m.scene_id != id {
             return bad(
@@ -196,8 +206,8 @@ pub fn plan(scene: &RenderScene, id: &str, a: &FarmArgs, keep_sums: bool) -> Res
         });
     }
     let is_part = region.is_some() || samples.is_some() || base.is_some() || a.part;
-    let r = region.unwrap_or(Region::full(scene.width, scene.height));
-    let (start, count) = samples.unwrap_or((0, scene.spp));
+    let r = region.unwrap_or(Region::full(settings.width, settings.height));
+    let (start, count) = samples.unwrap_or((0, settings.spp));
     Ok(Plan {
         spec: PartSpec {
             region,
@@ -206,10 +216,10 @@ pub fn plan(scene: &RenderScene, id: &str, a: &FarmArgs, keep_sums: bool) -> Res
             base,
         },
         meta: PartMeta {
-            film_width: scene.width,
-            film_height: scene.height,
-            spp: scene.spp,
-            seed: scene.seed,
+            film_width: settings.width,
+            film_height: settings.height,
+            spp: settings.spp,
+            seed: settings.seed,
             scene_id: id.to_string(),
             region: r,
             sample_start: start,

@@ -3,7 +3,7 @@
 //! end in a built scene (rendered at a tiny size) or a clear error; a panic, a
 //! non-located scene error or a case slower than the limit is a finding.
 //! `snell fuzz --cases N` runs it; `tests/fuzz_smoke.rs` runs a few thousand.
-use crate::render::{render, RenderOptions};
+use crate::render::{render, RenderOptions, RenderSettings};
 use crate::sampling::Rng;
 use crate::scene::{load_scene_str, BuildOptions};
 use std::panic::{catch_unwind, AssertUnwindSafe};
@@ -278,15 +278,15 @@ pub fn run_from(
         let t = Instant::now();
         let outcome = catch_unwind(AssertUnwindSafe(|| {
             match load_scene_str(name, &text, dir, &BuildOptions::default()) {
-                Ok(mut s) => {
+                Ok(s) => {
                     // Render tiny: the point is that it runs, not what it shows.
                     let (w, h) = (4.min(s.width), 3.min(s.height));
-                    if s.set_resolution(w, h).is_err() {
+                    let Ok(set) = RenderSettings::from_scene(&s).with_resolution(w, h) else {
                         return Err("resolution".to_string());
-                    }
-                    s.spp = 1;
+                    };
                     render(
                         &s,
+                        &set.with_spp(1),
                         &RenderOptions {
                             threads: Some(1),
                             quiet: true,

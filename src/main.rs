@@ -2,7 +2,7 @@
 #![deny(unsafe_code)]
 use clap::{Parser, Subcommand};
 use snell::dielectric::NestedStrategy;
-use snell::render::RenderOptions;
+use snell::render::{RenderOptions, RenderSettings};
 use snell::scene::{load_scene, BuildOptions};
 use std::path::PathBuf;
 
@@ -513,16 +513,11 @@ fn run(cli: Cli) -> snell::Result<()> {
                 .map_err(|e| snell::Error::Invalid(e.to_string()))?;
             say!("{}", snell::bench_header());
             let mut out = Vec::new();
+            let s = load_scene(&scene, &BuildOptions::default())?;
             for strategy in nested {
-                let s = load_scene(
-                    &scene,
-                    &BuildOptions {
-                        nested: strategy,
-                        ..Default::default()
-                    },
-                )?;
                 let t = std::time::Instant::now();
-                let r = pool.install(|| snell::audit::audit_scene(&s, rays, seed))?;
+                let tr = snell::integrator::Tracer { scene: &s, strategy };
+                let r = pool.install(|| snell::audit::audit_scene(tr, rays, seed))?;
                 say!(
                     "{:<7} {} rays ({} at vertices/edges, {} at silhouettes), {} segments: {} mismatches (+{} within f32 resolution of a surface), {} left non-empty, {} wrong rays ({:.4}%) [{:.1} s]",
                     strategy.name(),
@@ -695,27 +690,24 @@ fn run(cli: Cli) -> snell::Result<()> {
                     )));
                 }
             }
-            let opts = BuildOptions {
-                nested,
-                ..Default::default()
-            };
             let load_t = std::time::Instant::now();
-            let (mut s, scene_id) = snell::farm::load(&scene, &set, &opts)?;
+            let (s, scene_id) = snell::farm::load(&scene, &set, &BuildOptions::default(), nested)?;
             let load_s = load_t.elapsed().as_secs_f64();
             for w in &s.warnings {
                 eprintln!("warning: {w}");
             }
+            let mut settings = RenderSettings::from_scene(&s).with_strategy(nested);
             if let Some(v) = spp {
                 if v == 0 {
                     return Err(snell::Error::Invalid("--spp must be at least 1".into()));
                 }
-                s.spp = v;
+                settings = settings.with_spp(v);
             }
             if let Some(v) = seed {
-                s.seed = v;
+                settings = settings.with_seed(v);
             }
             if width.is_some() || height.is_some() {
-                s.set_resolution(width.unwrap_or(s.width), height.unwrap_or(s.height))?;
+                settings = settings.with_resolution(width.unwrap_or(s.width), height.unwrap_or(s.height))?;
             }
             let is_exr = output.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
             let own_partial = snell::farm::partial_path(&output);
@@ -735,7 +727,7 @@ fn run(cli: Cli) -> snell::Result<()> {
                 },
                 part: farm.part,
             };
-            let plan = snell::farm::plan(&s, &scene_id, &fa, is_exr)?;
+            let plan = snell::farm::plan(&settings, &scene_id, &fa, is_exr)?;
             if plan.is_part && !aov.is_empty() {
                 return Err(snell::Error::Invalid(
                     "--aov layers are not merged: render them in one piece (no --region, --samples, --resume or --part)"
@@ -755,6 +747,7 @@ fn run(cli: Cli) -> snell::Result<()> {
             let complete_output = output.clone();
             let r = snell::render::render_part(
                 &s,
+                &settings,
                 &RenderOptions {
                     threads,
                     quiet,
@@ -796,7 +789,7 @@ fn run(cli: Cli) -> snell::Result<()> {
                 ("tiles_done", format!("{}/{}", r.tiles_done, r.tiles_total)),
                 ("provenance", snell::provenance::line()),
             ];
-            let mut st = r.stats.to_json(&s, r.spp_done);
+            let mut st = r.stats.to_json(&settings, r.spp_done);
             st["cpu_s"] = serde_json::json!(snell::farm::cpu_seconds());
             st["load_s"] = serde_json::json!(load_s);
             st["region"] = serde_json::json!(r.region.to_string());

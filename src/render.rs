@@ -1,9 +1,10 @@
 //! Tiles, threads and progress. Each pixel's samples draw from generators
 //! seeded by (seed, pixel, sample), so the image is the same for any thread count.
 pub use crate::accum::{mean_of, to_fixed, Accum, PartSpec, Region, FIXED_BITS};
-use crate::dielectric::InteriorList;
+use crate::camera::Camera;
+use crate::dielectric::{InteriorList, NestedStrategy};
 use crate::error::{Error, Result};
-use crate::integrator::{radiance, SampleStats};
+use crate::integrator::{radiance, SampleStats, Tracer};
 use crate::sampling::Rng;
 use crate::scene::RenderScene;
 use glam::Vec3A as V3;
@@ -110,7 +111,7 @@ impl RenderStats {
     }
 
     /// The stats JSON object (with provenance).
-    pub fn to_json(&self, scene: &RenderScene, spp: u32) -> serde_json::Value {
+    pub fn to_json(&self, settings: &RenderSettings, spp: u32) -> serde_json::Value {
         let rays = self.queries + self.shadow_rays;
         serde_json::json!({
             "wall_s": self.wall_s,
@@ -120,10 +121,10 @@ impl RenderStats {
             "rays_per_s": rays as f64 / self.wall_s.max(1e-9),
             "queries": self.queries,
             "shadow_rays": self.shadow_rays,
-            "width": scene.width,
-            "height": scene.height,
+            "width": settings.width,
+            "height": settings.height,
             "spp": spp,
-            "nested_strategy": scene.strategy.name(),
+            "nested_strategy": settings.strategy.name(),
             "false_hits": self.false_hits,
             "false_hits_per_ray": self.false_hits as f64 / self.queries.max(1) as f64,
             "filter_calls_per_ray": self.filter_calls as f64 / self.queries.max(1) as f64,
@@ -137,6 +138,75 @@ impl RenderStats {
             "grin_failures": self.grin_failures,
             "provenance": crate::provenance::json(),
         })
+    }
+}
+
+/// What a render is asked for beyond the scene: the film size, samples per
+/// pixel, seed and nested-dielectric strategy. Starts from what the scene
+/// file declares ([`RenderSettings::from_scene`]); the command line, benches
+/// and tests override it here, never on the scene.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RenderSettings {
+    /// Film width, pixels.
+    pub width: u32,
+    /// Film height, pixels.
+    pub height: u32,
+    /// Samples per pixel.
+    pub spp: u32,
+    /// Seed of every pixel's sample generators.
+    pub seed: u64,
+    /// How false hits of nested dielectrics are skipped.
+    pub strategy: NestedStrategy,
+}
+
+impl RenderSettings {
+    /// The scene file's film (size, spp, seed) and the default strategy (filter).
+    pub fn from_scene(scene: &RenderScene) -> Self {
+        RenderSettings {
+            width: scene.width,
+            height: scene.height,
+            spp: scene.spp,
+            seed: scene.seed,
+            strategy: NestedStrategy::Filter,
+        }
+    }
+
+    /// Another film size (the camera keeps its vertical field of view).
+    ///
+    /// # Errors
+    /// A zero size or more than `scene::MAX_PIXELS` pixels.
+    pub fn with_resolution(mut self, width: u32, height: u32) -> Result<Self> {
+        if width == 0 || height == 0 || (width as u64) * (height as u64) > crate::scene::build::MAX_PIXELS {
+            return Err(Error::Invalid(format!(
+                "resolution {width}x{height} is out of range"
+            )));
+        }
+        self.width = width;
+        self.height = height;
+        Ok(self)
+    }
+
+    /// Another number of samples per pixel.
+    pub fn with_spp(mut self, spp: u32) -> Self {
+        self.spp = spp;
+        self
+    }
+
+    /// Another seed.
+    pub fn with_seed(mut self, seed: u64) -> Self {
+        self.seed = seed;
+        self
+    }
+
+    /// Another nested-dielectric strategy.
+    pub fn with_strategy(mut self, strategy: NestedStrategy) -> Self {
+        self.strategy = strategy;
+        self
+    }
+
+    /// The scene's camera at this film size.
+    pub fn camera(&self, scene: &RenderScene) -> Camera {
+        scene.camera.with_resolution(self.width, self.height)
     }
 }
 
@@ -183,6 +253,8 @@ struct TileOut {
 /// What every tile of one render shares.
 struct TileJob<'a> {
     scene: &'a RenderScene,
+    settings: &'a RenderSettings,
+    camera: Camera,
     region: Region,
     start: u32,
     count: u32,
@@ -215,6 +287,10 @@ impl TileJob<'_> {
         let mut aov =
             (self.want_aovs && !skip).then(|| [vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]]);
         let mut stats = RenderStats::default();
+        let tracer = Tracer {
+            scene,
+            strategy: self.settings.strategy,
+        };
         let start_list = InteriorList::from_solids(&scene.solids, &scene.camera_interior);
         for j in 0..h {
             for i in 0..w {
@@ -227,19 +303,19 @@ impl TileJob<'_> {
                     px[k] = mean_of(acc, held);
                     continue;
                 }
-                let pixel = y as u64 * scene.width as u64 + x as u64;
+                let pixel = y as u64 * self.settings.width as u64 + x as u64;
                 let mut sum = V3::ZERO;
                 let mut sumsq = V3::ZERO;
                 let taken = self.count - held;
                 let inv = 1.0 / taken.max(1) as f32;
                 for s in self.start + held..self.start + self.count {
-                    let mut rng = Rng::for_sample(scene.seed, pixel, s as u64);
+                    let mut rng = Rng::for_sample(self.settings.seed, pixel, s as u64);
                     let fx = x as f32 + rng.uniform();
                     let fy = y as f32 + rng.uniform();
                     let lens = (rng.uniform(), rng.uniform());
-                    let (o, d) = scene.camera.ray(fx, fy, lens);
+                    let (o, d) = self.camera.ray(fx, fy, lens);
                     let mut st = SampleStats::default();
-                    let l = radiance(scene, o, d, start_list.clone(), &mut rng, &mut st)?;
+                    let l = radiance(tracer, o, d, start_list.clone(), &mut rng, &mut st)?;
                     for (a, v) in acc.iter_mut().zip(l.to_array()) {
                         *a = a.wrapping_add(to_fixed(v));
                     }
@@ -282,29 +358,41 @@ impl TileJob<'_> {
     }
 }
 
-/// Render `scene` with its film settings.
-pub fn render(scene: &RenderScene, opts: &RenderOptions) -> Result<Rendered> {
-    render_part(scene, opts, &PartSpec::default())
+/// Render `scene` with `settings`.
+///
+/// # Errors
+/// Embree errors and panics in analytic shapes during the render, a nested
+/// trace that cannot finish, or threads that cannot start.
+pub fn render(scene: &RenderScene, settings: &RenderSettings, opts: &RenderOptions) -> Result<Rendered> {
+    render_part(scene, settings, opts, &PartSpec::default())
 }
 
 /// Render a part of `scene`: a region, a range of sample indices, optionally
 /// continuing from samples already taken. Every pixel's value is the exact
 /// (fixed-point) sum of its samples divided by their number, so any split of
 /// a render into parts merges into the same image bit for bit.
-pub fn render_part(scene: &RenderScene, opts: &RenderOptions, part: &PartSpec) -> Result<Rendered> {
-    let region = part.region.unwrap_or(Region::full(scene.width, scene.height));
-    if region.x0 >= region.x1 || region.y0 >= region.y1 || region.x1 > scene.width || region.y1 > scene.height
-    {
+///
+/// # Errors
+/// As [`render`], and a region or sample range outside the film, or a
+/// resumed part that does not fit it.
+pub fn render_part(
+    scene: &RenderScene,
+    settings: &RenderSettings,
+    opts: &RenderOptions,
+    part: &PartSpec,
+) -> Result<Rendered> {
+    let (fw, fh) = (settings.width, settings.height);
+    let region = part.region.unwrap_or(Region::full(fw, fh));
+    if region.x0 >= region.x1 || region.y0 >= region.y1 || region.x1 > fw || region.y1 > fh {
         return Err(Error::Invalid(format!(
-            "region {region} (x0,x1,y0,y1, half-open) is empty or outside the {}x{} film",
-            scene.width, scene.height
+            "region {region} (x0,x1,y0,y1, half-open) is empty or outside the {fw}x{fh} film"
         )));
     }
-    let (start, count) = part.samples.unwrap_or((0, scene.spp));
-    if count == 0 || start as u64 + count as u64 > scene.spp as u64 {
+    let (start, count) = part.samples.unwrap_or((0, settings.spp));
+    if count == 0 || start as u64 + count as u64 > settings.spp as u64 {
         return Err(Error::Invalid(format!(
             "samples {start}:{count} (START:COUNT) must be a non-empty range within the film's {} samples per pixel",
-            scene.spp
+            settings.spp
         )));
     }
     if let Some(b) = &part.base {
@@ -325,6 +413,8 @@ pub fn render_part(scene: &RenderScene, opts: &RenderOptions, part: &PartSpec) -
         .map_err(|e| Error::Invalid(format!("cannot start render threads: {e}")))?;
     let job = TileJob {
         scene,
+        settings,
+        camera: settings.camera(scene),
         region,
         start,
         count,
@@ -431,8 +521,8 @@ pub fn render_part(scene: &RenderScene, opts: &RenderOptions, part: &PartSpec) -
         tiles_done,
         tiles_total: total as u32,
         region,
-        film_width: scene.width,
-        film_height: scene.height,
+        film_width: fw,
+        film_height: fh,
         sample_start: start,
         sample_count: count,
         accum,

@@ -10,9 +10,10 @@ use crate::bench::{self, NestedBenchOptions, NESTED_SCENES, REFERENCE_SCENES};
 use crate::dielectric::NestedStrategy;
 use crate::error::{Error, Result};
 use crate::image_io::{encode_png, write_atomic};
+use crate::integrator::Tracer;
 use crate::media::grin_trace::{trace, Query};
 use crate::media::{IndexField, Method};
-use crate::render::{render, RenderOptions, Rendered};
+use crate::render::{render, RenderOptions, RenderSettings, Rendered};
 use crate::scene::{load_scene, BuildOptions, RenderScene};
 use crate::warp::pipeline::Pipeline;
 use crate::warp::render::{build_originals, compare, grid_scene, render_exact, Frame};
@@ -254,12 +255,26 @@ fn quiet() -> RenderOptions {
     }
 }
 
-fn scene_at(dir: &Path, name: &str, w: u32, h: u32, spp: u32, seed: u64) -> Result<RenderScene> {
-    let mut s = load_scene(&dir.join(format!("{name}.toml")), &BuildOptions::default())?;
-    s.set_resolution(w, h)?;
-    s.spp = spp;
-    s.seed = seed;
-    Ok(s)
+fn scene_at(
+    dir: &Path,
+    name: &str,
+    w: u32,
+    h: u32,
+    spp: u32,
+    seed: u64,
+) -> Result<(RenderScene, RenderSettings)> {
+    let s = load_scene(&dir.join(format!("{name}.toml")), &BuildOptions::default())?;
+    let set = RenderSettings::from_scene(&s)
+        .with_resolution(w, h)?
+        .with_spp(spp)
+        .with_seed(seed);
+    Ok((s, set))
+}
+
+/// Render scene `name` of `dir` at `w`×`h`, `spp`, `seed`.
+fn render_at(dir: &Path, name: &str, w: u32, h: u32, spp: u32, seed: u64) -> Result<Rendered> {
+    let (s, set) = scene_at(dir, name, w, h, spp, seed)?;
+    render(&s, &set, &quiet())
 }
 
 /// 1. Error against a high-spp reference vs wall time, per reference scene.
@@ -269,7 +284,7 @@ fn convergence(o: &ReportOptions, z: &Sizes, log: &mut dyn FnMut(&str)) -> Resul
     let mut summary = vec![];
     let mut rows = vec![];
     for name in REFERENCE_SCENES {
-        let reference = render(&scene_at(&o.scenes_dir, name, w, h, ref_spp, 7_777)?, &quiet())?;
+        let reference = render_at(&o.scenes_dir, name, w, h, ref_spp, 7_777)?;
         log(&format!(
             "convergence: {name} reference {ref_spp} spp in {:.1} s",
             reference.stats.wall_s
@@ -277,7 +292,7 @@ fn convergence(o: &ReportOptions, z: &Sizes, log: &mut dyn FnMut(&str)) -> Resul
         let (mut bp, mut pp) = (vec![], vec![]);
         let mut last: Option<Rendered> = None;
         for &spp in spps {
-            let r = render(&scene_at(&o.scenes_dir, name, w, h, spp, 1)?, &quiet())?;
+            let r = render_at(&o.scenes_dir, name, w, h, spp, 1)?;
             let (e_px, e_blk) = image_errors(&r.pixels, &reference.pixels, w, h, 16);
             bp.push([r.stats.wall_s, e_blk]);
             pp.push([r.stats.wall_s, e_px]);
@@ -440,12 +455,13 @@ fn nested(o: &ReportOptions, z: &Sizes, log: &mut dyn FnMut(&str)) -> Result<Sec
         for (k, &st) in audited.iter().enumerate() {
             let s = load_scene(
                 &o.scenes_dir.join(format!("{name}.toml")),
-                &BuildOptions {
-                    nested: st,
-                    ..Default::default()
-                },
+                &BuildOptions::default(),
             )?;
-            let a = audit_scene(&s, z.audit_rays, 1)?;
+            let tr = Tracer {
+                scene: &s,
+                strategy: st,
+            };
+            let a = audit_scene(tr, z.audit_rays, 1)?;
             wrong[k].push([idx(name), a.wrong_rays as f64]);
             row.push(a.wrong_rays.to_string());
         }
@@ -614,8 +630,8 @@ fn grin(o: &ReportOptions, z: &Sizes, log: &mut dyn FnMut(&str)) -> Result<Secti
     log("grin: accuracy done");
     let (mut err, mut time, mut rows) = (vec![], vec![], vec![]);
     for (name, w, h, tols) in z.chord {
-        let mut s = scene_at(&o.scenes_dir, name, w, h, 1, 1)?;
-        let runs = bench::chord_sweep(&mut s, tols, None)?;
+        let (mut s, set) = scene_at(&o.scenes_dir, name, w, h, 1, 1)?;
+        let runs = bench::chord_sweep(&mut s, &set, tols, None)?;
         let fine = runs.last().map(|r| r.wall_s).unwrap_or(1.0);
         err.push(series(name, runs.iter().map(|r| [r.tolerance, r.rmse]).collect()));
         time.push(series(
@@ -939,11 +955,11 @@ fn pictures(
     ];
     let (mut pics, mut summary, mut plot_pts) = (vec![], vec![], vec![]);
     for (k, (a, b, spp, what)) in pairs.into_iter().enumerate() {
-        let ra = render(&scene_at(&o.scenes_dir, a, w, h, spp, 1)?, &quiet())?;
+        let ra = render_at(&o.scenes_dir, a, w, h, spp, 1)?;
         // b and a second a with another seed: the a-b difference is judged
         // against the a-a' difference (pure noise), block means of 16x16.
-        let rb = render(&scene_at(&o.scenes_dir, b, w, h, spp, 2)?, &quiet())?;
-        let ra2 = render(&scene_at(&o.scenes_dir, a, w, h, spp, 2)?, &quiet())?;
+        let rb = render_at(&o.scenes_dir, b, w, h, spp, 2)?;
+        let ra2 = render_at(&o.scenes_dir, a, w, h, spp, 2)?;
         let noise = image_errors(&ra.pixels, &ra2.pixels, w, h, 16).1;
         let diff: Vec<V3> = ra
             .pixels

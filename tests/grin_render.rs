@@ -1,15 +1,18 @@
 //! Curved rays in the renderer: the inferior-mirage scene against the same
 //! scene with no field.
-use snell::render::{render, RenderOptions};
+use snell::render::{render, RenderOptions, RenderSettings};
 use snell::scene::{load_scene, BuildOptions};
 use std::path::Path;
 
 fn row_blue_excess(path: &str) -> (Vec<f64>, snell::render::RenderStats) {
-    let mut s = load_scene(Path::new(path), &BuildOptions::default()).unwrap();
-    s.set_resolution(96, 32).unwrap();
-    s.spp = 2;
+    let s = load_scene(Path::new(path), &BuildOptions::default()).unwrap();
+    let set = RenderSettings::from_scene(&s)
+        .with_resolution(96, 32)
+        .unwrap()
+        .with_spp(2);
     let r = render(
         &s,
+        &set,
         &RenderOptions {
             threads: Some(2),
             quiet: true,
@@ -111,6 +114,7 @@ material = {{ type = "diffuse", reflectance = [0.7, 0.7, 0.7] }}
             .unwrap();
         render(
             &s,
+            &RenderSettings::from_scene(&s),
             &RenderOptions {
                 threads: Some(2),
                 quiet: true,
@@ -135,11 +139,14 @@ material = {{ type = "diffuse", reflectance = [0.7, 0.7, 0.7] }}
 }
 
 fn render_small(path: &str, w: u32, h: u32, spp: u32) -> snell::render::Rendered {
-    let mut s = load_scene(Path::new(path), &BuildOptions::default()).unwrap();
-    s.set_resolution(w, h).unwrap();
-    s.spp = spp;
+    let s = load_scene(Path::new(path), &BuildOptions::default()).unwrap();
+    let set = RenderSettings::from_scene(&s)
+        .with_resolution(w, h)
+        .unwrap()
+        .with_spp(spp);
     render(
         &s,
+        &set,
         &RenderOptions {
             threads: Some(2),
             quiet: true,
@@ -225,9 +232,11 @@ fn plume_distorts_only_what_is_seen_through_it() {
 #[test]
 fn image_error_shrinks_with_the_chord_tolerance() {
     let mut s = load_scene(Path::new("scenes/mirage_road.toml"), &BuildOptions::default()).unwrap();
-    s.set_resolution(96, 32).unwrap();
-    s.spp = 1;
-    let runs = snell::bench::chord_sweep(&mut s, &[1.0, 0.1, 0.01, 0.0003], Some(2)).unwrap();
+    let set = RenderSettings::from_scene(&s)
+        .with_resolution(96, 32)
+        .unwrap()
+        .with_spp(1);
+    let runs = snell::bench::chord_sweep(&mut s, &set, &[1.0, 0.1, 0.01, 0.0003], Some(2)).unwrap();
     for r in &runs {
         eprintln!(
             "tolerance {:>6} m: rmse {:.4}, {:.2}% pixels changed, {:.1} chords per segment",

@@ -5,29 +5,33 @@
 use glam::{DVec3, Vec3A as V3};
 use snell::audit::audit_ray;
 use snell::dielectric::{NestedStrategy, TraceCounters};
-use snell::integrator::refraction_path;
-use snell::render::{render, RenderOptions, Rendered};
+use snell::integrator::{refraction_path, Tracer};
+use snell::render::{render, RenderOptions, RenderSettings, Rendered};
 use snell::scene::{load_scene, load_scene_str, BuildOptions, RenderScene};
 use std::path::Path;
 
-fn opts(nested: NestedStrategy) -> BuildOptions {
-    BuildOptions {
-        nested,
-        ..Default::default()
-    }
+/// A scene and the settings a test renders it with.
+type Case = (RenderScene, RenderSettings);
+
+fn settings(s: &RenderScene, nested: NestedStrategy, w: u32, h: u32, spp: u32, seed: u64) -> RenderSettings {
+    RenderSettings::from_scene(s)
+        .with_resolution(w, h)
+        .unwrap()
+        .with_spp(spp)
+        .with_seed(seed)
+        .with_strategy(nested)
 }
 
-fn load(path: &str, nested: NestedStrategy, w: u32, h: u32, spp: u32, seed: u64) -> RenderScene {
-    let mut s = load_scene(Path::new(path), &opts(nested)).unwrap();
-    s.set_resolution(w, h).unwrap();
-    s.spp = spp;
-    s.seed = seed;
-    s
+fn load(path: &str, nested: NestedStrategy, w: u32, h: u32, spp: u32, seed: u64) -> Case {
+    let s = load_scene(Path::new(path), &BuildOptions::default()).unwrap();
+    let set = settings(&s, nested, w, h, spp, seed);
+    (s, set)
 }
 
-fn go(s: &RenderScene) -> Rendered {
+fn go((s, set): &Case) -> Rendered {
     render(
         s,
+        set,
         &RenderOptions {
             threads: Some(2),
             quiet: true,
@@ -153,17 +157,15 @@ fn nested_glass_of_water_matches_interface_meshes() {
     let text = std::fs::read_to_string("scenes/glass_of_water_nested.toml").unwrap();
     let flat_text = text.replace("type = \"lathe\",", "type = \"lathe\", smooth = false,");
     assert_ne!(text, flat_text, "the scene must have a lathe to flatten");
-    let mut flat_scene = load_scene_str(
+    let flat_scene = load_scene_str(
         "flat.toml",
         &flat_text,
         Path::new("scenes"),
-        &opts(NestedStrategy::Filter),
+        &BuildOptions::default(),
     )
     .unwrap();
-    flat_scene.set_resolution(w, h).unwrap();
-    flat_scene.spp = spp;
-    flat_scene.seed = 3;
-    let flat = go(&flat_scene);
+    let flat_settings = settings(&flat_scene, NestedStrategy::Filter, w, h, spp, 3);
+    let flat = go(&(flat_scene, flat_settings));
     let score = |img: &Rendered| -> f64 {
         // Over the three channels together: block RMS against the reference
         // divided by the reference's own seed-to-seed block RMS.
@@ -205,12 +207,12 @@ fn solid(name: &str, shape: &str, ior: f64, priority: i64) -> String {
     format!("[[objects]]\nname = \"{name}\"\nshape = {shape}\nmaterial = {{ type = \"dielectric\", ior = {ior}, priority = {priority} }}\n")
 }
 
-fn scene_of(objects: &str, nested: NestedStrategy) -> RenderScene {
+fn scene_of(objects: &str) -> RenderScene {
     load_scene_str(
         "t.toml",
         &format!("{HEADER}{objects}"),
         Path::new("."),
-        &opts(nested),
+        &BuildOptions::default(),
     )
     .unwrap()
 }
@@ -260,7 +262,7 @@ fn overlapping_equal_ior_spheres_refract_like_their_union() {
         2,
     );
     for strategy in [NestedStrategy::Filter, NestedStrategy::Recast] {
-        let s = scene_of(&objs, strategy);
+        let s = scene_of(&objs);
         let mut checked = 0;
         for k in 0..15 {
             let y = -0.35 + 0.05 * k as f64;
@@ -268,7 +270,7 @@ fn overlapping_equal_ior_spheres_refract_like_their_union() {
             let d = DVec3::X;
             let mut c = TraceCounters::default();
             let p = refraction_path(
-                &s,
+                Tracer { scene: &s, strategy },
                 V3::new(o.x as f32, o.y as f32, o.z as f32),
                 V3::X,
                 &[],
@@ -309,7 +311,7 @@ fn overlapping_equal_ior_spheres_refract_like_their_union() {
 
 /// Overlapping closed meshes and analytic solids, all with the index of air so
 /// rays run straight, and rays aimed exactly at mesh vertices and edge midpoints.
-fn vertex_edge_scene(strategy: NestedStrategy) -> RenderScene {
+fn vertex_edge_scene() -> RenderScene {
     let objs = solid("box_a", "{ type = \"box\", center = [0.0, 0.0, 0.0], size = [1.0, 1.0, 1.0] }", 1.0, 1)
         + &solid("box_b", "{ type = \"box\", center = [0.53, 0.43, 0.11], size = [1.0, 0.9, 1.1] }", 1.0, 2)
         + &solid("box_c", "{ type = \"box\", center = [1.07, 0.52, -0.13], size = [1.2, 1.3, 0.8] }", 1.0, 0)
@@ -320,7 +322,7 @@ fn vertex_edge_scene(strategy: NestedStrategy) -> RenderScene {
             3,
         )
         + &solid("ball", "{ type = \"sphere\", center = [-0.4, 0.3, 0.2], radius = 0.45 }", 1.0, 1);
-    scene_of(&objs, strategy)
+    scene_of(&objs)
 }
 
 fn vertex_edge_targets(s: &RenderScene) -> Vec<V3> {
@@ -340,7 +342,7 @@ fn vertex_edge_targets(s: &RenderScene) -> Vec<V3> {
 }
 
 fn audit_all(strategy: NestedStrategy) -> (u32, u32, u32, usize) {
-    let s = vertex_edge_scene(strategy);
+    let s = vertex_edge_scene();
     let eyes = [
         V3::new(3.1, 2.3, 4.7),
         V3::new(-4.2, 1.1, 3.3),
@@ -351,10 +353,10 @@ fn audit_all(strategy: NestedStrategy) -> (u32, u32, u32, usize) {
     let mut c = TraceCounters::default();
     for t in vertex_edge_targets(&s) {
         for e in eyes {
-            let a = audit_ray(&s, e, (t - e).normalize(), &mut c).unwrap();
+            let a = audit_ray(Tracer { scene: &s, strategy }, e, (t - e).normalize(), &mut c).unwrap();
             if (a.left_nonempty || a.mismatches > 0) && std::env::var("SNELL_DEBUG").is_ok() {
                 let p = refraction_path(
-                    &s,
+                    Tracer { scene: &s, strategy },
                     e,
                     (t - e).normalize(),
                     &s.solids_containing(to_d(e)),
@@ -422,21 +424,39 @@ fn grazing_rays_and_coincident_faces_keep_lists_consistent() {
         0,
     );
     for strategy in [NestedStrategy::Filter, NestedStrategy::Recast] {
-        let s = scene_of(&objs, strategy);
+        let s = scene_of(&objs);
         let mut c = TraceCounters::default();
         let (mut coincident_bad, mut grazing_bad) = (0, 0);
         // Through the coincident face, many heights.
         for k in 0..200 {
             let y = -0.45 + 0.9 * k as f32 / 199.0;
-            let a = audit_ray(&s, V3::new(-3.0, y, 0.123), V3::X, &mut c).unwrap();
+            let a = audit_ray(
+                Tracer { scene: &s, strategy },
+                V3::new(-3.0, y, 0.123),
+                V3::X,
+                &mut c,
+            )
+            .unwrap();
             coincident_bad += (a.mismatches > 0 || a.left_nonempty) as u32;
-            let a = audit_ray(&s, V3::new(3.0, y, -0.2), -V3::X, &mut c).unwrap();
+            let a = audit_ray(
+                Tracer { scene: &s, strategy },
+                V3::new(3.0, y, -0.2),
+                -V3::X,
+                &mut c,
+            )
+            .unwrap();
             coincident_bad += (a.mismatches > 0 || a.left_nonempty) as u32;
         }
         // Grazing the sphere's silhouette from outside, inside and exactly.
         for k in 0..200 {
             let off = 0.5 + (k as f32 - 100.0) * 1e-7;
-            let a = audit_ray(&s, V3::new(-3.0, 2.0 + off, 0.0), V3::X, &mut c).unwrap();
+            let a = audit_ray(
+                Tracer { scene: &s, strategy },
+                V3::new(-3.0, 2.0 + off, 0.0),
+                V3::X,
+                &mut c,
+            )
+            .unwrap();
             grazing_bad += (a.mismatches > 0 || a.left_nonempty) as u32;
         }
         eprintln!("{strategy:?}: coincident faces: {coincident_bad}/400 rays wrong; grazing: {grazing_bad}/200 rays wrong");
@@ -481,7 +501,11 @@ fn camera_inside_water_and_inside_ice_is_found_automatically() {
     let (explicit, _) = cam("[0.55, 0.9, -0.3]", Some("[\"water\"]"));
     let (outside, none) = cam("[0.55, 0.9, -0.3]", Some("[]"));
     assert!(none.is_empty());
-    let (a, b, c) = (go(&auto), go(&explicit), go(&outside));
+    let case = |s: RenderScene| {
+        let set = RenderSettings::from_scene(&s);
+        (s, set)
+    };
+    let (a, b, c) = (go(&case(auto)), go(&case(explicit)), go(&case(outside)));
     assert_eq!(
         a.pixels, b.pixels,
         "automatic and explicit interior lists give the same image"

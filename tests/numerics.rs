@@ -2,8 +2,8 @@
 //! incidence, and total internal reflection that must terminate.
 use glam::{DVec3, Vec3A as V3};
 use snell::dielectric::TraceCounters;
-use snell::integrator::refraction_path;
-use snell::render::{render, RenderOptions, Rendered};
+use snell::integrator::{refraction_path, Tracer};
+use snell::render::{render, RenderOptions, RenderSettings, Rendered};
 use snell::scene::{load_scene_str, BuildOptions, RenderScene};
 use std::path::Path;
 
@@ -14,6 +14,7 @@ fn scene(text: &str) -> RenderScene {
 fn go(s: &RenderScene) -> Rendered {
     render(
         s,
+        &RenderSettings::from_scene(s),
         &RenderOptions {
             threads: Some(2),
             quiet: true,
@@ -99,7 +100,7 @@ material = { type = "dielectric", ior = 1.5 }
         let o = DVec3::new(-0.5 * th.tan(), 0.5, 0.1);
         let mut c = TraceCounters::default();
         let to_f = |v: DVec3| V3::new(v.x as f32, v.y as f32, v.z as f32);
-        let p = refraction_path(&s, to_f(o), to_f(d), &[], 8, &mut c).unwrap();
+        let p = refraction_path(Tracer::new(&s), to_f(o), to_f(d), &[], 8, &mut c).unwrap();
         assert_eq!(p.events.len(), 2, "{deg}°: {:?}", p.events);
         assert!(p.final_list.is_empty() && p.escaped);
         let exit = &p.events[1];
@@ -139,7 +140,7 @@ material = { type = "dielectric", ior = 1.2 }
     for k in 1..=7 {
         for sign in [-1.0f32, 1.0] {
             let b = 1.0 - 10f32.powi(-k) * sign;
-            let p = refraction_path(&s, V3::new(-3.0, b, 0.0), V3::X, &[], 64, &mut c).unwrap();
+            let p = refraction_path(Tracer::new(&s), V3::new(-3.0, b, 0.0), V3::X, &[], 64, &mut c).unwrap();
             for e in &p.events {
                 assert!(e.point.is_finite() && e.next_dir.is_finite() && e.n1.is_finite());
             }

@@ -5,7 +5,7 @@
 //! film) or a located error naming the file, line and key: never a panic, an
 //! unlocated error or more than a second of work.
 use proptest::prelude::*;
-use snell::render::{render, RenderOptions};
+use snell::render::{render, RenderOptions, RenderSettings};
 use snell::scene::{load_scene_str, BuildOptions};
 use std::path::Path;
 use std::time::Instant;
@@ -225,11 +225,10 @@ proptest! {
     fn any_scene_document_renders_or_fails_with_a_located_error(doc in document()) {
         let t = Instant::now();
         match load_scene_str("p.toml", &doc, Path::new("scenes"), &BuildOptions::default()) {
-            Ok(mut s) => {
+            Ok(s) => {
                 let (w, h) = (s.width.min(8), s.height.min(6));
-                s.set_resolution(w, h).expect("a smaller film is always valid");
-                s.spp = 1;
-                let r = render(&s, &RenderOptions { threads: Some(1), quiet: true, want_aovs: false });
+                let set = RenderSettings::from_scene(&s).with_resolution(w, h).expect("a smaller film is always valid");
+                let r = render(&s, &set.with_spp(1), &RenderOptions { threads: Some(1), quiet: true, want_aovs: false });
                 prop_assert!(r.is_ok(), "render failed: {:?}\n{doc}", r.err());
                 let r = r.unwrap();
                 prop_assert!(r.pixels.iter().all(|p| p.is_finite()), "non-finite pixel\n{doc}");

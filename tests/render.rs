@@ -1,7 +1,7 @@
 //! The renderer end to end: furnace tests, an analytic direct-lighting case,
 //! thread-count independence, reference-scene means, and bad input.
 use glam::Vec3A as V3;
-use snell::render::{render, RenderOptions, Rendered};
+use snell::render::{render, RenderOptions, RenderSettings, Rendered};
 use snell::scene::{load_scene, load_scene_str, BuildOptions};
 use std::path::Path;
 
@@ -10,6 +10,7 @@ fn render_str(text: &str, threads: usize) -> Rendered {
         .expect("scene loads");
     render(
         &s,
+        &RenderSettings::from_scene(&s),
         &RenderOptions {
             threads: Some(threads),
             quiet: true,
@@ -141,16 +142,18 @@ fn same_image_with_one_or_two_threads_bit_for_bit() {
 fn reference_scenes_have_no_nan_and_match_stored_means() {
     let stored: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string("tests/data/reference_means.json").unwrap()).unwrap();
-    let render_80x60 = |mut s: snell::scene::RenderScene| {
-        s.set_resolution(80, 60).unwrap();
-        s.spp = 16;
-        s.seed = 12345;
+    let render_80x60 = |s: snell::scene::RenderScene| {
+        let set = RenderSettings::from_scene(&s)
+            .with_resolution(80, 60)
+            .unwrap()
+            .with_spp(16)
+            .with_seed(12345);
         let opts = RenderOptions {
             threads: Some(2),
             quiet: true,
             want_aovs: false,
         };
-        render(&s, &opts).unwrap()
+        render(&s, &set, &opts).unwrap()
     };
     for name in ["three_spheres", "glass_of_water", "cylinder_refraction"] {
         let path = format!("scenes/{name}.toml");

@@ -51,12 +51,15 @@ fn paper_method_is_measurably_worse_on_the_tube() {
 #[test]
 fn full_trace_of_a_warp_scene_renders() {
     for scene in ["scenes/warp_cylinder.toml", "scenes/warp_plate.toml"] {
-        let mut s = load_scene(Path::new(scene), &BuildOptions::default()).unwrap();
+        let s = load_scene(Path::new(scene), &BuildOptions::default()).unwrap();
         assert!(s.warp.is_some());
-        s.set_resolution(32, 24).unwrap();
-        s.spp = 2;
+        let set = snell::render::RenderSettings::from_scene(&s)
+            .with_resolution(32, 24)
+            .unwrap()
+            .with_spp(2);
         let r = snell::render::render(
             &s,
+            &set,
             &snell::render::RenderOptions {
                 threads: Some(1),
                 quiet: true,

@@ -4,7 +4,7 @@
 //!
 //! Depth follows Mitsuba: `max_depth` counts path segments including the
 //! camera ray (1 = directly visible emitters only, 2 = direct lighting).
-use crate::dielectric::{self, InteriorList, TraceCounters};
+use crate::dielectric::{self, InteriorList, NestedStrategy, TraceCounters};
 use crate::error::Result;
 use crate::optics;
 use crate::ray::{front_facing, offset_origin, offset_size, spawn_transmitted, Hit, Ray};
@@ -26,6 +26,26 @@ pub struct SampleStats {
     pub segments: u32,
     pub shadow_rays: u32,
     pub nan: u32,
+}
+
+/// What every path of a render shares: the scene, and how nested
+/// dielectrics are resolved (a render setting, not part of the scene).
+#[derive(Clone, Copy)]
+pub struct Tracer<'a> {
+    /// The scene.
+    pub scene: &'a RenderScene,
+    /// How false hits are found and skipped.
+    pub strategy: NestedStrategy,
+}
+
+impl<'a> Tracer<'a> {
+    /// A tracer of `scene` with the default strategy (the filter).
+    pub fn new(scene: &'a RenderScene) -> Self {
+        Tracer {
+            scene,
+            strategy: NestedStrategy::Filter,
+        }
+    }
 }
 
 /// Geometry at a hit, in world space.
@@ -249,9 +269,10 @@ fn meets_medium(scene: &RenderScene, p: V3, wi: V3, dist: f32) -> bool {
 
 /// Cast `ray`, through the gradient-index medium as chords when the scene has
 /// one (straight outside its bounds at no extra cost), else straight.
-fn cast(scene: &RenderScene, ray: &Ray, list: &mut InteriorList, st: &mut SampleStats) -> Result<Segment> {
+fn cast(tr: Tracer<'_>, ray: &Ray, list: &mut InteriorList, st: &mut SampleStats) -> Result<Segment> {
+    let scene = tr.scene;
     let Some(med) = &scene.medium else {
-        let hit = dielectric::trace(scene, scene.strategy, ray, list, &mut st.counters)?;
+        let hit = dielectric::trace(scene, tr.strategy, ray, list, &mut st.counters)?;
         return Ok(Segment {
             length: hit.map(|h| h.hit.t).unwrap_or(f32::INFINITY),
             hit,
@@ -296,7 +317,7 @@ fn cast(scene: &RenderScene, ray: &Ray, list: &mut InteriorList, st: &mut Sample
             r.tfar = chord.length as f32;
         }
         st.chords += 1;
-        if let Some(th) = dielectric::trace(scene, scene.strategy, &r, list, &mut st.counters)? {
+        if let Some(th) = dielectric::trace(scene, tr.strategy, &r, list, &mut st.counters)? {
             let p = r.org + r.dir * th.hit.t;
             let (_, tangent) = curved.refine_hit(
                 med,
@@ -338,27 +359,28 @@ fn cast(scene: &RenderScene, ray: &Ray, list: &mut InteriorList, st: &mut Sample
 
 /// Radiance along a camera ray (unit `dir`), with `list` the interior list at the camera.
 pub fn radiance(
-    scene: &RenderScene,
+    tr: Tracer<'_>,
     org: V3,
     dir: V3,
     list: InteriorList,
     rng: &mut Rng,
     st: &mut SampleStats,
 ) -> Result<V3> {
-    match scene.integrator {
-        IntegratorKind::Path => path(scene, org, dir, list, rng, st),
-        IntegratorKind::Whitted => whitted(scene, org, dir, list, rng, st, 1),
+    match tr.scene.integrator {
+        IntegratorKind::Path => path(tr, org, dir, list, rng, st),
+        IntegratorKind::Whitted => whitted(tr, org, dir, list, rng, st, 1),
     }
 }
 
 fn path(
-    scene: &RenderScene,
+    tr: Tracer<'_>,
     org: V3,
     dir: V3,
     mut list: InteriorList,
     rng: &mut Rng,
     st: &mut SampleStats,
 ) -> Result<V3> {
+    let scene = tr.scene;
     let mut l = V3::ZERO;
     let mut beta = V3::ONE;
     let mut eta_scale = 1.0f32;
@@ -370,7 +392,7 @@ fn path(
     loop {
         st.segments += 1;
         let sigma = dielectric::medium_of(dielectric::Nesting::of(scene), &list);
-        let seg = cast(scene, &ray, &mut list, st)?;
+        let seg = cast(tr, &ray, &mut list, st)?;
         if seg.failed {
             st.grin_failures += 1;
             break;
@@ -459,7 +481,7 @@ fn path(
             m @ (Material::Interface { .. } | Material::Solid(_)) => {
                 let Some(c) = dielectric::boundary(
                     dielectric::Nesting::of(scene),
-                    scene.strategy,
+                    tr.strategy,
                     m,
                     front,
                     &coincident,
@@ -526,7 +548,7 @@ fn path(
 /// Whitted: direct light at diffuse surfaces (one sample per light), perfect
 /// specular recursion for mirrors and both branches of dielectrics.
 fn whitted(
-    scene: &RenderScene,
+    tr: Tracer<'_>,
     org: V3,
     dir: V3,
     mut list: InteriorList,
@@ -534,11 +556,12 @@ fn whitted(
     st: &mut SampleStats,
     depth: u32,
 ) -> Result<V3> {
+    let scene = tr.scene;
     st.segments += 1;
     let ray = Ray::new(org, dir);
     let sigma = dielectric::medium_of(dielectric::Nesting::of(scene), &list);
     // The same (curved through a medium) cast as the path tracer.
-    let seg = cast(scene, &ray, &mut list, st)?;
+    let seg = cast(tr, &ray, &mut list, st)?;
     if seg.failed {
         st.grin_failures += 1;
         return Ok(V3::ZERO);
@@ -593,12 +616,12 @@ fn whitted(
             let n = if front { sp.ns } else { -sp.ns };
             let side = if front { sp.ng } else { -sp.ng };
             let wi = to_f(optics::reflect(to_d(dir), to_d(n)).normalize());
-            l += *reflectance * whitted(scene, offset_origin(sp.p, side), wi, list, rng, st, depth + 1)?;
+            l += *reflectance * whitted(tr, offset_origin(sp.p, side), wi, list, rng, st, depth + 1)?;
         }
         m @ (Material::Interface { .. } | Material::Solid(_)) => {
             let Some(c) = dielectric::boundary(
                 dielectric::Nesting::of(scene),
-                scene.strategy,
+                tr.strategy,
                 m,
                 front,
                 &coincident,
@@ -613,7 +636,7 @@ fn whitted(
             let wr = to_f(optics::reflect(d, n).normalize());
             l += fr
                 * whitted(
-                    scene,
+                    tr,
                     offset_origin(sp.p, side),
                     wr,
                     list.clone(),
@@ -627,7 +650,7 @@ fn whitted(
                 let mut nl = list;
                 c.transmit(&mut nl);
                 let (org, wt) = spawn_transmitted(sp.p, -side, dir, to_f(t.normalize()), n1, n2);
-                l += (1.0 - fr) * k * k * whitted(scene, org, wt, nl, rng, st, depth + 1)?;
+                l += (1.0 - fr) * k * k * whitted(tr, org, wt, nl, rng, st, depth + 1)?;
             } else {
                 st.tir += 1;
             }
@@ -663,19 +686,20 @@ pub struct PathEvent {
 /// at a miss, or after `max_events`. Deterministic: used by tests and audits to
 /// compare strategies and to check interior lists against point-in-solid tests.
 pub fn refraction_path(
-    scene: &RenderScene,
+    tr: Tracer<'_>,
     org: V3,
     dir: V3,
     start: &[u32],
     max_events: usize,
     counters: &mut TraceCounters,
 ) -> Result<RefractionPath> {
+    let scene = tr.scene;
     let mut list = InteriorList::from_solids(&scene.solids, start);
     let mut ray = Ray::new(org, dir.normalize());
     let mut events = Vec::new();
     for _ in 0..max_events {
         let Some(dielectric::TrueHit { hit, coincident }) =
-            dielectric::trace(scene, scene.strategy, &ray, &mut list, counters)?
+            dielectric::trace(scene, tr.strategy, &ray, &mut list, counters)?
         else {
             return Ok(RefractionPath {
                 events,
@@ -696,7 +720,7 @@ pub fn refraction_path(
         }
         let Some(c) = dielectric::boundary(
             dielectric::Nesting::of(scene),
-            scene.strategy,
+            tr.strategy,
             m,
             front,
             &coincident,

@@ -6,7 +6,6 @@ use super::shapes::{Analytic, Mesh};
 use super::source::Source;
 use super::texture::{load_image, ImageData, Texture};
 use crate::camera::Camera;
-use crate::dielectric::NestedStrategy;
 use crate::embree::{BuildQuality, Device, SceneBuilder, SceneFlags};
 use crate::error::{Error, Result};
 use glam::{DMat3, DMat4, DVec3, Vec3A as V3};
@@ -21,7 +20,6 @@ pub const MAX_HEIGHTFIELD_LEVELS: u32 = 12; // 4097² vertices, ~33 M triangles
 /// How the scene is built for a render.
 #[derive(Debug, Clone, Copy)]
 pub struct BuildOptions {
-    pub nested: NestedStrategy,
     /// Override of the Embree robust flag (default: on when the scene has priority solids).
     pub robust: Option<bool>,
     pub quality: BuildQuality,
@@ -30,7 +28,6 @@ pub struct BuildOptions {
 impl Default for BuildOptions {
     fn default() -> Self {
         BuildOptions {
-            nested: NestedStrategy::Filter,
             robust: None,
             quality: BuildQuality::Medium,
         }
@@ -167,10 +164,17 @@ pub struct RenderScene {
     pub solid_by_geom: Vec<Option<u32>>,
     pub lights: Vec<Light>,
     pub environment: Environment,
+    /// The camera at the film resolution the scene file declares (a render
+    /// at another resolution uses `Camera::with_resolution`).
     pub camera: Camera,
+    /// Film width the scene file declares (pixels); renders take theirs
+    /// from `render::RenderSettings`, which starts from these four.
     pub width: u32,
+    /// Film height the scene file declares (pixels).
     pub height: u32,
+    /// Samples per pixel the scene file declares.
     pub spp: u32,
+    /// Seed the scene file declares.
     pub seed: u64,
     pub integrator: IntegratorKind,
     pub max_depth: u32,
@@ -181,7 +185,6 @@ pub struct RenderScene {
     /// True when some solids may overlap (bounds intersect): only then can a
     /// false hit happen and only then is a filter installed.
     pub has_overlap: bool,
-    pub strategy: NestedStrategy,
     /// The gradient-index medium, if any: rays inside its bounds are cast as chords.
     pub medium: Option<crate::media::Medium>,
     /// The analytic warp glass (`[warp]`), if any; its geometry is also in
@@ -768,9 +771,11 @@ impl Builder<'_> {
             }
         }
 
-        let strategy = self.opts.nested;
+        // The context-filter flag costs nothing for queries without a filter
+        // (callgrind: identical instruction counts for the re-cast), so it is
+        // set whenever a filter could be needed, whatever strategy renders.
         let flags = SceneFlags {
-            context_filter: has_overlap && strategy == crate::dielectric::NestedStrategy::Filter,
+            context_filter: has_overlap,
             robust: self.opts.robust.unwrap_or(has_solids),
         };
         let device = Device::new("")?;
@@ -863,7 +868,6 @@ impl Builder<'_> {
             ambient_ior: ambient as f32,
             camera_interior: Vec::new(),
             has_overlap,
-            strategy,
             warnings,
             containment,
         };
@@ -1260,7 +1264,12 @@ impl Builder<'_> {
 }
 
 impl RenderScene {
-    /// Change the film resolution (the camera keeps its vertical field of view).
+    /// Change the declared film resolution (the camera keeps its vertical
+    /// field of view). Only the warp renderer uses this; path-traced renders
+    /// leave the scene alone and take a `render::RenderSettings`.
+    ///
+    /// # Errors
+    /// A zero or too large resolution.
     pub fn set_resolution(&mut self, width: u32, height: u32) -> Result<()> {
         if width == 0 || height == 0 || (width as u64) * (height as u64) > MAX_PIXELS {
             return Err(Error::Invalid(format!(
