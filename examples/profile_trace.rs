@@ -2,7 +2,8 @@
 //! path rays of one scene traced with one strategy, `reps` times.
 //! `cargo run --release --example profile_trace -- scenes/deep_nesting.toml filter 3`
 use snell::bench::path_rays;
-use snell::dielectric::{self, InteriorList, NestedStrategy, TraceCounters};
+use snell::counters::Counters;
+use snell::dielectric::{self, InteriorList, NestedStrategy};
 use snell::scene::{load_scene, BuildOptions};
 
 fn main() -> snell::Result<()> {
@@ -11,7 +12,7 @@ fn main() -> snell::Result<()> {
     let reps: usize = a.get(3).and_then(|r| r.parse().ok()).unwrap_or(1);
     let scene = load_scene(std::path::Path::new(&a[1]), &BuildOptions::default())?;
     let rays = path_rays(&scene, 160, 120)?;
-    let mut c = TraceCounters::default();
+    let mut c = Counters::default();
     let t = std::time::Instant::now();
     let mut sink = 0u64;
     for _ in 0..reps {

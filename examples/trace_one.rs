@@ -1,7 +1,8 @@
 //! Trace one refraction path and print its events (interior lists, indices):
 //! `cargo run --release --example trace_one -- SCENE STRATEGY ox oy oz dx dy dz [list]`
 use glam::Vec3A as V3;
-use snell::dielectric::{NestedStrategy, TraceCounters};
+use snell::counters::Counters;
+use snell::dielectric::NestedStrategy;
 use snell::integrator::{refraction_path, Tracer};
 use snell::scene::{load_scene, BuildOptions};
 fn main() {
@@ -11,7 +12,7 @@ fn main() {
     let v: Vec<f32> = a[3..9].iter().map(|x| x.parse().unwrap()).collect();
     let o = V3::new(v[0], v[1], v[2]);
     let d = V3::new(v[3], v[4], v[5]);
-    let mut c = TraceCounters::default();
+    let mut c = Counters::default();
     let start: Vec<u32> = a
         .get(9)
         .map(|x| x.split(",").map(|y| y.parse().unwrap()).collect())

@@ -3,7 +3,7 @@
 //! highest-ranked solid, which cannot change between true hits) with an
 //! independent point-in-solid classification of the segment's midpoint; and
 //! check that a ray which has left everything has an empty list.
-use crate::dielectric::TraceCounters;
+use crate::counters::Counters;
 use crate::error::Result;
 use crate::integrator::{refraction_path, Tracer};
 use crate::scene::RenderScene;
@@ -25,7 +25,7 @@ pub struct RayAudit {
 }
 
 /// Audit one ray from `org` (the start list is found by point-in-solid tests).
-pub fn audit_ray(tr: Tracer<'_>, org: V3, dir: V3, counters: &mut TraceCounters) -> Result<RayAudit> {
+pub fn audit_ray(tr: Tracer<'_>, org: V3, dir: V3, counters: &mut Counters) -> Result<RayAudit> {
     let scene = tr.scene;
     let to_d = |v: V3| DVec3::new(v.x as f64, v.y as f64, v.z as f64);
     let start = scene.solids_containing(to_d(org));
@@ -130,7 +130,7 @@ pub fn audit_scene(tr: Tracer<'_>, n: u64, seed: u64) -> Result<AuditReport> {
         .par_iter()
         .map(|&k| {
             let mut rep = AuditReport::default();
-            let mut counters = TraceCounters::default();
+            let mut counters = Counters::default();
             for i in k * chunk..((k + 1) * chunk).min(n) {
                 let mut rng = Rng::for_sample(seed, k, i);
                 let eye = c + uniform_sphere(rng.uniform(), rng.uniform()) * radius * 2.0;

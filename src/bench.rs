@@ -5,7 +5,8 @@
 //! - `nested`: every nested-dielectric strategy on every nested scene and the
 //!   no-overlap reference scenes, trace-only (a fixed set of rays taken from
 //!   real refraction paths) and full render, repeats interleaved.
-use crate::dielectric::{self, InteriorList, NestedStrategy, TraceCounters};
+use crate::counters::Counters;
+use crate::dielectric::{self, InteriorList, NestedStrategy};
 use crate::embree::{BuildQuality, Device, FilterHit, HitFilter, SceneBuilder, SceneFlags};
 use crate::error::Result;
 use crate::integrator::{refraction_path, Tracer};
@@ -168,7 +169,7 @@ pub struct ListedRay {
 /// `w`×`h` grid of camera rays): the camera rays and every continuation.
 pub fn path_rays(scene: &RenderScene, w: u32, h: u32) -> Result<Vec<ListedRay>> {
     let mut out = Vec::new();
-    let mut c = TraceCounters::default();
+    let mut c = Counters::default();
     let cam = scene.camera.with_resolution(w, h);
     for y in 0..h {
         for x in 0..w {
@@ -213,12 +214,8 @@ pub struct NestedRun {
     pub walls: Vec<f64>,
 }
 
-fn trace_only(
-    scene: &RenderScene,
-    strategy: NestedStrategy,
-    rays: &[ListedRay],
-) -> Result<(f64, TraceCounters)> {
-    let mut c = TraceCounters::default();
+fn trace_only(scene: &RenderScene, strategy: NestedStrategy, rays: &[ListedRay]) -> Result<(f64, Counters)> {
+    let mut c = Counters::default();
     let t = Instant::now();
     let mut sink = 0u64;
     for r in rays {
@@ -279,7 +276,7 @@ pub fn nested(opts: &NestedBenchOptions, mut progress: impl FnMut(&str)) -> Resu
         let rays = path_rays(&scene, opts.trace_grid.0, opts.trace_grid.1)?;
         progress(&format!("{name}: {} trace rays", rays.len()));
         let mut trace_t = vec![vec![]; strategies.len()];
-        let mut trace_c = vec![TraceCounters::default(); strategies.len()];
+        let mut trace_c = vec![Counters::default(); strategies.len()];
         let mut render_t = vec![vec![]; strategies.len()];
         let mut render_stats = vec![None; strategies.len()];
         for _ in 0..opts.reps {
@@ -323,13 +320,13 @@ pub fn nested(opts: &NestedBenchOptions, mut progress: impl FnMut(&str)) -> Resu
                 scene: name.clone(),
                 strategy: s.name().into(),
                 mode: "render".into(),
-                rays_per_s: st.rays as f64 / wall,
-                false_hits_per_ray: st.false_hits as f64 / st.queries.max(1) as f64,
+                rays_per_s: st.counters.rays() as f64 / wall,
+                false_hits_per_ray: st.counters.false_hits as f64 / st.counters.queries.max(1) as f64,
                 wall_s: wall,
                 median_of: opts.reps,
                 spread_s: spread(&render_t[k]),
-                rays: st.rays,
-                samples_per_s: Some(st.samples as f64 / wall),
+                rays: st.counters.rays(),
+                samples_per_s: Some(st.counters.samples as f64 / wall),
                 walls: render_t[k].clone(),
             });
         }
@@ -452,8 +449,8 @@ pub fn chord_sweep(
             ChordRun {
                 tolerance,
                 wall_s: r.stats.wall_s,
-                rays_per_s: r.stats.rays as f64 / r.stats.wall_s.max(1e-12),
-                chords_per_segment: r.stats.chords as f64 / r.stats.segments.max(1) as f64,
+                rays_per_s: r.stats.counters.rays() as f64 / r.stats.wall_s.max(1e-12),
+                chords_per_segment: r.stats.counters.chords as f64 / r.stats.counters.segments.max(1) as f64,
                 rmse: (se / (3.0 * n)).sqrt(),
                 changed: changed as f64 / n,
             }

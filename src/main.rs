@@ -57,7 +57,7 @@ enum Cmd {
         nested: NestedStrategy,
         /// Diagnostic layers: false_hits,list_depth,tir,fallbacks (EXR channels, or PNGs beside a PNG).
         #[arg(long, value_delimiter = ',')]
-        aov: Vec<String>,
+        aov: Vec<snell::render::Aov>,
         #[arg(long)]
         quiet: bool,
         /// Write render statistics (with provenance) as JSON.
@@ -683,13 +683,6 @@ fn run(cli: Cli) -> snell::Result<()> {
             if farm.mkdir {
                 snell::farm::make_parent(&output)?;
             }
-            for a in &aov {
-                if !["false_hits", "list_depth", "tir", "fallbacks"].contains(&a.as_str()) {
-                    return Err(snell::Error::Invalid(format!(
-                        "--aov: unknown layer \"{a}\"; expected false_hits, list_depth, tir, fallbacks"
-                    )));
-                }
-            }
             let load_t = std::time::Instant::now();
             let (s, scene_id) = snell::farm::load(&scene, &set, &BuildOptions::default(), nested)?;
             let load_s = load_t.elapsed().as_secs_f64();
@@ -768,18 +761,7 @@ fn run(cli: Cli) -> snell::Result<()> {
                 );
                 p
             };
-            let mut layers: Vec<(&str, &[f32])> = aov
-                .iter()
-                .map(|a| {
-                    let v: &[f32] = match a.as_str() {
-                        "false_hits" => &r.aovs.false_hits,
-                        "list_depth" => &r.aovs.list_depth,
-                        "tir" => &r.aovs.tir,
-                        _ => &r.aovs.fallbacks,
-                    };
-                    (a.as_str(), v)
-                })
-                .collect();
+            let mut layers: Vec<(&str, &[f32])> = aov.iter().map(|&a| (a.name(), r.aovs.layer(a))).collect();
             if !r.complete {
                 layers.push(("spp", &r.pixel_spp));
             }
@@ -829,10 +811,10 @@ fn run(cli: Cli) -> snell::Result<()> {
                 // The partial is consumed: a directory of parts must not hold it twice.
                 let _ = std::fs::remove_file(&own_partial);
             }
-            if r.stats.nan > 0 {
+            if r.stats.counters.nan > 0 {
                 eprintln!(
                     "warning: {} samples were NaN or Inf and were dropped",
-                    r.stats.nan
+                    r.stats.counters.nan
                 );
             }
             if !quiet {

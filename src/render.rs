@@ -2,9 +2,10 @@
 //! seeded by (seed, pixel, sample), so the image is the same for any thread count.
 pub use crate::accum::{mean_of, to_fixed, Accum, PartSpec, Region, FIXED_BITS};
 use crate::camera::Camera;
+use crate::counters::Counters;
 use crate::dielectric::{InteriorList, NestedStrategy};
 use crate::error::{Error, Result};
-use crate::integrator::{radiance, SampleStats, Tracer};
+use crate::integrator::{radiance, Tracer};
 use crate::sampling::Rng;
 use crate::scene::RenderScene;
 use glam::Vec3A as V3;
@@ -14,13 +15,68 @@ use std::time::Instant;
 
 pub const TILE: u32 = 16;
 
-/// Per-pixel diagnostic layers (means over the pixel's samples).
+/// A per-pixel diagnostic layer (AOV): per pixel, the mean over its samples
+/// of a per-sample count (the maximum for `list_depth`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Aov {
+    /// False hits skipped per sample.
+    #[value(name = "false_hits")]
+    FalseHits,
+    /// Deepest interior list of any sample (a maximum).
+    #[value(name = "list_depth")]
+    ListDepth,
+    /// Total internal reflections per sample.
+    #[value(name = "tir")]
+    Tir,
+    /// Filtered queries finished by re-casting, per sample.
+    #[value(name = "fallbacks")]
+    Fallbacks,
+}
+
+impl Aov {
+    /// Every layer, in the order of [`Aovs::layers`].
+    pub const ALL: [Aov; 4] = [Aov::FalseHits, Aov::ListDepth, Aov::Tir, Aov::Fallbacks];
+
+    /// The layer's name (EXR channel, PNG suffix, `--aov` value).
+    pub fn name(self) -> &'static str {
+        match self {
+            Aov::FalseHits => "false_hits",
+            Aov::ListDepth => "list_depth",
+            Aov::Tir => "tir",
+            Aov::Fallbacks => "fallbacks",
+        }
+    }
+
+    /// Fold one sample's counters into the pixel's value (`inv` = 1 / samples).
+    #[inline]
+    fn add_sample(self, pixel: &mut f32, c: &Counters, inv: f32) {
+        match self {
+            Aov::FalseHits => *pixel += c.false_hits as f32 * inv,
+            Aov::ListDepth => *pixel = pixel.max(c.max_list_depth as f32),
+            Aov::Tir => *pixel += c.tir as f32 * inv,
+            Aov::Fallbacks => *pixel += c.fallbacks as f32 * inv,
+        }
+    }
+}
+
+/// Per-pixel diagnostic layers, one per [`Aov`] (empty unless asked for).
 #[derive(Debug, Clone, Default)]
 pub struct Aovs {
-    pub false_hits: Vec<f32>,
-    pub list_depth: Vec<f32>,
-    pub tir: Vec<f32>,
-    pub fallbacks: Vec<f32>,
+    /// Indexed by `Aov as usize`.
+    pub layers: [Vec<f32>; 4],
+}
+
+impl Aovs {
+    fn new(n: usize) -> Self {
+        Aovs {
+            layers: [vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]],
+        }
+    }
+
+    /// The layer of `aov`, row-major like the image.
+    pub fn layer(&self, aov: Aov) -> &[f32] {
+        &self.layers[aov as usize]
+    }
 }
 
 /// A rendered image (linear RGB, row 0 at the top) with statistics.
@@ -57,87 +113,39 @@ pub struct Rendered {
     pub accum: Option<Accum>,
 }
 
-/// Totals over a render.
+/// Totals over a render: its wall time and its counters.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct RenderStats {
+    /// Wall-clock time of the render, seconds.
     pub wall_s: f64,
-    pub samples: u64,
-    /// Embree queries (nearest-hit casts, including re-casts) plus shadow rays.
-    pub rays: u64,
-    pub queries: u64,
-    pub shadow_rays: u64,
-    pub false_hits: u64,
-    pub filter_calls: u64,
-    pub fallbacks: u64,
-    pub max_list_depth: u64,
-    pub list_spills: u64,
-    pub tir: u64,
-    pub nan: u64,
-    pub segments: u64,
-    pub chords: u64,
-    pub grin_failures: u64,
+    /// Every event counted over the render.
+    pub counters: Counters,
 }
 
 impl RenderStats {
-    fn add(&mut self, s: &SampleStats) {
-        self.queries += s.counters.queries;
-        self.shadow_rays += s.shadow_rays as u64;
-        self.false_hits += s.counters.false_hits;
-        self.filter_calls += s.counters.filter_calls;
-        self.fallbacks += s.counters.fallbacks;
-        self.max_list_depth = self.max_list_depth.max(s.counters.max_list_depth);
-        self.list_spills += s.counters.spills;
-        self.tir += s.tir as u64;
-        self.nan += s.nan as u64;
-        self.segments += s.segments as u64;
-        self.chords += s.chords as u64;
-        self.grin_failures += s.grin_failures as u64;
-    }
-
-    fn merge(&mut self, o: &RenderStats) {
-        self.samples += o.samples;
-        self.queries += o.queries;
-        self.shadow_rays += o.shadow_rays;
-        self.false_hits += o.false_hits;
-        self.filter_calls += o.filter_calls;
-        self.fallbacks += o.fallbacks;
-        self.max_list_depth = self.max_list_depth.max(o.max_list_depth);
-        self.list_spills += o.list_spills;
-        self.tir += o.tir;
-        self.nan += o.nan;
-        self.segments += o.segments;
-        self.chords += o.chords;
-        self.grin_failures += o.grin_failures;
-    }
-
     /// The stats JSON object (with provenance).
     pub fn to_json(&self, settings: &RenderSettings, spp: u32) -> serde_json::Value {
-        let rays = self.queries + self.shadow_rays;
-        serde_json::json!({
+        let c = &self.counters;
+        let mut j = serde_json::to_value(c).unwrap_or_default();
+        let per = |a: u64, b: u64| a as f64 / b.max(1) as f64;
+        let derived = serde_json::json!({
             "wall_s": self.wall_s,
-            "samples": self.samples,
-            "samples_per_s": self.samples as f64 / self.wall_s.max(1e-9),
-            "rays": rays,
-            "rays_per_s": rays as f64 / self.wall_s.max(1e-9),
-            "queries": self.queries,
-            "shadow_rays": self.shadow_rays,
+            "samples_per_s": c.samples as f64 / self.wall_s.max(1e-9),
+            "rays": c.rays(),
+            "rays_per_s": c.rays() as f64 / self.wall_s.max(1e-9),
             "width": settings.width,
             "height": settings.height,
             "spp": spp,
             "nested_strategy": settings.strategy.name(),
-            "false_hits": self.false_hits,
-            "false_hits_per_ray": self.false_hits as f64 / self.queries.max(1) as f64,
-            "filter_calls_per_ray": self.filter_calls as f64 / self.queries.max(1) as f64,
-            "max_list_depth": self.max_list_depth,
-            "list_spills": self.list_spills,
-            "fallbacks": self.fallbacks,
-            "tir": self.tir,
-            "nan_or_inf_samples": self.nan,
-            "chords": self.chords,
-            "chords_per_segment": self.chords as f64 / self.segments.max(1) as f64,
-            "grin_failures": self.grin_failures,
+            "false_hits_per_ray": per(c.false_hits, c.queries),
+            "filter_calls_per_ray": per(c.filter_calls, c.queries),
+            "chords_per_segment": per(c.chords, c.segments),
             "provenance": crate::provenance::json(),
-        })
+        });
+        if let (Some(o), serde_json::Value::Object(d)) = (j.as_object_mut(), derived) {
+            o.extend(d);
+        }
+        j
     }
 }
 
@@ -243,10 +251,10 @@ struct TileOut {
     h: u32,
     px: Vec<V3>,
     var: Vec<V3>,
-    aov: Option<[Vec<f32>; 4]>,
+    aov: Option<Aovs>,
     sums: Vec<[i128; 3]>,
     counts: Vec<u32>,
-    stats: RenderStats,
+    stats: Counters,
     done: bool,
 }
 
@@ -284,9 +292,8 @@ impl TileJob<'_> {
         let mut var = vec![V3::ZERO; n];
         let mut sums = vec![[0i128; 3]; n];
         let mut counts = vec![0u32; n];
-        let mut aov =
-            (self.want_aovs && !skip).then(|| [vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]]);
-        let mut stats = RenderStats::default();
+        let mut aov = (self.want_aovs && !skip).then(|| Aovs::new(n));
+        let mut stats = Counters::default();
         let tracer = Tracer {
             scene,
             strategy: self.settings.strategy,
@@ -314,19 +321,18 @@ impl TileJob<'_> {
                     let fy = y as f32 + rng.uniform();
                     let lens = (rng.uniform(), rng.uniform());
                     let (o, d) = self.camera.ray(fx, fy, lens);
-                    let mut st = SampleStats::default();
+                    let mut st = Counters::default();
                     let l = radiance(tracer, o, d, start_list.clone(), &mut rng, &mut st)?;
                     for (a, v) in acc.iter_mut().zip(l.to_array()) {
                         *a = a.wrapping_add(to_fixed(v));
                     }
                     sum += l;
                     sumsq += l * l;
-                    stats.add(&st);
+                    stats += st;
                     if let Some(a) = &mut aov {
-                        a[0][k] += st.counters.false_hits as f32 * inv;
-                        a[1][k] = a[1][k].max(st.counters.max_list_depth as f32);
-                        a[2][k] += st.tir as f32 * inv;
-                        a[3][k] += st.counters.fallbacks as f32 * inv;
+                        for (layer, kind) in a.layers.iter_mut().zip(Aov::ALL) {
+                            kind.add_sample(&mut layer[k], &st, inv);
+                        }
                     }
                 }
                 stats.samples += taken as u64;
@@ -465,15 +471,11 @@ pub fn render_part(
     let n = region.pixels();
     let mut pixels = vec![V3::ZERO; n];
     let mut variance = vec![V3::ZERO; n];
-    let mut aovs = Aovs::default();
-    if opts.want_aovs {
-        aovs = Aovs {
-            false_hits: vec![0.0; n],
-            list_depth: vec![0.0; n],
-            tir: vec![0.0; n],
-            fallbacks: vec![0.0; n],
-        };
-    }
+    let mut aovs = if opts.want_aovs {
+        Aovs::new(n)
+    } else {
+        Aovs::default()
+    };
     let mut accum = part.keep_sums.then(|| Accum {
         sums: vec![[0; 3]; n],
         counts: vec![0; n],
@@ -484,7 +486,7 @@ pub fn render_part(
     for r in results {
         let t = r?;
         tiles_done += t.done as u32;
-        stats.merge(&t.stats);
+        stats.counters += t.stats;
         for j in 0..t.h {
             for i in 0..t.w {
                 let dst = ((t.y0 - region.y0 + j) * rw + t.x0 - region.x0 + i) as usize;
@@ -497,17 +499,15 @@ pub fn render_part(
                     a.counts[dst] = t.counts[src];
                 }
                 if let Some(a) = &t.aov {
-                    aovs.false_hits[dst] = a[0][src];
-                    aovs.list_depth[dst] = a[1][src];
-                    aovs.tir[dst] = a[2][src];
-                    aovs.fallbacks[dst] = a[3][src];
+                    for (to, from) in aovs.layers.iter_mut().zip(&a.layers) {
+                        to[dst] = from[src];
+                    }
                 }
             }
         }
     }
     let complete = pixel_spp.iter().all(|&c| c == count as f32);
     stats.wall_s = wall;
-    stats.rays = stats.queries + stats.shadow_rays;
     Ok(Rendered {
         width: rw,
         height: region.height(),

@@ -302,16 +302,16 @@ fn convergence(o: &ReportOptions, z: &Sizes, log: &mut dyn FnMut(&str)) -> Resul
                 format!("{:.3}", r.stats.wall_s),
                 format!("{e_px:.4}"),
                 format!("{e_blk:.4}"),
-                format!("{:.0}", r.stats.samples as f64 / r.stats.wall_s),
-                format!("{:.2}", r.stats.rays as f64 / r.stats.wall_s / 1e6),
+                format!("{:.0}", r.stats.counters.samples as f64 / r.stats.wall_s),
+                format!("{:.2}", r.stats.counters.rays() as f64 / r.stats.wall_s / 1e6),
             ]);
             last = Some(r);
         }
         let (sp, sb) = (loglog_slope(&pp), loglog_slope(&bp));
         if let Some(r) = last {
             let (sps, rps) = (
-                r.stats.samples as f64 / r.stats.wall_s,
-                r.stats.rays as f64 / r.stats.wall_s,
+                r.stats.counters.samples as f64 / r.stats.wall_s,
+                r.stats.counters.rays() as f64 / r.stats.wall_s,
             );
             speed.push([sps, rps]);
             summary.push(format!(

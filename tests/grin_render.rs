@@ -40,10 +40,10 @@ fn hot_road_shows_the_sky_below_the_horizon() {
     let (field, st) = row_blue_excess("scenes/mirage_road.toml");
     let (plain, st0) = row_blue_excess("scenes/mirage_road_nofield.toml");
     assert!(
-        st.chords > 0 && st0.chords == 0,
+        st.counters.chords > 0 && st0.counters.chords == 0,
         "only the field scene casts chords"
     );
-    assert_eq!(st.nan, 0);
+    assert_eq!(st.counters.nan, 0);
     // Rows that see the ground without the field but the sky with it.
     let sky = 0.3; // blue − red of the sky is 0.45; of the floor below 0.
     let mirage_rows = field
@@ -125,11 +125,11 @@ material = {{ type = "diffuse", reflectance = [0.7, 0.7, 0.7] }}
     };
     let with = run(scene(true));
     let without = run(scene(false));
-    assert!(with.stats.chords > 0 && without.stats.chords == 0);
+    assert!(with.stats.counters.chords > 0 && without.stats.counters.chords == 0);
     let (m1, se1) = with.mean_and_se(0);
     let (m0, se0) = without.mean_and_se(0);
     let z = (m1 - m0).abs() / (se1 * se1 + se0 * se0).sqrt();
-    assert_eq!(with.stats.grin_failures, 0);
+    assert_eq!(with.stats.counters.grin_failures, 0);
     eprintln!("mean with a constant medium {m1:.4} ± {se1:.4}, without {m0:.4} ± {se0:.4}: {z:.2} SE");
     assert!(z < 5.0, "{m1} ± {se1} vs {m0} ± {se0}");
     assert!(
@@ -187,7 +187,7 @@ fn runs(r: &snell::render::Rendered, x: u32, pred: impl Fn(glam::Vec3A) -> bool)
 fn cold_sea_shows_an_inverted_ship_above_the_ship() {
     let field = render_small("scenes/mirage_sea.toml", 160, 80, 2);
     let plain = render_small("scenes/mirage_sea_nofield.toml", 160, 80, 2);
-    assert_eq!(field.stats.grin_failures, 0);
+    assert_eq!(field.stats.counters.grin_failures, 0);
     let hull = |p: glam::Vec3A| p.x > 0.15 && p.x > 2.0 * p.y && p.x > 2.0 * p.z;
     let sea = |p: glam::Vec3A| p.z > 0.05 && p.z < 0.5 && p.z > p.x;
     let (hf, hp) = (runs(&field, 77, hull), runs(&plain, 77, hull));
@@ -206,7 +206,7 @@ fn plume_distorts_only_what_is_seen_through_it() {
     let (w, h) = (96, 72);
     let field = render_small("scenes/heat_shimmer.toml", w, h, 1);
     let plain = render_small("scenes/heat_shimmer_nofield.toml", w, h, 1);
-    assert_eq!(field.stats.grin_failures, 0);
+    assert_eq!(field.stats.counters.grin_failures, 0);
     let col_diff = |x0: u32, x1: u32| {
         let mut s = 0.0f64;
         let mut n = 0;

@@ -4,7 +4,8 @@
 //! cameras inside media.
 use glam::{DVec3, Vec3A as V3};
 use snell::audit::audit_ray;
-use snell::dielectric::{NestedStrategy, TraceCounters};
+use snell::counters::Counters;
+use snell::dielectric::NestedStrategy;
 use snell::integrator::{refraction_path, Tracer};
 use snell::render::{render, RenderOptions, RenderSettings, Rendered};
 use snell::scene::{load_scene, load_scene_str, BuildOptions, RenderScene};
@@ -92,10 +93,10 @@ fn filter_and_recast_agree_pixel_for_pixel() {
             );
         }
         assert!(
-            a.stats.false_hits > 0,
+            a.stats.counters.false_hits > 0,
             "{path}: the scene must exercise false hits"
         );
-        assert_eq!(a.stats.nan, 0);
+        assert_eq!(a.stats.counters.nan, 0);
     }
 }
 
@@ -268,7 +269,7 @@ fn overlapping_equal_ior_spheres_refract_like_their_union() {
             let y = -0.35 + 0.05 * k as f64;
             let o = DVec3::new(-3.0, y, 0.07);
             let d = DVec3::X;
-            let mut c = TraceCounters::default();
+            let mut c = Counters::default();
             let p = refraction_path(
                 Tracer { scene: &s, strategy },
                 V3::new(o.x as f32, o.y as f32, o.z as f32),
@@ -350,7 +351,7 @@ fn audit_all(strategy: NestedStrategy) -> (u32, u32, u32, usize) {
         V3::new(0.013, 0.021, 6.0),
     ];
     let (mut seg, mut mis, mut nonempty, mut rays) = (0, 0, 0, 0);
-    let mut c = TraceCounters::default();
+    let mut c = Counters::default();
     for t in vertex_edge_targets(&s) {
         for e in eyes {
             let a = audit_ray(Tracer { scene: &s, strategy }, e, (t - e).normalize(), &mut c).unwrap();
@@ -425,7 +426,7 @@ fn grazing_rays_and_coincident_faces_keep_lists_consistent() {
     );
     for strategy in [NestedStrategy::Filter, NestedStrategy::Recast] {
         let s = scene_of(&objs);
-        let mut c = TraceCounters::default();
+        let mut c = Counters::default();
         let (mut coincident_bad, mut grazing_bad) = (0, 0);
         // Through the coincident face, many heights.
         for k in 0..200 {

@@ -1,7 +1,7 @@
 //! Numerical robustness: far from the origin, very thin slabs, grazing
 //! incidence, and total internal reflection that must terminate.
 use glam::{DVec3, Vec3A as V3};
-use snell::dielectric::TraceCounters;
+use snell::counters::Counters;
 use snell::integrator::{refraction_path, Tracer};
 use snell::render::{render, RenderOptions, RenderSettings, Rendered};
 use snell::scene::{load_scene_str, BuildOptions, RenderScene};
@@ -68,7 +68,7 @@ material = {{ type = "dielectric", ior = 1.33, priority = 1 }}
 fn hits_ten_thousand_units_from_the_origin_render_like_at_the_origin() {
     let near = go(&scene(&glass_scene(0.0, 0.0)));
     let far = go(&scene(&glass_scene(10_000.0, -10_000.0)));
-    assert_eq!(far.stats.nan, 0);
+    assert_eq!(far.stats.counters.nan, 0);
     for ch in 0..3 {
         let (a, sa) = near.mean_and_se(ch);
         let (b, sb) = far.mean_and_se(ch);
@@ -98,7 +98,7 @@ material = { type = "dielectric", ior = 1.5 }
         let th = deg.to_radians();
         let d = DVec3::new(th.sin(), -th.cos(), 0.0);
         let o = DVec3::new(-0.5 * th.tan(), 0.5, 0.1);
-        let mut c = TraceCounters::default();
+        let mut c = Counters::default();
         let to_f = |v: DVec3| V3::new(v.x as f32, v.y as f32, v.z as f32);
         let p = refraction_path(Tracer::new(&s), to_f(o), to_f(d), &[], 8, &mut c).unwrap();
         assert_eq!(p.events.len(), 2, "{deg}°: {:?}", p.events);
@@ -136,7 +136,7 @@ shape = { type = "box", center = [0.0, 0.0, 0.0], size = [1.2, 1.2, 1.2] }
 material = { type = "dielectric", ior = 1.2 }
 "#,
     );
-    let mut c = TraceCounters::default();
+    let mut c = Counters::default();
     for k in 1..=7 {
         for sign in [-1.0f32, 1.0] {
             let b = 1.0 - 10f32.powi(-k) * sign;
@@ -178,8 +178,11 @@ material = { type = "dielectric", ior = 1.5 }
     );
     assert_eq!(s.camera_interior.len(), 1, "the camera is found inside the cube");
     let r = go(&s);
-    assert_eq!(r.stats.nan, 0);
-    assert!(r.stats.tir > 0, "the scene must exercise TIR");
-    assert!(r.stats.segments <= 12 * 9 * 8 * 1024, "depth bounds every path");
+    assert_eq!(r.stats.counters.nan, 0);
+    assert!(r.stats.counters.tir > 0, "the scene must exercise TIR");
+    assert!(
+        r.stats.counters.segments <= 12 * 9 * 8 * 1024,
+        "depth bounds every path"
+    );
     assert!(r.pixels.iter().all(|p| p.is_finite()));
 }

@@ -72,7 +72,7 @@ fn furnace_glass_sphere_returns_the_environment() {
         // Unbiased: the image mean is 0.5 within 5 standard errors (se from
         // the pixel spread; paths are independent across pixels).
         assert!((m - 0.5).abs() < 5.0 * se + 1e-4, "{mat}: mean {m} ± {se}");
-        assert_eq!(r.stats.nan, 0);
+        assert_eq!(r.stats.counters.nan, 0);
     }
     // Power: a glass that loses 5% of the light per unit length (a wrong
     // "lossless" glass) must fail the same threshold.
@@ -170,7 +170,7 @@ fn reference_scenes_have_no_nan_and_match_stored_means() {
             )
         };
         let r = render_80x60(load_scene(Path::new(&path), &BuildOptions::default()).unwrap());
-        assert_eq!(r.stats.nan, 0, "{name}: NaN/Inf samples");
+        assert_eq!(r.stats.counters.nan, 0, "{name}: NaN/Inf samples");
         assert!(r.pixels.iter().all(|p| p.is_finite()));
         for ch in 0..3 {
             let (diff, tol, m, want) = off_by(&r, ch);

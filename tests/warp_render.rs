@@ -67,7 +67,7 @@ fn full_trace_of_a_warp_scene_renders() {
             },
         )
         .unwrap();
-        assert_eq!(r.stats.nan, 0);
+        assert_eq!(r.stats.counters.nan, 0);
         assert!(
             r.pixels.iter().any(|p| p.max_element() > 0.05),
             "{scene}: black image"

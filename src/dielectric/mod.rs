@@ -63,14 +63,3 @@ impl NestedStrategy {
         }
     }
 }
-
-/// Per-query counters, folded into render statistics.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct TraceCounters {
-    pub queries: u64,
-    pub false_hits: u64,
-    pub filter_calls: u64,
-    pub fallbacks: u64,
-    pub max_list_depth: u64,
-    pub spills: u64,
-}

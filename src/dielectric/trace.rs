@@ -3,7 +3,8 @@
 use super::filter::{
     apply_rejected, near_edge, Coincident, FalseHitFilter, Rejected, TrueHit, NEAR_CAPACITY, RECORDS,
 };
-use super::{InteriorList, NestedStrategy, TraceCounters};
+use super::{InteriorList, NestedStrategy};
+use crate::counters::Counters;
 use crate::ray::{crossing_window, front_facing, Hit, Ray};
 use crate::scene::RenderScene;
 
@@ -73,7 +74,7 @@ pub fn trace(
     strategy: NestedStrategy,
     ray: &Ray,
     list: &mut InteriorList,
-    c: &mut TraceCounters,
+    c: &mut Counters,
 ) -> crate::error::Result<Option<TrueHit>> {
     c.queries += 1;
     let plain = |h: Option<Hit>| {
@@ -156,7 +157,7 @@ pub fn trace(
             c.false_hits += apply_rejected(list, &mut filter.rec.rejected[..n], limit, win) as u64;
             c.max_list_depth = c.max_list_depth.max(list.len() as u64);
             if list.spilled() {
-                c.spills += 1;
+                c.list_spills += 1;
             }
             Ok(hit.map(|hit| {
                 let mut coincident = Coincident::default();
@@ -179,7 +180,7 @@ fn recast(
     scene: &RenderScene,
     ray: &Ray,
     list: &mut InteriorList,
-    c: &mut TraceCounters,
+    c: &mut Counters,
     toggle: bool,
 ) -> crate::error::Result<Option<Hit>> {
     let mut r = *ray;
@@ -218,7 +219,7 @@ fn recast(
         }
         c.max_list_depth = c.max_list_depth.max(list.len() as u64);
         if list.spilled() {
-            c.spills += 1;
+            c.list_spills += 1;
         }
         r.tnear = recast_tnear(&r, h.t);
         c.queries += 1;

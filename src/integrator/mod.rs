@@ -4,7 +4,8 @@
 //!
 //! Depth follows Mitsuba: `max_depth` counts path segments including the
 //! camera ray (1 = directly visible emitters only, 2 = direct lighting).
-use crate::dielectric::{self, InteriorList, NestedStrategy, TraceCounters};
+use crate::counters::Counters;
+use crate::dielectric::{self, InteriorList, NestedStrategy};
 use crate::error::Result;
 use crate::optics;
 use crate::ray::{front_facing, offset_origin, offset_size, spawn_transmitted, Hit, Ray};
@@ -13,20 +14,6 @@ use crate::scene::build::{IntegratorKind, Shape};
 use crate::scene::{Light, Material, RenderScene};
 use glam::{DVec3, Vec3A as V3};
 use std::f32::consts::{FRAC_1_PI, PI};
-
-/// Per-sample diagnostics, accumulated into AOV layers and statistics.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct SampleStats {
-    pub counters: TraceCounters,
-    /// Straight chords cast for curved rays in a gradient-index medium.
-    pub chords: u32,
-    /// Curved rays whose integrator failed (path ended black).
-    pub grin_failures: u32,
-    pub tir: u32,
-    pub segments: u32,
-    pub shadow_rays: u32,
-    pub nan: u32,
-}
 
 /// What every path of a render shares: the scene, and how nested
 /// dielectrics are resolved (a render setting, not part of the scene).
@@ -212,7 +199,7 @@ fn sample_light(scene: &RenderScene, p: V3, rng: &mut Rng) -> Option<LightSample
     }
 }
 
-fn unoccluded(scene: &RenderScene, from: V3, side: V3, wi: V3, dist: f32, st: &mut SampleStats) -> bool {
+fn unoccluded(scene: &RenderScene, from: V3, side: V3, wi: V3, dist: f32, st: &mut Counters) -> bool {
     st.shadow_rays += 1;
     let o = offset_origin(from, side);
     let mut r = Ray::new(o, wi);
@@ -269,10 +256,10 @@ fn meets_medium(scene: &RenderScene, p: V3, wi: V3, dist: f32) -> bool {
 
 /// Cast `ray`, through the gradient-index medium as chords when the scene has
 /// one (straight outside its bounds at no extra cost), else straight.
-fn cast(tr: Tracer<'_>, ray: &Ray, list: &mut InteriorList, st: &mut SampleStats) -> Result<Segment> {
+fn cast(tr: Tracer<'_>, ray: &Ray, list: &mut InteriorList, st: &mut Counters) -> Result<Segment> {
     let scene = tr.scene;
     let Some(med) = &scene.medium else {
-        let hit = dielectric::trace(scene, tr.strategy, ray, list, &mut st.counters)?;
+        let hit = dielectric::trace(scene, tr.strategy, ray, list, st)?;
         return Ok(Segment {
             length: hit.map(|h| h.hit.t).unwrap_or(f32::INFINITY),
             hit,
@@ -317,7 +304,7 @@ fn cast(tr: Tracer<'_>, ray: &Ray, list: &mut InteriorList, st: &mut SampleStats
             r.tfar = chord.length as f32;
         }
         st.chords += 1;
-        if let Some(th) = dielectric::trace(scene, tr.strategy, &r, list, &mut st.counters)? {
+        if let Some(th) = dielectric::trace(scene, tr.strategy, &r, list, st)? {
             let p = r.org + r.dir * th.hit.t;
             let (_, tangent) = curved.refine_hit(
                 med,
@@ -364,7 +351,7 @@ pub fn radiance(
     dir: V3,
     list: InteriorList,
     rng: &mut Rng,
-    st: &mut SampleStats,
+    st: &mut Counters,
 ) -> Result<V3> {
     match tr.scene.integrator {
         IntegratorKind::Path => path(tr, org, dir, list, rng, st),
@@ -378,7 +365,7 @@ fn path(
     dir: V3,
     mut list: InteriorList,
     rng: &mut Rng,
-    st: &mut SampleStats,
+    st: &mut Counters,
 ) -> Result<V3> {
     let scene = tr.scene;
     let mut l = V3::ZERO;
@@ -553,7 +540,7 @@ fn whitted(
     dir: V3,
     mut list: InteriorList,
     rng: &mut Rng,
-    st: &mut SampleStats,
+    st: &mut Counters,
     depth: u32,
 ) -> Result<V3> {
     let scene = tr.scene;
@@ -691,7 +678,7 @@ pub fn refraction_path(
     dir: V3,
     start: &[u32],
     max_events: usize,
-    counters: &mut TraceCounters,
+    counters: &mut Counters,
 ) -> Result<RefractionPath> {
     let scene = tr.scene;
     let mut list = InteriorList::from_solids(&scene.solids, start);

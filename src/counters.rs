@@ -1,0 +1,107 @@
+//! [`Counters`]: every event count snell keeps, one type from a single query
+//! up to a whole render. A query, a sample, a tile and a render each hold one;
+//! they add up with `+=` (sums, except `max_list_depth`, which is a maximum),
+//! and serialise with serde under the keys of the stats JSON. A new counter
+//! is a new field here and the line that counts it.
+use serde::Serialize;
+use std::ops::AddAssign;
+
+/// Event counts. Units: events (rays, hits, samples), never time.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+pub struct Counters {
+    /// Camera samples taken.
+    pub samples: u64,
+    /// Nearest-hit Embree queries (including re-casts past false hits and touches).
+    pub queries: u64,
+    /// Occlusion (shadow) queries.
+    pub shadow_rays: u64,
+    /// Distinct false crossings of nested dielectrics (hits on a solid ranked
+    /// below the ray's top solid), skipped.
+    pub false_hits: u64,
+    /// Calls of the false-hit filter inside Embree.
+    pub filter_calls: u64,
+    /// Filtered queries that recorded more false hits than the filter holds
+    /// and were finished by re-casting.
+    pub fallbacks: u64,
+    /// Deepest interior list seen (a maximum, not a sum).
+    pub max_list_depth: u64,
+    /// Interior lists that outgrew their inline storage.
+    pub list_spills: u64,
+    /// Total internal reflections.
+    pub tir: u64,
+    /// Samples whose radiance was NaN or infinite (counted black).
+    #[serde(rename = "nan_or_inf_samples")]
+    pub nan: u64,
+    /// Path segments (straight or curved) traced.
+    pub segments: u64,
+    /// Straight chords cast for curved rays in a gradient-index medium.
+    pub chords: u64,
+    /// Curved rays whose integrator failed (the path ended black).
+    pub grin_failures: u64,
+}
+
+impl Counters {
+    /// Every Embree query: nearest-hit queries plus shadow rays.
+    pub fn rays(&self) -> u64 {
+        self.queries + self.shadow_rays
+    }
+}
+
+impl AddAssign for Counters {
+    fn add_assign(&mut self, o: Counters) {
+        // Destructured so that a new field cannot be forgotten here.
+        let Counters {
+            samples,
+            queries,
+            shadow_rays,
+            false_hits,
+            filter_calls,
+            fallbacks,
+            max_list_depth,
+            list_spills,
+            tir,
+            nan,
+            segments,
+            chords,
+            grin_failures,
+        } = o;
+        self.samples += samples;
+        self.queries += queries;
+        self.shadow_rays += shadow_rays;
+        self.false_hits += false_hits;
+        self.filter_calls += filter_calls;
+        self.fallbacks += fallbacks;
+        self.max_list_depth = self.max_list_depth.max(max_list_depth);
+        self.list_spills += list_spills;
+        self.tir += tir;
+        self.nan += nan;
+        self.segments += segments;
+        self.chords += chords;
+        self.grin_failures += grin_failures;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn add_sums_and_keeps_the_deepest_list() {
+        let a = Counters {
+            queries: 3,
+            max_list_depth: 5,
+            nan: 1,
+            ..Default::default()
+        };
+        let mut b = Counters {
+            queries: 4,
+            max_list_depth: 2,
+            ..Default::default()
+        };
+        b += a;
+        assert_eq!((b.queries, b.max_list_depth, b.nan), (7, 5, 1));
+        let json = serde_json::to_value(b).unwrap();
+        assert_eq!(json["nan_or_inf_samples"], 1);
+        assert_eq!(json["queries"], 7);
+    }
+}
