@@ -5,8 +5,11 @@
 use crate::error::{Error, Result};
 use glam::Vec3A as V3;
 
+/// A pinhole or thin-lens camera over a film of `width × height` pixels, in
+/// world space (metres).
 #[derive(Debug, Clone, Copy)]
 pub struct Camera {
+    /// The eye point (the centre of the lens), world space.
     pub position: V3,
     forward: V3,
     right: V3,
@@ -21,7 +24,17 @@ pub struct Camera {
 }
 
 impl Camera {
-    /// `fov_deg` in (0, 180). Fails when position == target or up ∥ forward.
+    /// A camera at `position` looking at `target`, with `up` as the up hint
+    /// (need not be perpendicular), `fov_deg` the full vertical field of view
+    /// in degrees, a film of `width × height` pixels, and a thin lens of
+    /// radius `lens_radius` (metres; 0 = pinhole) focused at `focus_distance`
+    /// metres along the view axis.
+    ///
+    /// # Errors
+    ///
+    /// [`Error::Invalid`] when position == target (or their difference is not
+    /// finite), when `up` is parallel to the view direction, or when `fov_deg`
+    /// is not in (0, 180).
     #[allow(clippy::too_many_arguments)]
     pub fn try_new(
         position: V3,
@@ -91,6 +104,7 @@ impl Camera {
         }
     }
 
+    /// Unit view direction, `normalize(target − position)`.
     pub fn forward(&self) -> V3 {
         self.forward
     }
@@ -113,6 +127,7 @@ impl Camera {
         2.0 * self.tan_half / self.height
     }
 
+    /// Film size in pixels, `(width, height)`.
     pub fn size(&self) -> (u32, u32) {
         (self.width as u32, self.height as u32)
     }

@@ -14,7 +14,10 @@ use std::path::{Path, PathBuf};
 /// [`scene_id`] (of the text after overrides and the nested strategy).
 ///
 /// # Errors
-/// An unreadable file, a bad override, or a scene error.
+///
+/// [`Error::Io`] when the file cannot be read; [`Error::Input`] for a
+/// malformed override or an invalid scene (located in the file or in the
+/// `--set` argument); any error of building the scene.
 pub fn load(
     path: &Path,
     sets: &[String],
@@ -29,6 +32,13 @@ pub fn load(
 }
 
 /// `x0,x1,y0,y1`: half-open pixel bounds.
+///
+/// Only the syntax is checked here; the bounds are checked against the film
+/// when the render starts.
+///
+/// # Errors
+///
+/// [`Error::Invalid`] unless `s` is four comma-separated unsigned integers.
 pub fn parse_region(s: &str) -> Result<Region> {
     let v: Vec<u32> = s
         .split(',')
@@ -63,6 +73,11 @@ fn index_of(flag: &str, s: &str) -> Result<(u32, u32)> {
 
 /// `IX/NX,IY/NY`: cell (IX, IY) of an NX x NY grid over the film, counting
 /// from 1 (`1/4,1/4` is the top-left cell), as farm task ranges do.
+///
+/// # Errors
+///
+/// [`Error::Invalid`] for a malformed `s`, an index outside 1..=N, or a grid
+/// finer than the film (it would have empty cells).
 pub fn region_cell(s: &str, width: u32, height: u32) -> Result<Region> {
     let (a, b) = s
         .split_once(',')
@@ -84,6 +99,10 @@ pub fn region_cell(s: &str, width: u32, height: u32) -> Result<Region> {
 }
 
 /// `START:COUNT`: sample indices `[START, START + COUNT)`.
+///
+/// # Errors
+///
+/// [`Error::Invalid`] unless `s` is two unsigned integers separated by `:`.
 pub fn parse_samples(s: &str) -> Result<(u32, u32)> {
     let bad = || Error::Invalid(format!("--samples {s}: expected START:COUNT"));
     let (a, b) = s.split_once(':').ok_or_else(bad)?;
@@ -93,7 +112,13 @@ pub fn parse_samples(s: &str) -> Result<(u32, u32)> {
     ))
 }
 
-/// `K/N`: chunk K (counting from 1) of the film's spp cut into N ranges.
+/// `K/N`: chunk K (counting from 1) of the film's spp cut into N ranges;
+/// returns `(start, count)`.
+///
+/// # Errors
+///
+/// [`Error::Invalid`] for a malformed `s`, K outside 1..=N, or N > `spp`
+/// (some chunks would be empty).
 pub fn sample_chunk(s: &str, spp: u32) -> Result<(u32, u32)> {
     let (k, n) = index_of("--sample-chunk", s)?;
     if n > spp {
@@ -135,6 +160,16 @@ pub struct Plan {
 
 /// Turn the farm options into a plan for a render with `settings`. With `--resume` the region
 /// and sample range default to the part's, and must match when given.
+///
+/// `id` is the scene's [`scene_id`]; `keep_sums` asks for exact sums even for a
+/// whole render.
+///
+/// # Errors
+///
+/// [`Error::Invalid`] when both forms of an option are given or one does not
+/// parse, or when the `--resume` part differs from this render (film, spp,
+/// seed, scene id, region or sample range); [`Error::Io`] when the part cannot
+/// be read.
 pub fn plan(settings: &RenderSettings, id: &str, a: &FarmArgs, keep_sums: bool) -> Result<Plan> {
     if a.region.is_some() && a.region_cell.is_some() {
         return Err(Error::Invalid("give --region or --region-cell, not both".into()));
@@ -243,6 +278,10 @@ pub fn partial_path(output: &Path) -> PathBuf {
 }
 
 /// Create the directory of `path` if it is missing (`--mkdir`).
+///
+/// # Errors
+///
+/// [`Error::Io`] when the directory cannot be created.
 pub fn make_parent(path: &Path) -> Result<()> {
     match path.parent().filter(|p| !p.as_os_str().is_empty()) {
         Some(d) => {
@@ -265,6 +304,13 @@ pub fn cpu_seconds() -> Option<f64> {
 
 /// A Markdown table of stats JSON files (one row each): the `--set`
 /// overrides recorded in them, then time, rays and false hits.
+///
+/// A directory in `inputs` stands for its `*.json` files, sorted by name.
+///
+/// # Errors
+///
+/// [`Error::Invalid`] when no file is found; [`Error::Io`] when a file or
+/// directory cannot be read or a file is not JSON.
 pub fn stats_table(inputs: &[PathBuf]) -> Result<String> {
     let mut files = Vec::new();
     for a in inputs {

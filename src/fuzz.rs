@@ -106,12 +106,20 @@ const TOKENS: &[&str] = &[
 /// Outcome counts of a fuzz run.
 #[derive(Debug, Clone, Default)]
 pub struct FuzzReport {
+    /// Cases run.
     pub cases: u64,
+    /// Cases that built a scene and rendered it (at 4×3 pixels, 1 spp).
     pub rendered: u64,
+    /// Cases refused with an error (located or not).
     pub errors: u64,
+    /// Findings: cases that panicked, each `case i (name): message` with the document.
     pub panics: Vec<String>,
+    /// Findings: errors that are not input errors, or input errors whose line
+    /// does not hold their key ([`mislocated`]).
     pub unlocated_errors: Vec<String>,
+    /// Findings: cases slower than the limit, with the document, and their seconds.
     pub slow: Vec<(String, f64)>,
+    /// The slowest case: seconds and `case i (name)`.
     pub slowest: (f64, String),
 }
 
@@ -203,6 +211,14 @@ fn token_spans(text: &str) -> Vec<(usize, usize)> {
 /// Run `cases` mutated scene documents (1–3 mutations each) of the seeds.
 /// OBJ files in `scene_dir` are mutated too, written to a temporary directory
 /// beside copies of the scenes that reference them.
+///
+/// Case i draws from `Rng::for_sample(seed, i, 0)`; a case slower than `limit`
+/// is a finding. Panics of the cases are caught (the panic hook is silenced
+/// meanwhile) and reported.
+///
+/// # Panics
+///
+/// If `seeds` is empty.
 pub fn run(
     seeds: &[(String, String)],
     scene_dir: &Path,
@@ -215,6 +231,10 @@ pub fn run(
 
 /// `run` starting at case `first` (case i is the same document for any
 /// `first`: reproduce a finding with `snell fuzz --first i --cases 1`).
+///
+/// # Panics
+///
+/// If `seeds` is empty.
 pub fn run_from(
     seeds: &[(String, String)],
     scene_dir: &Path,
@@ -370,13 +390,16 @@ fn panic_message(p: &(dyn std::any::Any + Send)) -> String {
 /// Which batch tool a JSON document is for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum JsonTool {
+    /// `snell grin-trace` ([`crate::media::grin_trace_json`]).
     GrinTrace,
+    /// `snell warp-points` (`warp::points::warp_points_json`).
     WarpPoints,
 }
 
 /// Outcomes of a JSON fuzz run, per tool.
 #[derive(Debug, Clone, Default)]
 pub struct JsonFuzzReport {
+    /// Documents run.
     pub cases: u64,
     /// Documents answered (per-query statuses may still be errors).
     pub answered: u64,
@@ -384,9 +407,13 @@ pub struct JsonFuzzReport {
     pub item_errors: u64,
     /// Documents refused as a whole, with a message naming the key or line.
     pub refused: u64,
+    /// Findings: documents that panicked, `case i (name): message` with the document.
     pub panics: Vec<String>,
+    /// Findings: refusals whose message names no key and no line.
     pub unlocated: Vec<String>,
+    /// Findings: documents slower than the limit, with the document, and their seconds.
     pub slow: Vec<(String, f64)>,
+    /// The slowest document: seconds and `case i (name)`.
     pub slowest: (f64, String),
 }
 

@@ -34,6 +34,11 @@ fn temp_path(path: &Path) -> PathBuf {
 }
 
 /// Write `bytes` to `path` atomically (temporary file in the same directory, then rename).
+///
+/// # Errors
+///
+/// [`Error::Io`] when the directory does not exist or the file cannot be
+/// written or renamed; the temporary file is removed.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     let dir = path
         .parent()
@@ -66,6 +71,21 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
 pub type Layer<'a> = (&'a str, &'a [f32]);
 
 /// Encode and write an image; the format follows the extension.
+///
+/// `pixels` are linear RGB, row-major, row 0 at the top. `layers` (extra
+/// channels) and `attrs` (header attributes, name and text) are written to
+/// `.exr` only and ignored for `.png`.
+///
+/// # Errors
+///
+/// [`Error::Io`] for an extension other than `.png`/`.exr` or a failed
+/// write; [`Error::Invalid`] when encoding fails (e.g. `pixels` is not
+/// `width × height` long for a PNG).
+///
+/// # Panics
+///
+/// Writing an `.exr` panics when `pixels` or a layer holds fewer than
+/// `width × height` values.
 pub fn save(
     path: &Path,
     width: u32,
@@ -94,6 +114,13 @@ pub fn save(
     write_atomic(path, &bytes)
 }
 
+/// Encode linear RGB `pixels` (row-major, row 0 at the top) as an 8-bit sRGB
+/// PNG: each channel clamped to [0, 1], no tone mapping.
+///
+/// # Errors
+///
+/// [`Error::Invalid`] when `pixels` is not `width × height` long or the
+/// encoder fails.
 pub fn encode_png(width: u32, height: u32, pixels: &[V3]) -> Result<Vec<u8>> {
     let mut buf = Vec::with_capacity(pixels.len() * 3);
     for p in pixels {
@@ -109,6 +136,17 @@ pub fn encode_png(width: u32, height: u32, pixels: &[V3]) -> Result<Vec<u8>> {
     Ok(out.into_inner())
 }
 
+/// Encode linear RGB `pixels` (row-major, row 0 at the top) as a float32 EXR
+/// with channels R, G, B, one more channel per layer (named by the layer), and
+/// `attrs` as text attributes of the header. Lossless compression.
+///
+/// # Errors
+///
+/// [`Error::Invalid`] when the encoder fails.
+///
+/// # Panics
+///
+/// When `pixels` or a layer holds fewer than `width × height` values.
 pub fn encode_exr(
     width: u32,
     height: u32,
@@ -152,7 +190,12 @@ pub fn encode_exr(
     Ok(out.into_inner())
 }
 
-/// Read the RGB channels of an EXR written by `save` (tests, comparisons).
+/// Read the RGB channels of an EXR written by `save` (tests, comparisons):
+/// `(width, height, pixels)`, row 0 at the top.
+///
+/// # Errors
+///
+/// [`Error::Io`] when the file cannot be read or decoded.
 pub fn read_exr_rgb(path: &Path) -> Result<(u32, u32, Vec<V3>)> {
     let img = crate::scene::texture::load_image(path).map_err(|e| Error::io(path, e))?;
     Ok((img.width as u32, img.height as u32, img.pixels))

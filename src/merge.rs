@@ -25,6 +25,11 @@ pub struct Merged {
 /// Expand the command line's inputs: a directory stands for its `.exr` files
 /// (sorted by name; hidden temporaries and `NAME.partial.exr` files, which an
 /// interrupted task leaves and a retried one resumes, are left out).
+///
+/// # Errors
+///
+/// [`Error::Io`] when a directory cannot be read or holds no parts;
+/// [`Error::Invalid`] when `args` names no file at all.
 pub fn collect_inputs(args: &[PathBuf]) -> Result<Vec<PathBuf>> {
     let mut out = Vec::new();
     for a in args {
@@ -200,6 +205,12 @@ fn gaps(parts: &[Part], meta: &PartMeta, counts: &[u64]) -> Option<String> {
 }
 
 /// Merge parts into the whole render.
+///
+/// # Errors
+///
+/// [`Error::Invalid`], naming the files and pixels involved, when `parts` is
+/// empty, parts come from different films, scenes or seeds, two parts hold the
+/// same samples of a pixel, or some pixel lacks some samples.
 pub fn merge(parts: &[Part]) -> Result<Merged> {
     let Some(first) = parts.first() else {
         return Err(Error::Invalid("merge: no parts given".into()));

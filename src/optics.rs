@@ -12,6 +12,23 @@ use glam::DVec3;
 /// Exact for all angles: returns 0 when `n1 == n2` (even at grazing incidence,
 /// where the textbook expression is 0/0), 1 under total internal reflection,
 /// and stays finite in [0, 1] at the exact critical angle.
+///
+/// # Examples
+///
+/// ```
+/// use snell::optics::fresnel_dielectric;
+///
+/// // Normal incidence, air to glass: R = ((n1 − n2) / (n1 + n2))² = 0.04.
+/// let r = fresnel_dielectric(1.0, 1.0, 1.5);
+/// assert!((r - 0.04).abs() < 1e-15);
+///
+/// // Glass to air beyond the critical angle (sin θc = 1/1.5): total reflection.
+/// let cos_60 = 0.5;
+/// assert_eq!(fresnel_dielectric(cos_60, 1.5, 1.0), 1.0);
+///
+/// // Index-matched: nothing is reflected, even at grazing incidence.
+/// assert_eq!(fresnel_dielectric(0.0, 1.33, 1.33), 0.0);
+/// ```
 pub fn fresnel_dielectric(cos_i: f64, n1: f64, n2: f64) -> f64 {
     if n1 == n2 {
         return 0.0;
@@ -39,6 +56,29 @@ pub fn reflect(d: DVec3, n: DVec3) -> DVec3 {
 /// Refracted direction for incident `d` crossing from index `n1` into `n2`
 /// through a surface with normal `n` (either orientation). `None` under total
 /// internal reflection. `n1 == n2` returns `d` exactly.
+///
+/// `d` must be unit length; the result is then unit length too, on the far
+/// side of the surface.
+///
+/// # Examples
+///
+/// ```
+/// use glam::DVec3;
+/// use snell::optics::refract;
+///
+/// // 45° from air into glass (n = 1.5), through a floor facing up (+y).
+/// let d = DVec3::new(1.0, -1.0, 0.0).normalize();
+/// let t = refract(d, DVec3::Y, 1.0, 1.5).unwrap();
+/// // Snell's law: n1 sin θi = n2 sin θt (the sines are the x components).
+/// assert!((1.0 * d.x - 1.5 * t.x).abs() < 1e-15);
+/// assert!(t.y < 0.0 && (t.length() - 1.0).abs() < 1e-15);
+/// // The normal's orientation does not matter.
+/// assert_eq!(refract(d, -DVec3::Y, 1.0, 1.5), Some(t));
+///
+/// // The same direction from glass into air is past the critical angle
+/// // (sin 45° · 1.5 > 1): total internal reflection.
+/// assert_eq!(refract(d, DVec3::Y, 1.5, 1.0), None);
+/// ```
 pub fn refract(d: DVec3, n: DVec3, n1: f64, n2: f64) -> Option<DVec3> {
     if n1 == n2 {
         return Some(d);

@@ -210,6 +210,11 @@ fn show(step: &Step) -> String {
 
 /// `--sweep KEY=V1,V2,... --sweep-index I`: the override `KEY=VI` (I counts
 /// from 1; commas inside brackets or quotes do not split values).
+///
+/// # Errors
+///
+/// [`Error::Invalid`] when `spec` has no `=` or `index` is not in 1..=N for its
+/// N values.
 pub fn sweep_value(spec: &str, index: u32) -> Result<String> {
     let bad = |m: String| Error::Invalid(format!("--sweep '{spec}': {m}"));
     let (key, list) = spec
@@ -240,6 +245,16 @@ pub fn sweep_value(spec: &str, index: u32) -> Result<String> {
 
 /// Apply `--set` overrides to a scene source. Errors in the overrides, and
 /// later errors at the keys they set, are located in the argument.
+///
+/// Each of `sets` is `KEY=VALUE`, applied in order (see docs/scene-format.md).
+///
+/// # Errors
+///
+/// [`Error::Input`] located in the file when the file itself is not valid
+/// TOML, and located in the `--set '…'` argument (line 1, the column of the
+/// offending part) for a malformed argument or a key path that does not fit
+/// the document (an unknown entry name, an index out of range, a key below a
+/// value).
 pub fn apply(src: Source, sets: &[String]) -> Result<Source> {
     if sets.is_empty() {
         return Ok(src);

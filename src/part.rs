@@ -62,6 +62,13 @@ pub fn scene_id(text: &str, nested: &str) -> String {
 const COLORS: [char; 3] = ['R', 'G', 'B'];
 
 /// Encode a part EXR: `pixels` and `accum` cover `meta.region`.
+///
+/// `attrs` are extra header attributes; `stats` is recorded as `snell_stats`.
+///
+/// # Errors
+///
+/// [`Error::Invalid`] when `pixels` or `accum` do not hold one entry per pixel
+/// of the region, or when the EXR encoder fails.
 pub fn encode_part(
     meta: &PartMeta,
     pixels: &[V3],
@@ -143,6 +150,11 @@ pub fn encode_part(
 }
 
 /// Write a part EXR atomically.
+///
+/// # Errors
+///
+/// The errors of [`encode_part`], and [`Error::Io`] when the file cannot be
+/// written.
 pub fn write_part(
     path: &Path,
     meta: &PartMeta,
@@ -161,6 +173,12 @@ fn parse_pair<T: std::str::FromStr>(s: &str, sep: char) -> Option<(T, T)> {
 }
 
 /// Read a part EXR (refusing, with the reason, files that are not parts).
+///
+/// # Errors
+///
+/// [`Error::Io`] naming `path` when the file is not a readable EXR, or its part
+/// attributes or channels are missing, malformed or inconsistent (a region
+/// outside the film, a data window other than the region, …).
 pub fn read_part(path: &Path) -> Result<Part> {
     use exr::prelude::{read, AttributeValue, FlatSamples, ReadChannels, ReadLayers};
     let bad = |m: String| Error::io(path, m);

@@ -24,56 +24,79 @@ use std::time::Instant;
 
 /// One curve of a plot; `spread` (optional) is a [low, high] bar per point.
 #[derive(Debug, Clone, Serialize)]
-pub struct Series {
+pub(crate) struct Series {
+    /// Legend entry.
     pub name: String,
+    /// `[x, y]` in the plot's units, in drawing order.
     pub points: Vec<[f64; 2]>,
+    /// `[low, high]` per point (e.g. fastest..slowest repetition), drawn as a bar.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub spread: Option<Vec<[f64; 2]>>,
 }
 
 /// A plot: every number it draws is in its series.
 #[derive(Debug, Clone, Serialize)]
-pub struct Plot {
+pub(crate) struct Plot {
+    /// Key of the plot in figures.json and its anchor in the page.
     pub id: String,
+    /// Caption drawn above the plot.
     pub title: String,
+    /// Label of the x axis, with its unit.
     pub x: String,
+    /// Label of the y axis, with its unit.
     pub y: String,
+    /// Logarithmic x axis.
     pub log_x: bool,
+    /// Logarithmic y axis.
     pub log_y: bool,
+    /// The curves (empty ones are dropped).
     pub series: Vec<Series>,
 }
 
 /// An image written beside the page.
 #[derive(Debug, Clone, Serialize)]
-pub struct Picture {
+pub(crate) struct Picture {
+    /// File name of the PNG, relative to the report directory.
     pub file: String,
+    /// Caption under the image.
     pub caption: String,
 }
 
 /// A table shown under a section's plots.
 #[derive(Debug, Clone, Serialize)]
-pub struct Table {
+pub(crate) struct Table {
+    /// Column titles.
     pub header: Vec<String>,
+    /// Cells, already formatted, one `Vec` per row.
     pub rows: Vec<Vec<String>>,
 }
 
 /// One section of the report.
 #[derive(Debug, Clone, Serialize)]
-pub struct Section {
+pub(crate) struct Section {
+    /// Key of the section in figures.json (`convergence`, `nested`, …).
     pub key: String,
+    /// Heading in the page.
     pub title: String,
     /// One-line findings, shown at the top of the section.
     pub summary: Vec<String>,
+    /// The section's plots, in page order.
     pub plots: Vec<Plot>,
+    /// The section's images, in page order.
     pub pictures: Vec<Picture>,
+    /// An optional table under the plots.
     pub table: Option<Table>,
 }
 
 /// Options of `snell report`.
 #[derive(Debug, Clone)]
 pub struct ReportOptions {
+    /// The report directory (`-o DIR`): created if missing; index.html,
+    /// figures.json and the PNG files are written there.
     pub out: PathBuf,
+    /// `--quick`: small images and few repetitions (seconds instead of minutes).
     pub quick: bool,
+    /// Directory of the scene files the report renders (the repository's `scenes/`).
     pub scenes_dir: PathBuf,
 }
 
@@ -1013,6 +1036,15 @@ fn pictures(
 }
 
 /// Run every measurement and write the report; returns the path of index.html.
+///
+/// `command` is the command line shown in the page and in figures.json; `log`
+/// receives one progress line per step, prefixed with the elapsed seconds.
+///
+/// # Errors
+///
+/// [`Error::Invalid`] when the report directory cannot be created or is not
+/// writable (checked before any measurement), and any error of loading or
+/// rendering a scene or writing a file.
 pub fn run(o: &ReportOptions, command: &str, mut log: impl FnMut(&str)) -> Result<PathBuf> {
     std::fs::create_dir_all(&o.out)
         .map_err(|e| Error::io(&o.out, format!("cannot create the report directory: {e}")))?;

@@ -94,6 +94,11 @@ pub fn tau_for_length(m: f64, up: DVec3, st: &State, ell: f64) -> f64 {
 }
 
 /// The state after `ell` metres of arc from `st` in a linear field.
+///
+/// # Errors
+///
+/// A message when `field` is not linear or constant, or when n at the end point
+/// is not finite or not > 0.
 pub fn advance(field: &IndexField, st: &State, ell: f64) -> Result<State, String> {
     let (m, up) = linear_params(field).ok_or_else(|| {
         format!(

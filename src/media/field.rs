@@ -14,11 +14,14 @@ use super::MediumError;
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Aabb {
+    /// The corner with the smallest coordinates.
     pub min: DVec3,
+    /// The corner with the largest coordinates.
     pub max: DVec3,
 }
 
 impl Aabb {
+    /// The box from `min` to `max` (not checked: a validated box has min < max).
     pub fn new(min: DVec3, max: DVec3) -> Aabb {
         Aabb { min, max }
     }
@@ -84,33 +87,52 @@ fn default_waves() -> u32 {
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum IndexField {
     /// n = `n` everywhere.
-    Constant { n: f64 },
+    Constant {
+        /// The index.
+        n: f64,
+    },
     /// n = n0 + m·h.
     Linear {
+        /// Index at h = 0.
         n0: f64,
+        /// Gradient dn/dh, per metre (negative: n falls with height).
         m: f64,
+        /// Unit "up" direction the height is measured along (default +y;
+        /// normalised by [`IndexField::validated`]).
         #[serde(default = "default_up")]
         up: DVec3,
+        /// Height of the origin of h along `up`, metres: h = p·up − base (default 0).
         #[serde(default = "default_base")]
         base: f64,
     },
     /// Standard atmosphere: n = 1 + (n0 − 1)·exp(−h/H).
     Exponential {
+        /// Index at h = 0.
         n0: f64,
+        /// Scale height H (key `H`), metres (> 0): n − 1 falls by 1/e per H.
         #[serde(rename = "H")]
         scale_height: f64,
+        /// Unit "up" direction the height is measured along (default +y;
+        /// normalised by [`IndexField::validated`]).
         #[serde(default = "default_up")]
         up: DVec3,
+        /// Height of the origin of h along `up`, metres: h = p·up − base (default 0).
         #[serde(default = "default_base")]
         base: f64,
     },
     /// Inferior mirage (hot air over a hot surface): n = n_inf − dn·exp(−h/h0).
     HotGround {
+        /// Index far above the ground (h → ∞).
         n_inf: f64,
+        /// Index deficit at the ground, h = 0 (> 0 for hot air).
         dn: f64,
+        /// Thickness of the hot layer, metres (> 0): the deficit falls by 1/e per h0.
         h0: f64,
+        /// Unit "up" direction the height is measured along (default +y;
+        /// normalised by [`IndexField::validated`]).
         #[serde(default = "default_up")]
         up: DVec3,
+        /// Height of the origin of h along `up`, metres: h = p·up − base (default 0).
         #[serde(default = "default_base")]
         base: f64,
     },
@@ -119,14 +141,22 @@ pub enum IndexField {
     /// n = n0 + m·h + dn·(1 + tanh((h − height)/thickness))/2.
     /// Warm air over cold water: dn < 0.
     Inversion {
+        /// Index of the background at h = 0, below the step.
         n0: f64,
+        /// Size of the step across the layer (< 0 for warm air over cold water).
         dn: f64,
+        /// Height of the centre of the layer, metres.
         height: f64,
+        /// Half-width of the step, metres (> 0).
         thickness: f64,
+        /// Gradient of the linear background dn/dh, per metre (default 0).
         #[serde(default = "default_zero")]
         m: f64,
+        /// Unit "up" direction the height is measured along (default +y;
+        /// normalised by [`IndexField::validated`]).
         #[serde(default = "default_up")]
         up: DVec3,
+        /// Height of the origin of h along `up`, metres: h = p·up − base (default 0).
         #[serde(default = "default_base")]
         base: f64,
     },
@@ -136,19 +166,30 @@ pub enum IndexField {
     /// plume axis, T = mean of `waves` sinusoids sin(k_i·p + φ_i) (|T| ≤ 1) with
     /// wavelengths around `wavelength`, directions and phases from `seed`.
     Plume {
+        /// Ambient index, far from the plume.
         n_amb: f64,
+        /// Index deficit at the source (> 0 for hot air).
         dn: f64,
+        /// The source: the base of the plume axis, world metres.
         center: DVec3,
+        /// Gaussian width across the axis, metres (> 0).
         radius: f64,
+        /// Gaussian height scale along `up`, metres (> 0).
         height: f64,
+        /// Relative strength of the turbulence, |amplitude| < 1 (default 0: smooth).
         #[serde(default = "default_zero")]
         amplitude: f64,
+        /// Typical turbulence wavelength, metres (> 0; default 0.1).
         #[serde(default = "default_wavelength")]
         wavelength: f64,
+        /// Number of sinusoids in T, 1..=64 (default 6).
         #[serde(default = "default_waves")]
         waves: u32,
+        /// Seed of the waves' directions, phases and wavelengths (default 0).
         #[serde(default)]
         seed: u64,
+        /// Unit direction of the plume axis (default +y; normalised by
+        /// [`IndexField::validated`]).
         #[serde(default = "default_up")]
         up: DVec3,
     },
@@ -161,7 +202,9 @@ fn default_wavelength() -> f64 {
 /// The height-only view of a stratified field.
 #[derive(Debug, Clone, Copy)]
 pub struct Strata {
+    /// Unit direction the height is measured along.
     pub up: DVec3,
+    /// The height is h = p·up − base, metres.
     pub base: f64,
 }
 
@@ -230,6 +273,12 @@ impl IndexField {
 
     /// Checks the parameters (finite, positive scales, non-zero `up`) and returns a copy
     /// with `up` normalised. `key` prefixes error keys (e.g. "medium.field").
+    ///
+    /// # Errors
+    ///
+    /// [`MediumError::Invalid`] at `key.param` for the first parameter that is
+    /// not finite or out of range (H, h0, thickness, radius, height, wavelength
+    /// ≤ 0, |amplitude| ≥ 1, waves outside 1..=64, a zero `up`).
     pub fn validated(&self, key: &str) -> Result<IndexField, MediumError> {
         let k = |s: &str| format!("{key}.{s}");
         let mut f = self.clone();
@@ -429,17 +478,16 @@ impl IndexField {
         }
     }
 
+    /// n at world point `p` (metres); the first half of [`IndexField::eval`].
     pub fn n(&self, p: DVec3) -> f64 {
         self.eval(p).0
     }
 
+    /// ∇n at world point `p`, per metre; the second half of [`IndexField::eval`].
     pub fn grad(&self, p: DVec3) -> DVec3 {
         self.eval(p).1
     }
 
-    /// A length over which the field's gradient direction may change (used to cap
-    /// chords whose bending the end tangents cannot see). Infinite for monotone
-    /// stratified fields.
     /// The longest chord (arc length) for a ray with unit tangent `t` that
     /// cannot step over a feature of the field. For the inversion layer that is
     /// a vertical extent of one `thickness`: with the path's curvature bounded by
@@ -467,6 +515,10 @@ impl IndexField {
         }
     }
 
+    /// A length over which the field's gradient direction may change (used to cap
+    /// chords whose bending the end tangents cannot see), metres: for a plume
+    /// min(radius, height)/2, and wavelength/8 with turbulence; for an inversion
+    /// its `thickness`. Infinite for monotone stratified fields.
     pub fn feature_length(&self) -> f64 {
         match *self {
             IndexField::Plume {

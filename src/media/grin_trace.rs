@@ -17,8 +17,10 @@ struct Input {
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Stop {
+    /// Stop where the ray crosses the world plane x = X (metres, finite).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub x: Option<f64>,
+    /// Stop after this arc length, metres (finite, >= 0).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub s: Option<f64>,
 }
@@ -27,16 +29,23 @@ pub struct Stop {
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Query {
+    /// Name of the query, copied to its answer.
     pub id: String,
+    /// The index field, unbounded (no box, no surfaces).
     pub field: IndexField,
+    /// Launch point, world metres.
     pub start: DVec3,
+    /// Launch direction (non-zero; normalised).
     pub direction: DVec3,
+    /// Where the trace ends: exactly one of `x` and `s`.
     pub stop: Stop,
+    /// How the ray equation is integrated (exact: linear fields; paper methods:
+    /// stratified fields).
     pub method: Method,
     /// rk45 error tolerance (metres per step); default 1e-9.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tolerance: Option<f64>,
-    /// Step (metres) of the fixed-step methods.
+    /// Step (metres) of the fixed-step methods (default 0.01 when `steps` is absent too).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub step: Option<f64>,
     /// Number of steps instead of `step`: step = (straight distance to the stop)/steps.
@@ -79,25 +88,36 @@ impl Query {
 /// A point where the height component of the direction changes sign.
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize, Serialize)]
 pub struct Extremum {
+    /// The turning point, world metres.
     pub position: DVec3,
+    /// Arc length from the start to it, metres.
     pub arc_length: f64,
 }
 
 /// One result.
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 pub struct Answer {
+    /// The query's `id`.
     pub id: String,
+    /// "ok", or why the query failed as `queries[i].key: message` (then the
+    /// optional fields below are absent).
     pub status: String,
+    /// The method used (absent when the query itself did not parse).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub method: Option<Method>,
+    /// End point, world metres.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub end: Option<DVec3>,
+    /// Unit tangent at the end point.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub end_direction: Option<DVec3>,
+    /// Arc length from the start to the end point, metres.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub arc_length: Option<f64>,
+    /// Turning points along the way, in order.
     #[serde(default)]
     pub extrema: Vec<Extremum>,
+    /// Field evaluations (n and ∇n at one point count as one).
     pub evaluations: u64,
     /// Steps (or pieces) taken.
     pub steps: u64,
@@ -109,6 +129,15 @@ struct Output {
 }
 
 /// The core of `snell grin-trace`: the pretty JSON `{"results": [...]}`.
+///
+/// `input` is `{"queries": [...]}`; every query gets one answer, in order, and
+/// a query that is malformed or fails only sets its own `status`.
+///
+/// # Errors
+///
+/// [`MediumError::Invalid`] at `(document)` when `input` is not a JSON object
+/// with a `queries` array (and at `(output)` if the answers cannot be
+/// serialised).
 pub fn grin_trace_json(input: &str) -> Result<String, MediumError> {
     let doc: Input = serde_json::from_str(input)
         .map_err(|e| MediumError::invalid("(document)", format!("expected {{\"queries\": [...]}} ({e})")))?;
@@ -173,6 +202,7 @@ fn finite_vec(key: &str, v: DVec3) -> Result<(), String> {
 /// it starts when the step count is known, else when it gets there), so no
 /// query runs for more than a fraction of a second.
 pub const MAX_STEPS: u64 = 2_000_000;
+/// Field evaluations one query may use (see [`MAX_STEPS`]).
 pub const MAX_EVALUATIONS: u64 = 10_000_000;
 /// Work (steps + evaluations) of a whole document: a document of many heavy
 /// queries stops there (the later queries get a work-limit status).
@@ -198,6 +228,14 @@ fn over_budget(steps: u64, evals: u64) -> Result<(), String> {
 }
 
 /// Traces one query (errors are "key: message" relative to the query).
+///
+/// # Errors
+///
+/// `key: message` for an invalid parameter (`field…`, `method`, `start`,
+/// `direction`, `stop`, `tolerance`, `step`, `max_length`), for n not finite or
+/// not > 0 along the ray, a paper method's failure (e.g. at a turning point),
+/// a work limit ([`MAX_STEPS`], [`MAX_EVALUATIONS`]), or a stop not reached
+/// within `max_length`.
 pub fn trace(q: &Query) -> Result<Answer, String> {
     let field = q.field.validated("field").map_err(|e| e.to_string())?;
     check_method(&field, q.method, "method").map_err(|e| e.to_string())?;

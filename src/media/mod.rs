@@ -22,11 +22,18 @@ use stepper::{State, Stepper};
 /// A user-facing error: the key (e.g. `medium.tolerance`) and what was expected.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum MediumError {
+    /// A parameter is out of range; printed as `key: message`.
     #[error("{key}: {message}")]
-    Invalid { key: String, message: String },
+    Invalid {
+        /// Dotted key of the parameter, e.g. `medium.field.h0` or `queries[3].method`.
+        key: String,
+        /// What was expected and what was found.
+        message: String,
+    },
 }
 
 impl MediumError {
+    /// A [`MediumError::Invalid`] at `key`.
     pub fn invalid(key: impl Into<String>, message: impl Into<String>) -> MediumError {
         MediumError::Invalid {
             key: key.into(),
@@ -56,6 +63,7 @@ pub enum Method {
 }
 
 impl Method {
+    /// Every method, in the order of [`Method::name`]'s listing.
     pub const ALL: [Method; 7] = [
         Method::Rk45,
         Method::Rk4,
@@ -66,6 +74,8 @@ impl Method {
         Method::Exact,
     ];
 
+    /// The name in scene files and JSON queries (`rk45`, `paper_rk4`, …);
+    /// [`FromStr`] parses it back.
     pub fn name(self) -> &'static str {
         match self {
             Method::Rk45 => "rk45",
@@ -106,6 +116,10 @@ impl FromStr for Method {
 }
 
 /// Checks that `method` can trace `field` (exact: linear/constant; paper: stratified).
+///
+/// # Errors
+///
+/// [`MediumError::Invalid`] at `key` when the field's kind does not fit the method.
 pub fn check_method(field: &IndexField, method: Method, key: &str) -> Result<(), MediumError> {
     if method == Method::Exact && exact::linear_params(field).is_none() {
         return Err(MediumError::invalid(
@@ -145,6 +159,18 @@ impl Medium {
     /// Validates: tolerance > 0, step > 0 (both finite), bounds finite and non-empty,
     /// n > 0 everywhere in the bounds (exact minimum for stratified fields, a guaranteed
     /// lower bound for a plume), the method fits the field.
+    ///
+    /// `bounds` are world metres, `tolerance` is the chord–arc deviation and rk45's
+    /// error target in metres, `step` the fixed step of rk4 and the paper's methods in
+    /// metres. The stored field has `up` normalised.
+    ///
+    /// # Errors
+    ///
+    /// [`MediumError::Invalid`] with a `medium.*` key (`medium.tolerance`,
+    /// `medium.step`, `medium.bounds`, `medium.field…`, `medium.method`) when one of
+    /// the checks above fails, when n exceeds [`MAX_INDEX`] in the bounds, or when
+    /// the field's feature length or a paper method's step would need more than 1e6
+    /// chords across the box.
     pub fn try_new(
         field: IndexField,
         bounds: Aabb,
@@ -238,18 +264,23 @@ impl Medium {
         })
     }
 
+    /// The world-space box the field fills, metres.
     pub fn bounds(&self) -> Aabb {
         self.bounds
     }
+    /// The validated field (`up` normalised).
     pub fn field(&self) -> &IndexField {
         &self.field
     }
+    /// How rays are integrated inside the bounds.
     pub fn method(&self) -> Method {
         self.method
     }
+    /// Chord–arc deviation bound and rk45's error target, metres.
     pub fn tolerance(&self) -> f64 {
         self.tolerance
     }
+    /// Step of the fixed-step methods (rk4 and the paper's), metres.
     pub fn step(&self) -> f64 {
         self.step
     }
@@ -304,8 +335,12 @@ enum Mode {
 /// A straight piece of a curved ray, to cast through Embree.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Chord {
+    /// Start of the chord, world metres.
     pub origin: DVec3,
+    /// Unit direction of the chord.
     pub dir: DVec3,
+    /// Length in metres: infinite for a ray that never enters the bounds, 0
+    /// after a failure or when the ray leaves the box where it stands.
     pub length: f64,
 }
 
@@ -336,6 +371,7 @@ fn dist_to_segment(q: DVec3, a: DVec3, b: DVec3) -> f64 {
 }
 
 impl CurvedRay {
+    /// Current point (the end of the last chord), world metres.
     pub fn position(&self) -> DVec3 {
         self.st.r
     }

@@ -44,6 +44,13 @@ fn snap(q: f64) -> f64 {
 }
 
 /// One step of `method` (slab, length, euler or paper_rk4) of size `h` from `st`.
+///
+/// # Errors
+///
+/// A message when the field is not stratified, `method` is not one of the four,
+/// euler or paper_rk4 meet a turning point (asin of more than 1), the slab method
+/// meets total internal reflection both ways, or n is not finite or not > 0 along
+/// the step.
 pub fn segment(
     field: &IndexField,
     method: Method,

@@ -9,17 +9,27 @@ use super::{exact, Method};
 /// The state of a ray at one point: position, unit tangent, v = n·t, and n, ∇n there.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct State {
+    /// Position, world metres.
     pub r: DVec3,
+    /// Unit tangent (direction of travel).
     pub t: DVec3,
+    /// v = n·t, the variable the ray equation integrates (|v| = n).
     pub v: DVec3,
+    /// Index of refraction at `r`.
     pub n: f64,
+    /// ∇n at `r`, per metre.
     pub g: DVec3,
     /// Arc length travelled since the launch.
     pub s: f64,
 }
 
 impl State {
-    /// A state at p with unit direction d (evaluates the field once).
+    /// A state at p with unit direction d (evaluates the field once, counted in
+    /// `evals`); arc length 0.
+    ///
+    /// # Errors
+    ///
+    /// A message naming the point when n at `p` is not finite or not > 0.
     pub fn new(field: &IndexField, p: DVec3, d: DVec3, evals: &mut u64) -> Result<State, String> {
         let (n, g) = field.eval(p);
         *evals += 1;
@@ -60,9 +70,13 @@ pub(crate) fn check_n(n: f64, p: DVec3) -> Result<(), String> {
 /// Method, tolerance and step, with an evaluation counter.
 #[derive(Debug, Clone)]
 pub struct Stepper<'a> {
+    /// The field n(p) being integrated through.
     pub field: &'a IndexField,
+    /// Rk45, Rk4 or Exact (the paper's methods live in `paper.rs`; others step as rk4).
     pub method: Method,
+    /// rk45's error target per step, metres.
     pub tolerance: f64,
+    /// rk4's arc-length step, metres.
     pub step: f64,
     /// Field evaluations (n and ∇n at one point count as one).
     pub evals: u64,
@@ -121,6 +135,7 @@ const E: [f64; 7] = [
 ];
 
 impl<'a> Stepper<'a> {
+    /// A stepper with its counters at 0.
     pub fn new(field: &'a IndexField, method: Method, tolerance: f64, step: f64) -> Stepper<'a> {
         Stepper {
             field,
@@ -135,6 +150,10 @@ impl<'a> Stepper<'a> {
     /// One Dormand–Prince step of length h: the 5th-order state (FSAL: n, ∇n at the end
     /// are the next step's first stage) and the error norm in metres
     /// max(|δr|, h·|δv|/n).
+    ///
+    /// # Errors
+    ///
+    /// A message when n is not finite or not > 0 at one of the stages.
     pub fn dp45(&mut self, st: &State, h: f64) -> Result<(State, f64), String> {
         let mut kr = [DVec3::ZERO; 7];
         let mut kv = [DVec3::ZERO; 7];
@@ -174,6 +193,10 @@ impl<'a> Stepper<'a> {
     }
 
     /// One classical RK4 step of length h (4 evaluations, the last one at the end point).
+    ///
+    /// # Errors
+    ///
+    /// A message when n is not finite or not > 0 at one of the stages.
     pub fn rk4(&mut self, st: &State, h: f64) -> Result<State, String> {
         let f = |s: &mut Self, r: DVec3, v: DVec3| -> Result<(DVec3, DVec3), String> {
             let (n, g) = s.field.eval(r);
@@ -192,6 +215,11 @@ impl<'a> Stepper<'a> {
 
     /// One accepted rk45 step of at most `max_h` (starting from the suggestion
     /// `*h_next`, which is updated): the new state and the step taken.
+    ///
+    /// # Errors
+    ///
+    /// A message when the step size underflows (the tolerance is too small for
+    /// f64, or n ≤ 0 right ahead of the ray).
     pub fn rk45_step(&mut self, st: &State, h_next: &mut f64, max_h: f64) -> Result<(State, f64), String> {
         loop {
             let h = h_next.min(max_h);
@@ -235,6 +263,11 @@ impl<'a> Stepper<'a> {
     /// One step of length h of a ray-equation method without error control (rk45 uses
     /// the 5th-order solution): used to land on stops and to locate events inside an
     /// accepted step.
+    ///
+    /// # Errors
+    ///
+    /// A message when n is not finite or not > 0 along the step, or (exact) when
+    /// the field is not linear.
     pub fn single(&mut self, st: &State, h: f64) -> Result<State, String> {
         match self.method {
             Method::Rk45 => self.dp45(st, h).map(|x| x.0),
@@ -249,6 +282,11 @@ impl<'a> Stepper<'a> {
     /// Advance by exactly `ell` metres of arc (rk45 adaptive from the suggested step
     /// `*h_next`, rk4 in ceil(ell/step) equal steps, exact in one). Intermediate
     /// positions are pushed to `points`.
+    ///
+    /// # Errors
+    ///
+    /// The errors of the steps taken, and a message when rk45 would need more than
+    /// 1e6 steps or rk4 more than 1e9.
     pub fn advance(
         &mut self,
         st: &State,

@@ -4,7 +4,10 @@ use toml_edit::{ImDocument, Item, Value};
 
 /// A scene file's text with its parsed span map.
 pub struct Source {
+    /// The file name as given (or `--set '…'` for an override), the first
+    /// part of every error it locates.
     pub file: String,
+    /// The TOML text, after any `--set` overrides.
     pub text: String,
     doc: Option<ImDocument<String>>,
     /// With `--set` overrides: the file as written (errors at keys not
@@ -35,11 +38,16 @@ fn under(key: &str, prefix: &str) -> bool {
 /// One step of a key path.
 #[derive(Debug, Clone)]
 pub enum Seg {
+    /// A table key, `material`.
     Key(String),
+    /// An array index, `[2]` (0-based).
     Index(usize),
 }
 
 /// Parse `objects[2].material.ior` into segments.
+///
+/// Lenient, for locating errors: empty parts and indices that are not
+/// numbers are skipped.
 pub fn parse_path(path: &str) -> Vec<Seg> {
     let mut out = Vec::new();
     for part in path.split('.') {
@@ -64,6 +72,9 @@ pub fn parse_path(path: &str) -> Vec<Seg> {
 }
 
 impl Source {
+    /// The text of `file`, parsed for key spans. A text that does not parse
+    /// is kept: [`Source::toml_error`] still locates the parser's error, and
+    /// [`Source::error`] falls back to line 1, column 1.
     pub fn new(file: &str, text: String) -> Source {
         let doc = ImDocument::parse(text.clone()).ok();
         Source {

@@ -7,13 +7,21 @@ use std::sync::Arc;
 /// A linear-RGB float image, row 0 at the top.
 #[derive(Debug)]
 pub struct ImageData {
+    /// Width in pixels (>= 1).
     pub width: usize,
+    /// Height in pixels (>= 1).
     pub height: usize,
+    /// `width × height` linear RGB values, row-major, row 0 at the top.
     pub pixels: Vec<V3>,
 }
 
 impl ImageData {
-    /// Bilinear lookup with wrap-around in u and clamping in v; (u, v) in [0,1]².
+    /// Bilinear lookup with wrap-around in u and clamping in v; (u, v) in [0, 1]²,
+    /// v = 0 at the top row.
+    ///
+    /// # Panics
+    ///
+    /// If the image is empty or `pixels` holds fewer than `width × height` values.
     pub fn lookup(&self, u: f32, v: f32) -> V3 {
         let x = (u - u.floor()) * self.width as f32 - 0.5;
         let y = v.clamp(0.0, 1.0) * self.height as f32 - 0.5;
@@ -37,6 +45,14 @@ impl ImageData {
 }
 
 /// Load an EXR (linear) or an 8-bit/HDR image (PNG/JPEG are sRGB-decoded).
+///
+/// EXR files give their first RGBA layer; the extension (case-insensitive)
+/// chooses the decoder for `.exr` and the linear treatment of `.hdr`.
+///
+/// # Errors
+///
+/// A message (without the path) when the file cannot be read or decoded, or
+/// when the image has no pixels.
 pub fn load_image(path: &Path) -> Result<ImageData, String> {
     let ext = path
         .extension()
@@ -103,16 +119,24 @@ fn srgb_to_linear(c: f32) -> f32 {
 /// A reflectance or radiance texture.
 #[derive(Debug, Clone)]
 pub enum Texture {
+    /// The same linear RGB value everywhere.
     Constant(V3),
     /// World-space checker over axes (a, b): `c0` where ⌊a/size⌋ + ⌊b/size⌋ is even.
     Checker {
+        /// The world axes a and b: indices 0 = x, 1 = y, 2 = z, different.
         axes: [usize; 2],
+        /// 1 / side of a square, per metre.
         inv_size: f32,
+        /// Colour where the sum of the square indices is even.
         c0: V3,
+        /// Colour where it is odd.
         c1: V3,
     },
+    /// An image over the surface's (u, v), repeated `scale` times.
     Image {
+        /// The linear-RGB image (shared between objects).
         image: Arc<ImageData>,
+        /// Repeats along u and v over the shape's (u, v) in [0, 1]².
         scale: [f32; 2],
     },
 }
@@ -125,6 +149,9 @@ impl Texture {
         matches!(self, Texture::Image { .. })
     }
 
+    /// The linear RGB value at world-space point `p` (read by the checker) with
+    /// surface coordinates `uv` (read by image textures; v = 0 at the image's
+    /// bottom row).
     pub fn eval(&self, p: V3, uv: [f32; 2]) -> V3 {
         match self {
             Texture::Constant(c) => *c,
