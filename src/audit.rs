@@ -91,8 +91,8 @@ pub struct AuditReport {
 pub fn audit_scene(tr: Tracer<'_>, n: u64, seed: u64) -> Result<AuditReport> {
     let scene = tr.scene;
     use crate::sampling::{uniform_sphere, Rng};
-    use crate::scene::build::Shape;
     use crate::scene::shapes::Analytic;
+    use crate::scene::Shape;
     use rayon::prelude::*;
     let mut targets: Vec<V3> = Vec::new();
     let mut spheres: Vec<(V3, f32)> = Vec::new();

@@ -51,7 +51,7 @@ fn is_touch(scene: &RenderScene, ray: &Ray, h: &Hit) -> bool {
             if near_edge(h.u, h.v)
                 && matches!(
                     scene.geoms[h.geom_id as usize].shape,
-                    crate::scene::build::Shape::Mesh(_)
+                    crate::scene::Shape::Mesh(_)
                 ) =>
         {
             verify_crossing(scene, s, ray, h.t).is_none()

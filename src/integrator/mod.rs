@@ -8,12 +8,12 @@ use crate::counters::Counters;
 use crate::dielectric::{self, InteriorList, NestedStrategy};
 use crate::error::Result;
 use crate::optics;
-use crate::ray::{front_facing, offset_origin, offset_size, spawn_transmitted, Hit, Ray};
-use crate::sampling::{cosine_hemisphere, power_heuristic, uniform_cone, Rng};
-use crate::scene::build::{IntegratorKind, Shape};
-use crate::scene::{Light, Material, RenderScene};
+use crate::ray::{front_facing, offset_origin, offset_size, spawn_transmitted, Ray};
+use crate::sampling::{cosine_hemisphere, power_heuristic, Rng};
+use crate::scene::IntegratorKind;
+use crate::scene::{Material, RenderScene};
 use glam::{DVec3, Vec3A as V3};
-use std::f32::consts::{FRAC_1_PI, PI};
+use std::f32::consts::FRAC_1_PI;
 
 /// What every path of a render shares: the scene, and how nested
 /// dielectrics are resolved (a render setting, not part of the scene).
@@ -31,170 +31,6 @@ impl<'a> Tracer<'a> {
         Tracer {
             scene,
             strategy: NestedStrategy::Filter,
-        }
-    }
-}
-
-/// Geometry at a hit, in world space.
-#[derive(Debug, Clone, Copy)]
-pub struct SurfacePoint {
-    pub p: V3,
-    /// Unit geometric normal with the shape's convention (see `scene::shapes`).
-    pub ng: V3,
-    /// Unit shading normal on the same side as `ng`.
-    pub ns: V3,
-    pub uv: [f32; 2],
-}
-
-/// Hit point and normals for `hit` along `ray` (unit direction).
-///
-/// The point is reconstructed on the surface rather than taken as org + t·dir
-/// (pbrt's approach): from the barycentrics in f64 for triangles, by exact
-/// projection for analytic shapes. Its error is then a few ulps of its own
-/// coordinates, whatever the ray's length, which bounds `offset_origin`.
-pub fn surface_point(scene: &RenderScene, ray: &Ray, hit: &Hit) -> SurfacePoint {
-    let p = ray.org + ray.dir * hit.t;
-    let rec = &scene.geoms[hit.geom_id as usize];
-    match &rec.shape {
-        Shape::Mesh(m) => {
-            let p = m.point(hit.prim_id, hit.u, hit.v);
-            let ng = hit.ng.normalize_or(V3::Y);
-            let (ns, uv) = m.shading(hit.prim_id, hit.u, hit.v);
-            let ns = match ns {
-                Some(n) if n.dot(ng) > 0.0 => n,
-                Some(n) => -n,
-                None => ng,
-            };
-            SurfacePoint { p, ng, ns, uv }
-        }
-        Shape::Analytic(a) => {
-            let pd = a.project(hit.prim_id, DVec3::new(p.x as f64, p.y as f64, p.z as f64));
-            let p = V3::new(pd.x as f32, pd.y as f32, pd.z as f32);
-            let n = a.normal(hit.prim_id, pd);
-            let ng = V3::new(n.x as f32, n.y as f32, n.z as f32);
-            SurfacePoint {
-                p,
-                ng,
-                ns: ng,
-                uv: if rec.needs_uv() { a.uv(pd) } else { [0.0, 0.0] },
-            }
-        }
-    }
-}
-
-/// The light-sampling density (solid angle, including the choice of light)
-/// of reaching light `li` from `from` in direction `wi` to the point `q`.
-fn light_pdf(scene: &RenderScene, li: u32, from: V3, q: V3, wi: V3) -> f32 {
-    let n = scene.lights.len() as f32;
-    match &scene.lights[li as usize] {
-        Light::Rect { normal, area, .. } => {
-            let d2 = (q - from).length_squared();
-            let cos_l = -normal.dot(wi);
-            if cos_l <= 0.0 {
-                0.0
-            } else {
-                d2 / (area * cos_l) / n
-            }
-        }
-        Light::Sphere { center, radius, .. } => {
-            let d2 = (*center - from).length_squared();
-            let r2 = radius * radius;
-            if d2 <= r2 {
-                return 0.0;
-            }
-            let cos_max = (1.0 - r2 / d2).max(0.0).sqrt();
-            1.0 / (2.0 * PI * (1.0 - cos_max)) / n
-        }
-        _ => 0.0,
-    }
-}
-
-/// A light sample seen from `p`: direction, distance, radiance and solid-angle pdf
-/// (0 for delta lights), including the 1/num_lights choice.
-struct LightSample {
-    wi: V3,
-    dist: f32,
-    li: V3,
-    pdf: f32,
-    delta: bool,
-}
-
-fn sample_light(scene: &RenderScene, p: V3, rng: &mut Rng) -> Option<LightSample> {
-    let n = scene.lights.len();
-    if n == 0 {
-        return None;
-    }
-    let idx = ((rng.uniform() * n as f32) as usize).min(n - 1);
-    let (u1, u2) = (rng.uniform(), rng.uniform());
-    let nf = n as f32;
-    match &scene.lights[idx] {
-        Light::Point { position, intensity } => {
-            let d = *position - p;
-            let dist = d.length();
-            (dist > 0.0).then(|| LightSample {
-                wi: d / dist,
-                dist,
-                li: *intensity / (dist * dist) * nf,
-                pdf: 1.0,
-                delta: true,
-            })
-        }
-        Light::Directional {
-            direction,
-            irradiance,
-        } => Some(LightSample {
-            wi: -*direction,
-            dist: f32::INFINITY,
-            li: *irradiance * nf,
-            pdf: 1.0,
-            delta: true,
-        }),
-        Light::Rect {
-            corner,
-            edge_u,
-            edge_v,
-            normal,
-            area,
-            radiance,
-        } => {
-            let q = *corner + *edge_u * u1 + *edge_v * u2;
-            let d = q - p;
-            let dist = d.length();
-            let wi = d / dist;
-            let cos_l = -normal.dot(wi);
-            (cos_l > 0.0 && dist > 0.0).then(|| LightSample {
-                wi,
-                dist,
-                li: *radiance,
-                pdf: dist * dist / (area * cos_l) / nf,
-                delta: false,
-            })
-        }
-        Light::Sphere {
-            center,
-            radius,
-            radiance,
-        } => {
-            let d = *center - p;
-            let d2 = d.length_squared();
-            let r2 = radius * radius;
-            if d2 <= r2 {
-                return None;
-            }
-            let cos_max = (1.0 - r2 / d2).max(0.0).sqrt();
-            let axis = d / d2.sqrt();
-            let wi = uniform_cone(axis, cos_max, u1, u2);
-            // Distance to the sphere along wi (nearest root).
-            let b = d.dot(wi);
-            let disc = (b * b - (d2 - r2)).max(0.0);
-            let dist = b - disc.sqrt();
-            Some(LightSample {
-                wi,
-                dist,
-                li: *radiance,
-                pdf: 1.0 / (2.0 * PI * (1.0 - cos_max)) / nf,
-                delta: false,
-            })
         }
     }
 }
@@ -393,7 +229,7 @@ fn path(
         if let Some(s) = sigma {
             beta *= (-s * seg.length).exp();
         }
-        let sp = surface_point(scene, &seg.chord, &hit);
+        let sp = scene.surface_point(&seg.chord, &hit);
         // Shade with the direction the (possibly curved) ray arrives with.
         ray.dir = seg.dir;
         let rec = &scene.geoms[hit.geom_id as usize];
@@ -406,7 +242,7 @@ fn path(
                     // A path through the medium cannot come from NEE (which
                     // only connects straight segments that avoid it): weight 1.
                     Some(li) if !specular && !seg.entered_medium => {
-                        let lp = light_pdf(scene, li, prev_p, sp.p, ray.dir);
+                        let lp = scene.light_pdf(li, prev_p, sp.p, ray.dir);
                         power_heuristic(prev_pdf, lp)
                     }
                     _ => 1.0,
@@ -430,7 +266,7 @@ fn path(
                 let ng = if front { sp.ng } else { -sp.ng };
                 let albedo = reflectance.eval(sp.p, sp.uv);
                 // Next-event estimation.
-                if let Some(ls) = sample_light(scene, sp.p, rng) {
+                if let Some(ls) = scene.sample_light(sp.p, rng) {
                     let cos = n.dot(ls.wi);
                     if cos > 0.0
                         && ng.dot(ls.wi) > 0.0
@@ -561,7 +397,7 @@ fn whitted(
         });
     };
     let att = sigma.map(|s| (-s * seg.length).exp()).unwrap_or(V3::ONE);
-    let sp = surface_point(scene, &seg.chord, &hit);
+    let sp = scene.surface_point(&seg.chord, &hit);
     let dir = seg.dir;
     let rec = &scene.geoms[hit.geom_id as usize];
     let front = front_facing(sp.ng, dir);
@@ -583,7 +419,7 @@ fn whitted(
                 let ng = if front { sp.ng } else { -sp.ng };
                 let albedo = reflectance.eval(sp.p, sp.uv);
                 for _ in 0..scene.lights.len() {
-                    if let Some(ls) = sample_light(scene, sp.p, rng) {
+                    if let Some(ls) = scene.sample_light(sp.p, rng) {
                         let cos = n.dot(ls.wi);
                         if cos > 0.0
                             && !meets_medium(scene, sp.p, ls.wi, ls.dist)
@@ -694,7 +530,7 @@ pub fn refraction_path(
                 escaped: true,
             });
         };
-        let sp = surface_point(scene, &ray, &hit);
+        let sp = scene.surface_point(&ray, &hit);
         let rec = &scene.geoms[hit.geom_id as usize];
         let front = front_facing(sp.ng, ray.dir);
         let m = &rec.material;

@@ -26,7 +26,7 @@ use super::{CopyKey, Family, PlateStatus, WarpGlass, WarpMethod, WarpSpec};
 use crate::embree::{BuildQuality, Ray, Scene, SceneBuilder, SceneFlags};
 use crate::error::{Error, Result};
 use crate::scene::shapes::Mesh;
-use crate::scene::{build::Shape, Environment, Light, Material, RenderScene};
+use crate::scene::{Environment, Light, Material, RenderScene, Shape};
 use glam::{DVec3, Vec3A as V3};
 use rayon::prelude::*;
 use std::collections::HashMap;

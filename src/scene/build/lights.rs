@@ -1,0 +1,84 @@
+//! The `[[lights]]` section: lights for next-event estimation; area lights
+//! are also geometry (black bodies that emit), pending like objects.
+use super::{f, Builder, Pending};
+use crate::error::Result;
+use crate::scene::desc::*;
+use crate::scene::meshgen;
+use crate::scene::model::{Light, Material, Shape};
+use crate::scene::shapes::Analytic;
+use crate::scene::texture::Texture;
+use std::sync::Arc;
+
+impl Builder<'_> {
+    /// Every light of `d`; rect and sphere lights also push their geometry.
+    pub(super) fn lights(&self, d: &SceneDesc, pending: &mut Vec<Pending>) -> Result<Vec<Light>> {
+        let mut lights = Vec::new();
+        for (i, l) in d.lights.iter().enumerate() {
+            let k = format!("lights[{i}]");
+            match l {
+                LightDesc::Point(p) => lights.push(Light::Point {
+                    position: f(self.finite3(&format!("{k}.position"), p.position)?),
+                    intensity: self.color(&format!("{k}.intensity"), p.intensity)?,
+                }),
+                LightDesc::Directional(p) => lights.push(Light::Directional {
+                    direction: f(self.unit(&format!("{k}.direction"), p.direction)?),
+                    irradiance: self.color(&format!("{k}.irradiance"), p.irradiance)?,
+                }),
+                LightDesc::Rect(r) => {
+                    let center = self.finite3(&format!("{k}.center"), r.center)?;
+                    let normal = self.unit(&format!("{k}.normal"), r.normal)?;
+                    let u = self.unit(&format!("{k}.u_axis"), r.u_axis)?;
+                    if normal.dot(u).abs() > 1e-6 {
+                        return Err(self.err(
+                            &format!("{k}.u_axis"),
+                            "u_axis must be perpendicular to the normal",
+                        ));
+                    }
+                    let su = self.positive(&format!("{k}.size[0]"), r.size[0])?;
+                    let sv = self.positive(&format!("{k}.size[1]"), r.size[1])?;
+                    let radiance = self.color(&format!("{k}.radiance"), r.radiance)?;
+                    let v = normal.cross(u);
+                    let li = lights.len() as u32;
+                    lights.push(Light::Rect {
+                        corner: f(center - u * su * 0.5 - v * sv * 0.5),
+                        edge_u: f(u * su),
+                        edge_v: f(v * sv),
+                        normal: f(normal),
+                        area: (su * sv) as f32,
+                        radiance,
+                    });
+                    pending.push(Pending {
+                        name: r.name.clone().unwrap_or_else(|| k.clone()),
+                        name_key: format!("{k}.name"),
+                        shape: Shape::Mesh(Arc::new(meshgen::rect(center, normal, u, [su, sv]))),
+                        material: Material::Black,
+                        emission: Some(Texture::Constant(radiance)),
+                        light: Some(li),
+                        solid: None,
+                    });
+                }
+                LightDesc::Sphere(s) => {
+                    let center = self.finite3(&format!("{k}.center"), s.center)?;
+                    let radius = self.positive(&format!("{k}.radius"), s.radius)?;
+                    let radiance = self.color(&format!("{k}.radiance"), s.radiance)?;
+                    let li = lights.len() as u32;
+                    lights.push(Light::Sphere {
+                        center: f(center),
+                        radius: radius as f32,
+                        radiance,
+                    });
+                    pending.push(Pending {
+                        name: s.name.clone().unwrap_or_else(|| k.clone()),
+                        name_key: format!("{k}.name"),
+                        shape: Shape::Analytic(Analytic::Sphere { center, radius }),
+                        material: Material::Black,
+                        emission: Some(Texture::Constant(radiance)),
+                        light: Some(li),
+                        solid: None,
+                    });
+                }
+            }
+        }
+        Ok(lights)
+    }
+}

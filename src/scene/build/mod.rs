@@ -1,0 +1,365 @@
+//! From a parsed description to a render scene: validation (every error names
+//! the file, the key path and the line:column), transforms, meshes, Embree.
+use super::desc::*;
+use super::model::{Containment, Environment, IntegratorKind, Material, RenderScene, Shape};
+use super::source::Source;
+use super::texture::{load_image, Texture};
+use crate::camera::Camera;
+use crate::embree::BuildQuality;
+use crate::error::{Error, Result};
+use glam::{DVec3, Vec3A as V3};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// Hard limits checked before any allocation (estimated memory in the message).
+pub use super::model::MAX_PIXELS;
+
+mod lights;
+mod object;
+mod upload;
+mod warp;
+pub const MAX_SPP: u64 = 1 << 24;
+pub const MAX_HEIGHTFIELD_LEVELS: u32 = 12; // 4097² vertices, ~33 M triangles
+
+/// How the scene is built for a render.
+#[derive(Debug, Clone, Copy)]
+pub struct BuildOptions {
+    /// Override of the Embree robust flag (default: on when the scene has priority solids).
+    pub robust: Option<bool>,
+    pub quality: BuildQuality,
+}
+
+impl Default for BuildOptions {
+    fn default() -> Self {
+        BuildOptions {
+            robust: None,
+            quality: BuildQuality::Medium,
+        }
+    }
+}
+
+/// Load and build a scene file.
+pub fn load_scene(path: &Path, opts: &BuildOptions) -> Result<RenderScene> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    load_scene_str(&path.display().to_string(), &text, &dir, opts)
+}
+
+/// Build a scene from TOML text; `file` names it in errors and `dir` resolves relative paths.
+pub fn load_scene_str(file: &str, text: &str, dir: &Path, opts: &BuildOptions) -> Result<RenderScene> {
+    load_scene_source(&Source::new(file, text.to_string()), dir, opts)
+}
+
+/// Build a scene from a [`Source`] (the file's text, or the text after `--set` overrides).
+pub fn load_scene_source(src: &Source, dir: &Path, opts: &BuildOptions) -> Result<RenderScene> {
+    let desc: SceneDesc = toml::from_str(&src.text).map_err(|e| src.toml_error(&e))?;
+    Builder {
+        src,
+        dir: dir.to_path_buf(),
+        opts: *opts,
+    }
+    .build(&desc)
+}
+
+struct Builder<'a> {
+    src: &'a Source,
+    dir: PathBuf,
+    opts: BuildOptions,
+}
+
+fn v3(a: Vec3) -> DVec3 {
+    DVec3::from_array(a)
+}
+fn f(a: DVec3) -> V3 {
+    V3::new(a.x as f32, a.y as f32, a.z as f32)
+}
+
+struct Pending {
+    name: String,
+    /// The scene key that declares `name` (for errors about it).
+    name_key: String,
+    shape: Shape,
+    material: Material,
+    emission: Option<Texture>,
+    light: Option<u32>,
+    solid: Option<PendingSolid>,
+}
+
+struct PendingSolid {
+    priority: i64,
+    ior: f64,
+    sigma_a: V3,
+    containment: Containment,
+    aabb: (DVec3, DVec3),
+}
+
+impl Builder<'_> {
+    fn err(&self, key: &str, msg: impl Into<String>) -> Error {
+        self.src.error(key, msg)
+    }
+
+    fn medium_err(&self, e: crate::media::MediumError) -> Error {
+        match e {
+            crate::media::MediumError::Invalid { key, message } => self.err(&key, message),
+        }
+    }
+
+    fn finite3(&self, key: &str, v: Vec3) -> Result<DVec3> {
+        // Finite, and representable with room to spare in f32 (Embree's precision).
+        if v.iter().all(|c| c.is_finite() && c.abs() <= 1e15) {
+            Ok(v3(v))
+        } else {
+            Err(self.err(key, format!("expected finite numbers within ±1e15, got {v:?}")))
+        }
+    }
+
+    fn unit(&self, key: &str, v: Vec3) -> Result<DVec3> {
+        let d = self.finite3(key, v)?;
+        if d.length() < 1e-12 {
+            return Err(self.err(key, "expected a non-zero direction"));
+        }
+        Ok(d.normalize())
+    }
+
+    fn positive(&self, key: &str, x: f64) -> Result<f64> {
+        if x.is_finite() && x > 0.0 && x <= 1e15 {
+            Ok(x)
+        } else {
+            Err(self.err(key, format!("expected a finite number > 0, got {x}")))
+        }
+    }
+
+    fn color(&self, key: &str, c: Vec3) -> Result<V3> {
+        if c.iter().all(|x| x.is_finite() && *x >= 0.0 && *x <= 1e15) {
+            Ok(f(v3(c)))
+        } else {
+            Err(self.err(key, format!("expected three finite values >= 0, got {c:?}")))
+        }
+    }
+
+    fn resolve(&self, file: &str) -> PathBuf {
+        let p = Path::new(file);
+        if p.is_absolute() {
+            p.to_path_buf()
+        } else {
+            self.dir.join(p)
+        }
+    }
+
+    /// The whole scene, section by section (each section's keys are
+    /// validated where they are read, so errors name the key and its line).
+    fn build(&self, d: &SceneDesc) -> Result<RenderScene> {
+        let integrator = self.film_and_integrator(d)?;
+        let ambient = self.positive("ambient_ior", d.ambient_ior)?;
+        let (camera, position) = self.camera(d)?;
+        let environment = self.environment(d)?;
+        if d.objects.is_empty() && d.lights.is_empty() {
+            return Err(self.err("objects", "the scene is empty: no objects and no lights"));
+        }
+        let mut pending: Vec<Pending> = Vec::new();
+        let mut warnings = Vec::new();
+        let lights = self.lights(d, &mut pending)?;
+        for (i, o) in d.objects.iter().enumerate() {
+            pending.push(self.object(i, o, &mut warnings)?);
+        }
+        let warp = match &d.warp {
+            None => None,
+            Some(w) => Some(self.warp(w, ambient, &mut pending)?),
+        };
+        // Names must be unique (the camera's `inside` list refers to them).
+        for (i, p) in pending.iter().enumerate() {
+            if pending[..i].iter().any(|q| q.name == p.name) {
+                return Err(self.err(&p.name_key, format!("duplicate object name \"{}\"", p.name)));
+            }
+        }
+        let up = self.upload(pending)?;
+        let medium = self.medium(d)?;
+        let film = &d.film;
+        let mut scene = RenderScene {
+            warp,
+            medium,
+            embree: up.embree,
+            geoms: up.geoms,
+            solids: up.solids,
+            rank_by_geom: up.rank_by_geom,
+            solid_by_geom: up.solid_by_geom,
+            lights,
+            environment,
+            camera,
+            width: film.width as u32,
+            height: film.height as u32,
+            spp: film.spp as u32,
+            seed: film.seed,
+            integrator,
+            max_depth: d.integrator.max_depth,
+            rr_depth: d.integrator.rr_depth,
+            ambient_ior: ambient as f32,
+            camera_interior: Vec::new(),
+            has_overlap: up.has_overlap,
+            warnings,
+            containment: up.containment,
+        };
+        scene.camera_interior = self.camera_interior(&d.camera, &scene, position)?;
+        Ok(scene)
+    }
+
+    /// `[film]` and `[integrator]`: absurd sizes are rejected before any allocation.
+    fn film_and_integrator(&self, d: &SceneDesc) -> Result<IntegratorKind> {
+        let film = &d.film;
+        if film.width == 0 || film.height == 0 {
+            return Err(self.err("film.width", "width and height must be at least 1"));
+        }
+        let pixels = film.width.saturating_mul(film.height);
+        if film.width > 1 << 16 || film.height > 1 << 16 || pixels > MAX_PIXELS {
+            return Err(self.err(
+                "film.width",
+                format!(
+                    "{}x{} pixels would need about {:.1} GB of film memory (limit {} pixels)",
+                    film.width,
+                    film.height,
+                    pixels as f64 * 12.0 / 1e9,
+                    MAX_PIXELS
+                ),
+            ));
+        }
+        if film.spp == 0 || film.spp > MAX_SPP {
+            return Err(self.err(
+                "film.spp",
+                format!("expected 1..={MAX_SPP} samples per pixel, got {}", film.spp),
+            ));
+        }
+        if film.filter != "box" {
+            return Err(self.err(
+                "film.filter",
+                format!("expected \"box\", got \"{}\"", film.filter),
+            ));
+        }
+        let integrator = match d.integrator.kind.as_str() {
+            "path" => IntegratorKind::Path,
+            "whitted" => IntegratorKind::Whitted,
+            o => {
+                return Err(self.err(
+                    "integrator.type",
+                    format!("expected \"path\" or \"whitted\", got \"{o}\""),
+                ))
+            }
+        };
+        if d.integrator.max_depth == 0 || d.integrator.max_depth > 1024 {
+            return Err(self.err("integrator.max_depth", "expected 1..=1024 path segments"));
+        }
+        if d.integrator.rr_depth == 0 {
+            return Err(self.err("integrator.rr_depth", "expected a depth >= 1"));
+        }
+
+        Ok(integrator)
+    }
+
+    /// `[camera]`: the camera at the film's resolution, and its position.
+    fn camera(&self, d: &SceneDesc) -> Result<(Camera, DVec3)> {
+        let film = &d.film;
+        let c = &d.camera;
+        let position = self.finite3("camera.position", c.position)?;
+        let target = self.finite3("camera.target", c.target)?;
+        let up = self.unit("camera.up", c.up)?;
+        if !(c.fov.is_finite() && c.fov > 0.0 && c.fov < 180.0) {
+            return Err(self.err(
+                "camera.fov",
+                format!(
+                    "expected a vertical field of view in (0, 180) degrees, got {}",
+                    c.fov
+                ),
+            ));
+        }
+        if !(c.aperture_radius.is_finite() && c.aperture_radius >= 0.0) {
+            return Err(self.err("camera.aperture_radius", "expected a finite radius >= 0"));
+        }
+        let focus = match c.focus_distance {
+            Some(fd) => self.positive("camera.focus_distance", fd)?,
+            None => (target - position).length(),
+        };
+        let camera = Camera::try_new(
+            f(position),
+            f(target),
+            f(up),
+            c.fov as f32,
+            film.width as u32,
+            film.height as u32,
+            c.aperture_radius as f32,
+            focus as f32,
+        )
+        .map_err(|e| self.err("camera", e.to_string()))?;
+        Ok((camera, position))
+    }
+
+    /// `[environment]`.
+    fn environment(&self, d: &SceneDesc) -> Result<Environment> {
+        Ok(match &d.environment {
+            None => Environment::Black,
+            Some(EnvironmentDesc::Constant(cst)) => {
+                Environment::Constant(self.color("environment.radiance", cst.radiance)?)
+            }
+            Some(EnvironmentDesc::Map(m)) => {
+                let path = self.resolve(&m.file);
+                let image = load_image(&path)
+                    .map_err(|e| self.err("environment.file", format!("{}: {e}", path.display())))?;
+                let scale = self.positive("environment.scale", m.scale)?;
+                Environment::Map {
+                    image: Arc::new(image),
+                    scale: scale as f32,
+                }
+            }
+        })
+    }
+
+    /// `[medium]`: the gradient-index medium, if any.
+    fn medium(&self, d: &SceneDesc) -> Result<Option<crate::media::Medium>> {
+        Ok(match &d.medium {
+            None => None,
+            Some(m) => {
+                let method: crate::media::Method = m
+                    .method
+                    .parse()
+                    .map_err(|e: crate::media::MediumError| self.medium_err(e))?;
+                let bounds = crate::media::Aabb::new(
+                    self.finite3("medium.bounds.min", m.bounds.min)?,
+                    self.finite3("medium.bounds.max", m.bounds.max)?,
+                );
+                if m.tolerance.is_finite() && m.tolerance < 1e-9 {
+                    return Err(self.err(
+                        "medium.tolerance",
+                        format!(
+                            "a chord tolerance of {} m would need ~{:.0e} chords per metre; expected >= 1e-9",
+                            m.tolerance,
+                            (1.0 / m.tolerance).sqrt()
+                        ),
+                    ));
+                }
+                Some(
+                    crate::media::Medium::try_new(m.field.clone(), bounds, method, m.tolerance, m.step)
+                        .map_err(|e| self.medium_err(e))?,
+                )
+            }
+        })
+    }
+
+    /// The solids containing the camera: `camera.inside` by name, or found
+    /// by point-in-solid tests.
+    fn camera_interior(&self, c: &CameraDesc, scene: &RenderScene, position: DVec3) -> Result<Vec<u32>> {
+        Ok(match &c.inside {
+            Some(names) => {
+                let mut v = Vec::new();
+                for (k, n) in names.iter().enumerate() {
+                    let si = scene.solids.iter().position(|s| &s.name == n).ok_or_else(|| {
+                        self.err(
+                            &format!("camera.inside[{k}]"),
+                            format!("no dielectric solid named \"{n}\""),
+                        )
+                    })?;
+                    v.push(si as u32);
+                }
+                v
+            }
+            None => scene.solids_containing(position),
+        })
+    }
+}

@@ -1,0 +1,496 @@
+//! The `[[objects]]` section: shapes (with their transforms), materials,
+//! textures; priority solids checked closed and outward facing.
+use super::{v3, Builder, Pending, PendingSolid, MAX_HEIGHTFIELD_LEVELS};
+use crate::error::Result;
+use crate::scene::desc::*;
+use crate::scene::meshgen;
+use crate::scene::model::{Containment, Material, Shape};
+use crate::scene::shapes::{Analytic, Mesh};
+use crate::scene::texture::{load_image, Texture};
+use glam::{DMat3, DMat4, DVec3, Vec3A as V3};
+use std::sync::Arc;
+
+impl Builder<'_> {
+    pub(super) fn object(&self, i: usize, o: &ObjectDesc, warnings: &mut Vec<String>) -> Result<Pending> {
+        let k = format!("objects[{i}]");
+        let name = o.name.clone().unwrap_or_else(|| k.clone());
+        let (shape, closed_mesh) = self.shape(&k, o)?;
+        let (material, solid, shape) = self.material(&k, o, &name, shape, closed_mesh, warnings)?;
+        let emission = match &o.emission {
+            Some(e) => Some(self.texture(&format!("{k}.emission.radiance"), &e.radiance)?),
+            None => None,
+        };
+        Ok(Pending {
+            name,
+            name_key: format!("{k}.name"),
+            shape,
+            material,
+            emission,
+            light: None,
+            solid,
+        })
+    }
+
+    /// The shape of object `k` in world space (its transform applied), and
+    /// whether it is a closed mesh (checked further when used as a solid).
+    fn shape(&self, k: &str, o: &ObjectDesc) -> Result<(Shape, bool)> {
+        let xf = self.transform(&format!("{k}.transform"), &o.transform)?;
+        let sk = format!("{k}.shape");
+        // Similarity check for analytic shapes: a uniform scale times a rotation.
+        let lin = DMat3::from_mat4(xf);
+        let scale = lin.x_axis.length();
+        let is_similarity = (lin.y_axis.length() - scale).abs() < 1e-9 * scale
+            && (lin.z_axis.length() - scale).abs() < 1e-9 * scale
+            && lin.x_axis.dot(lin.y_axis).abs() < 1e-9 * scale * scale
+            && lin.x_axis.dot(lin.z_axis).abs() < 1e-9 * scale * scale
+            && lin.y_axis.dot(lin.z_axis).abs() < 1e-9 * scale * scale;
+        let analytic = |a: Analytic| -> Result<Shape> {
+            if !is_similarity {
+                return Err(self.err(
+                    &format!("{k}.transform"),
+                    "analytic shapes take only translations, rotations and uniform scales; use a mesh for other transforms",
+                ));
+            }
+            Ok(Shape::Analytic(a))
+        };
+        let pt = |p: DVec3| xf.transform_point3(p);
+        let dir = |d: DVec3| lin.mul_vec3(d).normalize();
+        let mut closed_mesh = false;
+        let shape = match &o.shape {
+            ShapeDesc::Sphere(s) => analytic(Analytic::Sphere {
+                center: pt(self.finite3(&format!("{sk}.center"), s.center)?),
+                radius: self.positive(&format!("{sk}.radius"), s.radius)? * scale,
+            })?,
+            ShapeDesc::Rect(r) => {
+                let c = self.finite3(&format!("{sk}.center"), r.center)?;
+                let n = self.unit(&format!("{sk}.normal"), r.normal)?;
+                let u = self.unit(&format!("{sk}.u_axis"), r.u_axis)?;
+                if n.dot(u).abs() > 1e-6 {
+                    return Err(self.err(
+                        &format!("{sk}.u_axis"),
+                        "u_axis must be perpendicular to the normal",
+                    ));
+                }
+                let su = self.positive(&format!("{sk}.size[0]"), r.size[0])?;
+                let sv = self.positive(&format!("{sk}.size[1]"), r.size[1])?;
+                Shape::Mesh(Arc::new(self.xf_mesh(meshgen::rect(c, n, u, [su, sv]), &xf)))
+            }
+            ShapeDesc::Disk(dk) => {
+                let r = self.positive(&format!("{sk}.radius"), dk.radius)?;
+                if !(dk.inner_radius.is_finite() && dk.inner_radius >= 0.0 && dk.inner_radius < r) {
+                    return Err(self.err(
+                        &format!("{sk}.inner_radius"),
+                        "expected 0 <= inner_radius < radius",
+                    ));
+                }
+                analytic(Analytic::Disk {
+                    center: pt(self.finite3(&format!("{sk}.center"), dk.center)?),
+                    normal: dir(self.unit(&format!("{sk}.normal"), dk.normal)?),
+                    radius: r * scale,
+                    inner: dk.inner_radius * scale,
+                })?
+            }
+            ShapeDesc::Box(b) => {
+                let c = self.finite3(&format!("{sk}.center"), b.center)?;
+                let s = self.finite3(&format!("{sk}.size"), b.size)?;
+                if s.min_element() <= 0.0 {
+                    return Err(self.err(&format!("{sk}.size"), "expected three sizes > 0"));
+                }
+                closed_mesh = true;
+                Shape::Mesh(Arc::new(self.xf_mesh(meshgen::cuboid(c, s), &xf)))
+            }
+            ShapeDesc::Cylinder(cy) => {
+                let p0 = self.finite3(&format!("{sk}.p0"), cy.p0)?;
+                let p1 = self.finite3(&format!("{sk}.p1"), cy.p1)?;
+                let r = self.positive(&format!("{sk}.radius"), cy.radius)?;
+                let inward = match cy.normal.as_str() {
+                    "out" => false,
+                    "in" => true,
+                    o => {
+                        return Err(self.err(
+                            &format!("{sk}.normal"),
+                            format!("expected \"out\" or \"in\", got \"{o}\""),
+                        ))
+                    }
+                };
+                if cy.caps && inward {
+                    return Err(self.err(
+                        &format!("{sk}.caps"),
+                        "a capped (solid) cylinder needs normal = \"out\"",
+                    ));
+                }
+                let (a, b) = (pt(p0), pt(p1));
+                let h = (b - a).length();
+                if h <= 0.0 {
+                    return Err(self.err(&format!("{sk}.p1"), "p0 and p1 must differ"));
+                }
+                analytic(Analytic::Cylinder {
+                    p0: a,
+                    axis: (b - a) / h,
+                    height: h,
+                    radius: r * scale,
+                    inward,
+                    caps: cy.caps,
+                })?
+            }
+            ShapeDesc::Tube(t) => {
+                let p0 = self.finite3(&format!("{sk}.p0"), t.p0)?;
+                let p1 = self.finite3(&format!("{sk}.p1"), t.p1)?;
+                let ro = self.positive(&format!("{sk}.outer_radius"), t.outer_radius)?;
+                let ri = self.positive(&format!("{sk}.inner_radius"), t.inner_radius)?;
+                if ri >= ro {
+                    return Err(self.err(
+                        &format!("{sk}.inner_radius"),
+                        "expected inner_radius < outer_radius",
+                    ));
+                }
+                let (a, b) = (pt(p0), pt(p1));
+                let h = (b - a).length();
+                if h <= 0.0 {
+                    return Err(self.err(&format!("{sk}.p1"), "p0 and p1 must differ"));
+                }
+                analytic(Analytic::Tube {
+                    p0: a,
+                    axis: (b - a) / h,
+                    height: h,
+                    outer: ro * scale,
+                    inner: ri * scale,
+                })?
+            }
+            ShapeDesc::Lathe(l) => {
+                if l.profile.len() < 2 {
+                    return Err(self.err(
+                        &format!("{sk}.profile"),
+                        "expected at least two (radius, height) points",
+                    ));
+                }
+                for (j, p) in l.profile.iter().enumerate() {
+                    if !(p[0].is_finite() && p[1].is_finite() && p[0] >= 0.0) {
+                        return Err(self.err(
+                            &format!("{sk}.profile[{j}]"),
+                            "expected (radius >= 0, height), finite",
+                        ));
+                    }
+                }
+                if !(3..=1 << 16).contains(&l.segments) {
+                    return Err(self.err(&format!("{sk}.segments"), "expected 3..=65536 segments"));
+                }
+                let first = l.profile[0];
+                let last = l.profile[l.profile.len() - 1];
+                closed_mesh = first[0] == 0.0 && last[0] == 0.0;
+                if !(0.0..=180.0).contains(&l.crease_angle) {
+                    return Err(self.err(&format!("{sk}.crease_angle"), "expected degrees in 0..=180"));
+                }
+                let shading = if l.smooth {
+                    meshgen::LatheShading::Smooth {
+                        crease_deg: l.crease_angle,
+                    }
+                } else {
+                    meshgen::LatheShading::Flat
+                };
+                Shape::Mesh(Arc::new(
+                    self.xf_mesh(meshgen::lathe(&l.profile, l.segments, shading), &xf),
+                ))
+            }
+            ShapeDesc::Mesh(m) => {
+                let path = self.resolve(&m.file);
+                let mesh = meshgen::load_obj(&path, m.smooth)
+                    .map_err(|e| self.err(&format!("{sk}.file"), format!("{}: {e}", path.display())))?;
+                closed_mesh = true; // only checked (and required) when used as a solid
+                Shape::Mesh(Arc::new(self.xf_mesh(mesh, &xf)))
+            }
+            ShapeDesc::Heightfield(h) => {
+                if h.levels == 0 || h.levels > MAX_HEIGHTFIELD_LEVELS {
+                    // In f64: 2^levels overflows any integer for absurd levels.
+                    let n = 2f64.powi(h.levels.min(2000) as i32) + 1.0;
+                    return Err(self.err(
+                        &format!("{sk}.levels"),
+                        format!(
+                            "expected 1..={MAX_HEIGHTFIELD_LEVELS} levels; {} levels would be {:.2e} triangles (~{:.1e} bytes)",
+                            h.levels,
+                            2.0 * (n - 1.0) * (n - 1.0),
+                            n * n * 48.0
+                        ),
+                    ));
+                }
+                let sx = self.positive(&format!("{sk}.size[0]"), h.size[0])?;
+                let sz = self.positive(&format!("{sk}.size[1]"), h.size[1])?;
+                if !(h.height.is_finite() && h.height >= 0.0) {
+                    return Err(self.err(&format!("{sk}.height"), "expected a finite height >= 0"));
+                }
+                if !(h.roughness > 0.0 && h.roughness < 1.0) {
+                    return Err(self.err(&format!("{sk}.roughness"), "expected 0 < roughness < 1"));
+                }
+                Shape::Mesh(Arc::new(self.xf_mesh(
+                    meshgen::heightfield([sx, sz], h.levels, h.height, h.roughness, h.seed),
+                    &xf,
+                )))
+            }
+        };
+        // Embree works in f32: everything must stay finite (and sane) there.
+        let (lo, hi) = match &shape {
+            Shape::Mesh(m) => m.aabb(),
+            Shape::Analytic(a) => a.aabb(),
+        };
+        if !(lo.is_finite() && hi.is_finite()) || lo.abs().max(hi.abs()).max_element() > 1e15 {
+            return Err(self.err(
+                &sk,
+                "the shape's coordinates are not finite or exceed 1e15 m (Embree works in f32)",
+            ));
+        }
+        if let Shape::Mesh(m) = &shape {
+            if let Some(face) = meshgen::find_degenerate(m) {
+                return Err(self.err(&sk, format!("triangle {} is degenerate (zero area)", face + 1)));
+            }
+        }
+
+        Ok((shape, closed_mesh))
+    }
+
+    /// The material of object `k`; for a priority solid also its solid
+    /// record (the shape is checked closed and outward facing, and flipped
+    /// when `flip_inside_out` asks for it, hence returned).
+    fn material(
+        &self,
+        k: &str,
+        o: &ObjectDesc,
+        name: &str,
+        mut shape: Shape,
+        closed_mesh: bool,
+        warnings: &mut Vec<String>,
+    ) -> Result<(Material, Option<PendingSolid>, Shape)> {
+        let sk = format!("{k}.shape");
+        let mk = format!("{k}.material");
+        let mut solid = None;
+        let material = match &o.material {
+            MaterialDesc::Diffuse(dd) => {
+                let t = self.texture(&format!("{mk}.reflectance"), &dd.reflectance)?;
+                if t.max_value() > 1.0 {
+                    return Err(self.err(
+                        &format!("{mk}.reflectance"),
+                        "a reflectance above 1 creates energy",
+                    ));
+                }
+                Material::Diffuse {
+                    reflectance: t,
+                    two_sided: dd.two_sided,
+                }
+            }
+            MaterialDesc::Mirror(m) => Material::Mirror {
+                reflectance: self.color(&format!("{mk}.reflectance"), m.reflectance)?,
+            },
+            MaterialDesc::Black(_) => Material::Black,
+            MaterialDesc::Dielectric(dd) => match (dd.ior, dd.int_ior, dd.ext_ior) {
+                (Some(ior), None, None) => {
+                    let ior = self.positive(&format!("{mk}.ior"), ior)?;
+                    let sigma_a = match &dd.absorption {
+                        None => V3::ZERO,
+                        Some(a) => {
+                            let c = self.color(&format!("{mk}.absorption.color"), a.color)?;
+                            if c.min_element() <= 0.0 || c.max_element() > 1.0 {
+                                return Err(self.err(
+                                    &format!("{mk}.absorption.color"),
+                                    "expected transmitted colour in (0, 1]",
+                                ));
+                            }
+                            let dist = self.positive(&format!("{mk}.absorption.distance"), a.distance)?;
+                            V3::new(-c.x.ln(), -c.y.ln(), -c.z.ln()) / dist as f32
+                        }
+                    };
+                    // A priority solid must be closed and outward facing.
+                    let mut flipped = None;
+                    let containment = match &shape {
+                        Shape::Analytic(a) => {
+                            if a.contains(DVec3::ZERO).is_none() {
+                                return Err(self.err(
+                                    &sk,
+                                    format!("dielectric solid \"{name}\" must be closed: use a sphere, a capped cylinder, a tube, a box, a closed lathe or a closed mesh (or int_ior/ext_ior for an open interface)"),
+                                ));
+                            }
+                            Containment::Analytic(*a)
+                        }
+                        Shape::Mesh(m) => {
+                            if !closed_mesh {
+                                return Err(self
+                                    .err(&sk, format!("dielectric solid \"{name}\" must be a closed mesh")));
+                            }
+                            m.check_closed().map_err(|e| {
+                                self.err(
+                                    &sk,
+                                    format!("dielectric solid \"{name}\" is not a closed solid: {e}"),
+                                )
+                            })?;
+                            let vol = m.signed_volume();
+                            if vol <= 0.0 && !o.flip_inside_out {
+                                return Err(self.err(
+                                    &sk,
+                                    format!("dielectric solid \"{name}\" is inside out (signed volume {vol:.3e} <= 0); set flip_inside_out = true to flip it"),
+                                ));
+                            }
+                            if vol <= 0.0 {
+                                warnings.push(format!(
+                                    "{}: {k}: \"{name}\" was inside out (negative volume); flipped",
+                                    self.src.file
+                                ));
+                                let mut fm = (**m).clone();
+                                fm.flip();
+                                flipped = Some(Arc::new(fm));
+                            }
+                            Containment::Mesh(Arc::new(crate::scene::shapes::ContainsGrid::new(
+                                flipped.clone().unwrap_or_else(|| m.clone()),
+                            )))
+                        }
+                    };
+                    if let Some(fm) = flipped {
+                        shape = Shape::Mesh(fm);
+                    }
+                    let aabb = match &shape {
+                        Shape::Analytic(a) => a.aabb(),
+                        Shape::Mesh(m) => m.aabb(),
+                    };
+                    solid = Some(PendingSolid {
+                        priority: dd.priority.unwrap_or(0),
+                        ior,
+                        sigma_a,
+                        containment,
+                        aabb,
+                    });
+                    Material::Black // replaced by Material::Solid when the index is known
+                }
+                (None, Some(int), Some(ext)) => {
+                    if dd.priority.is_some() {
+                        return Err(self.err(
+                            &format!("{mk}.priority"),
+                            "priority applies to solids given by `ior`, not to int_ior/ext_ior interfaces",
+                        ));
+                    }
+                    if dd.absorption.is_some() {
+                        return Err(self.err(
+                            &format!("{mk}.absorption"),
+                            "absorption needs a closed solid given by `ior` (an interface has no inside)",
+                        ));
+                    }
+                    Material::Interface {
+                        int_ior: self.positive(&format!("{mk}.int_ior"), int)? as f32,
+                        ext_ior: self.positive(&format!("{mk}.ext_ior"), ext)? as f32,
+                    }
+                }
+                _ => {
+                    return Err(self.err(&mk, "a dielectric needs either `ior` (a closed solid, with optional priority) or both `int_ior` and `ext_ior`"));
+                }
+            },
+        };
+        Ok((material, solid, shape))
+    }
+
+    fn texture(&self, key: &str, t: &TextureDesc) -> Result<Texture> {
+        Ok(match t {
+            TextureDesc::Constant(c) => Texture::Constant(self.color(key, *c)?),
+            TextureDesc::Table(TextureTable::Checker(c)) => {
+                let axis = |k: usize| -> Result<usize> {
+                    match c.axes[k].as_str() {
+                        "x" => Ok(0),
+                        "y" => Ok(1),
+                        "z" => Ok(2),
+                        other => Err(self.err(
+                            &format!("{key}.axes[{k}]"),
+                            format!("expected \"x\", \"y\" or \"z\", got \"{other}\""),
+                        )),
+                    }
+                };
+                let axes = [axis(0)?, axis(1)?];
+                if axes[0] == axes[1] {
+                    return Err(self.err(&format!("{key}.axes"), "the two checker axes must differ"));
+                }
+                let size = self.positive(&format!("{key}.size"), c.size)?;
+                if size < 1e-9 {
+                    return Err(self.err(
+                        &format!("{key}.size"),
+                        format!("expected a square size >= 1e-9 m, got {size:e}"),
+                    ));
+                }
+                Texture::Checker {
+                    axes,
+                    inv_size: (1.0 / size) as f32,
+                    c0: self.color(&format!("{key}.color0"), c.color0)?,
+                    c1: self.color(&format!("{key}.color1"), c.color1)?,
+                }
+            }
+            TextureDesc::Table(TextureTable::Image(im)) => {
+                let path = self.resolve(&im.file);
+                let image = load_image(&path)
+                    .map_err(|e| self.err(&format!("{key}.file"), format!("{}: {e}", path.display())))?;
+                let s0 = self.positive(&format!("{key}.uv_scale[0]"), im.uv_scale[0])?;
+                let s1 = self.positive(&format!("{key}.uv_scale[1]"), im.uv_scale[1])?;
+                Texture::Image {
+                    image: Arc::new(image),
+                    scale: [s0 as f32, s1 as f32],
+                }
+            }
+        })
+    }
+
+    fn transform(&self, key: &str, list: &[TransformDesc]) -> Result<DMat4> {
+        let mut m = DMat4::IDENTITY;
+        for (i, t) in list.iter().enumerate() {
+            let k = format!("{key}[{i}]");
+            let mut step = DMat4::IDENTITY;
+            let mut count = 0;
+            if let Some(s) = &t.scale {
+                count += 1;
+                let s = match s {
+                    ScaleDesc::Uniform(u) => DVec3::splat(*u),
+                    ScaleDesc::PerAxis(a) => v3(*a),
+                };
+                if !s.is_finite() || s.min_element() <= 0.0 {
+                    return Err(self.err(&format!("{k}.scale"), "expected finite scale factors > 0"));
+                }
+                step = DMat4::from_scale(s);
+            }
+            if let Some(r) = &t.rotate {
+                count += 1;
+                let axis = self.unit(&format!("{k}.rotate.axis"), r.axis)?;
+                if !r.degrees.is_finite() {
+                    return Err(self.err(&format!("{k}.rotate.degrees"), "expected a finite angle"));
+                }
+                step = DMat4::from_axis_angle(axis, r.degrees.to_radians());
+            }
+            if let Some(tr) = t.translate {
+                count += 1;
+                step = DMat4::from_translation(self.finite3(&format!("{k}.translate"), tr)?);
+            }
+            if count != 1 {
+                return Err(self.err(
+                    &k,
+                    "each transform step needs exactly one of translate, rotate, scale",
+                ));
+            }
+            m = step * m;
+        }
+        Ok(m)
+    }
+
+    fn xf_mesh(&self, mut m: Mesh, xf: &DMat4) -> Mesh {
+        if *xf == DMat4::IDENTITY {
+            return m;
+        }
+        for p in &mut m.positions {
+            let q = xf.transform_point3(DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64));
+            *p = [q.x as f32, q.y as f32, q.z as f32];
+        }
+        let nm = DMat3::from_mat4(*xf).inverse().transpose();
+        if let Some(ns) = &mut m.normals {
+            for n in ns {
+                let q = (nm * DVec3::new(n[0] as f64, n[1] as f64, n[2] as f64)).normalize_or(DVec3::Y);
+                *n = [q.x as f32, q.y as f32, q.z as f32];
+            }
+        }
+        if DMat3::from_mat4(*xf).determinant() < 0.0 {
+            // A mirroring transform would turn the mesh inside out: keep outward winding.
+            for t in &mut m.indices {
+                t.swap(1, 2);
+            }
+        }
+        m
+    }
+}

@@ -1,0 +1,406 @@
+//! The scene model: what a render sees of a scene once it is built —
+//! geometry records with their materials, priority solids, lights, the
+//! environment, the camera — and the queries on it that do not need a ray
+//! tracer: the surface point of a hit, light sampling and its density,
+//! point-in-solid. It knows nothing of nested strategies or warps' solvers.
+//!
+//! Conventions: world space, scene units (metres in the shipped scenes);
+//! geometric normals of closed solids point out of the solid.
+use super::shapes::{Analytic, Mesh};
+use super::texture::{ImageData, Texture};
+use crate::camera::Camera;
+use crate::error::{Error, Result};
+use crate::ray::{Hit, Ray};
+use crate::sampling::{uniform_cone, Rng};
+use glam::{DVec3, Vec3A as V3};
+use std::f32::consts::PI;
+use std::sync::Arc;
+
+/// The largest film a scene or a render may ask for (checked before any
+/// allocation): 134 M pixels, ~1.6 GB of f32 RGB.
+pub const MAX_PIXELS: u64 = 1 << 27;
+
+/// Surface response.
+#[derive(Debug, Clone)]
+pub enum Material {
+    Diffuse {
+        reflectance: Texture,
+        two_sided: bool,
+    },
+    Mirror {
+        reflectance: V3,
+    },
+    /// A closed solid of the priority scheme (index into `RenderScene::solids`).
+    Solid(u32),
+    /// An interface: `int_ior` on the side opposite the normal, `ext_ior` on the normal side.
+    Interface {
+        int_ior: f32,
+        ext_ior: f32,
+    },
+    /// Absorbs everything (lights' bodies).
+    Black,
+}
+
+/// Geometry shape as the integrator sees it.
+#[derive(Debug, Clone)]
+pub enum Shape {
+    Mesh(Arc<Mesh>),
+    Analytic(Analytic),
+}
+
+/// One Embree geometry (indexed by geomID).
+#[derive(Debug, Clone)]
+pub struct GeomRecord {
+    pub name: String,
+    pub shape: Shape,
+    pub material: Material,
+    pub emission: Option<Texture>,
+    /// Index into `RenderScene::lights` when this surface is also an NEE light.
+    pub light: Option<u32>,
+}
+
+impl GeomRecord {
+    /// Does shading read texture coordinates here? (Analytic shapes' uv costs
+    /// atan2/acos: 5% of a three_spheres render before it was made lazy.)
+    pub fn needs_uv(&self) -> bool {
+        let m = matches!(&self.material, Material::Diffuse { reflectance, .. } if reflectance.needs_uv());
+        m || self.emission.as_ref().is_some_and(Texture::needs_uv)
+    }
+}
+
+/// A priority solid (Schmidt & Budge).
+#[derive(Debug, Clone)]
+pub struct Solid {
+    pub name: String,
+    pub geom: u32,
+    pub priority: i64,
+    /// Dense total order: priority first, then declaration order (the later
+    /// declared object wins a tie, as if its priority were higher by an infinitesimal).
+    pub rank: u32,
+    pub ior: f32,
+    /// Beer–Lambert absorption coefficient per metre, per channel.
+    pub sigma_a: V3,
+    pub aabb: (DVec3, DVec3),
+}
+
+/// Light sources for next-event estimation.
+#[derive(Debug, Clone)]
+pub enum Light {
+    Point {
+        position: V3,
+        intensity: V3,
+    },
+    Directional {
+        /// Unit direction the light travels in.
+        direction: V3,
+        irradiance: V3,
+    },
+    Rect {
+        corner: V3,
+        edge_u: V3,
+        edge_v: V3,
+        normal: V3,
+        area: f32,
+        radiance: V3,
+    },
+    Sphere {
+        center: V3,
+        radius: f32,
+        radiance: V3,
+    },
+}
+
+#[derive(Debug, Clone)]
+pub enum Environment {
+    Black,
+    Constant(V3),
+    Map { image: Arc<ImageData>, scale: f32 },
+}
+
+impl Environment {
+    /// Radiance arriving along −`dir` (seen looking along `dir`).
+    #[inline]
+    pub fn eval(&self, dir: V3) -> V3 {
+        match self {
+            Environment::Black => V3::ZERO,
+            Environment::Constant(c) => *c,
+            Environment::Map { image, scale } => {
+                let u = 0.5 + dir.x.atan2(-dir.z) / std::f32::consts::TAU;
+                let v = dir.y.clamp(-1.0, 1.0).acos() / std::f32::consts::PI;
+                image.lookup(u, v) * *scale
+            }
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum IntegratorKind {
+    Path,
+    Whitted,
+}
+
+/// Everything a render needs.
+pub struct RenderScene {
+    pub embree: crate::embree::Scene,
+    pub geoms: Vec<GeomRecord>,
+    pub solids: Vec<Solid>,
+    /// Rank per geomID: the solid's rank, or `u32::MAX` for non-solids (never false).
+    pub rank_by_geom: Vec<u32>,
+    /// Solid index per geomID.
+    pub solid_by_geom: Vec<Option<u32>>,
+    pub lights: Vec<Light>,
+    pub environment: Environment,
+    /// The camera at the film resolution the scene file declares (a render
+    /// at another resolution uses `Camera::with_resolution`).
+    pub camera: Camera,
+    /// Film width the scene file declares (pixels); renders take theirs
+    /// from `render::RenderSettings`, which starts from these four.
+    pub width: u32,
+    /// Film height the scene file declares (pixels).
+    pub height: u32,
+    /// Samples per pixel the scene file declares.
+    pub spp: u32,
+    /// Seed the scene file declares.
+    pub seed: u64,
+    pub integrator: IntegratorKind,
+    pub max_depth: u32,
+    pub rr_depth: u32,
+    pub ambient_ior: f32,
+    /// Solids that contain the camera (found by point-in-solid tests or given).
+    pub camera_interior: Vec<u32>,
+    /// True when some solids may overlap (bounds intersect): only then can a
+    /// false hit happen and only then is a filter installed.
+    pub has_overlap: bool,
+    /// The gradient-index medium, if any: rays inside its bounds are cast as chords.
+    pub medium: Option<crate::media::Medium>,
+    /// The analytic warp glass (`[warp]`), if any; its geometry is also in
+    /// `geoms` (as `glass_geoms`) so that `snell render` traces it exactly.
+    pub warp: Option<crate::warp::WarpSpec>,
+    /// Warnings produced while loading (e.g. flipped meshes).
+    pub warnings: Vec<String>,
+    pub(crate) containment: Vec<Containment>,
+}
+
+/// Point-in-solid classification of each solid (independent of Embree).
+#[derive(Debug, Clone)]
+pub(crate) enum Containment {
+    Mesh(Arc<crate::scene::shapes::ContainsGrid>),
+    Analytic(Analytic),
+}
+
+impl RenderScene {
+    /// Is `p` inside solid `s` (point-in-solid, independent of Embree)?
+    pub fn solid_contains(&self, s: u32, p: DVec3) -> bool {
+        match &self.containment[s as usize] {
+            Containment::Mesh(m) => m.contains(p),
+            Containment::Analytic(a) => a.contains(p).unwrap_or(false),
+        }
+    }
+
+    /// Solids containing `p` (independent point-in-solid tests).
+    pub fn solids_containing(&self, p: DVec3) -> Vec<u32> {
+        self.containment
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| match c {
+                Containment::Mesh(m) => m.contains(p),
+                Containment::Analytic(a) => a.contains(p).unwrap_or(false),
+            })
+            .map(|(i, _)| i as u32)
+            .collect()
+    }
+}
+
+impl RenderScene {
+    /// Change the declared film resolution (the camera keeps its vertical
+    /// field of view). Only the warp renderer uses this; path-traced renders
+    /// leave the scene alone and take a `render::RenderSettings`.
+    ///
+    /// # Errors
+    /// A zero or too large resolution.
+    pub fn set_resolution(&mut self, width: u32, height: u32) -> Result<()> {
+        if width == 0 || height == 0 || (width as u64) * (height as u64) > MAX_PIXELS {
+            return Err(Error::Invalid(format!(
+                "resolution {width}x{height} is out of range"
+            )));
+        }
+        self.camera = self.camera.with_resolution(width, height);
+        self.width = width;
+        self.height = height;
+        Ok(())
+    }
+}
+
+/// Geometry at a hit, in world space.
+#[derive(Debug, Clone, Copy)]
+pub struct SurfacePoint {
+    pub p: V3,
+    /// Unit geometric normal with the shape's convention (see `scene::shapes`).
+    pub ng: V3,
+    /// Unit shading normal on the same side as `ng`.
+    pub ns: V3,
+    pub uv: [f32; 2],
+}
+
+/// A light sample seen from `p`: direction, distance, radiance and solid-angle pdf
+/// (0 for delta lights), including the 1/num_lights choice.
+pub struct LightSample {
+    /// Unit direction from the point to the light.
+    pub wi: V3,
+    /// Distance to the light sample (infinite for a directional light).
+    pub dist: f32,
+    /// Radiance (or, for delta lights, intensity over distance squared) arriving, times the number of lights.
+    pub li: V3,
+    /// Solid-angle density of the sample including the 1/num_lights choice (1 for delta lights).
+    pub pdf: f32,
+    /// A point or directional light (no MIS).
+    pub delta: bool,
+}
+
+impl RenderScene {
+    /// Hit point and normals for `hit` along `ray` (unit direction).
+    ///
+    /// The point is reconstructed on the surface rather than taken as org + t·dir
+    /// (pbrt's approach): from the barycentrics in f64 for triangles, by exact
+    /// projection for analytic shapes. Its error is then a few ulps of its own
+    /// coordinates, whatever the ray's length, which bounds `offset_origin`.
+    pub fn surface_point(&self, ray: &Ray, hit: &Hit) -> SurfacePoint {
+        let scene = self;
+        let p = ray.org + ray.dir * hit.t;
+        let rec = &scene.geoms[hit.geom_id as usize];
+        match &rec.shape {
+            Shape::Mesh(m) => {
+                let p = m.point(hit.prim_id, hit.u, hit.v);
+                let ng = hit.ng.normalize_or(V3::Y);
+                let (ns, uv) = m.shading(hit.prim_id, hit.u, hit.v);
+                let ns = match ns {
+                    Some(n) if n.dot(ng) > 0.0 => n,
+                    Some(n) => -n,
+                    None => ng,
+                };
+                SurfacePoint { p, ng, ns, uv }
+            }
+            Shape::Analytic(a) => {
+                let pd = a.project(hit.prim_id, DVec3::new(p.x as f64, p.y as f64, p.z as f64));
+                let p = V3::new(pd.x as f32, pd.y as f32, pd.z as f32);
+                let n = a.normal(hit.prim_id, pd);
+                let ng = V3::new(n.x as f32, n.y as f32, n.z as f32);
+                SurfacePoint {
+                    p,
+                    ng,
+                    ns: ng,
+                    uv: if rec.needs_uv() { a.uv(pd) } else { [0.0, 0.0] },
+                }
+            }
+        }
+    }
+
+    /// The light-sampling density (solid angle, including the choice of light)
+    /// of reaching light `li` from `from` in direction `wi` to the point `q`.
+    pub fn light_pdf(&self, li: u32, from: V3, q: V3, wi: V3) -> f32 {
+        let scene = self;
+        let n = scene.lights.len() as f32;
+        match &scene.lights[li as usize] {
+            Light::Rect { normal, area, .. } => {
+                let d2 = (q - from).length_squared();
+                let cos_l = -normal.dot(wi);
+                if cos_l <= 0.0 {
+                    0.0
+                } else {
+                    d2 / (area * cos_l) / n
+                }
+            }
+            Light::Sphere { center, radius, .. } => {
+                let d2 = (*center - from).length_squared();
+                let r2 = radius * radius;
+                if d2 <= r2 {
+                    return 0.0;
+                }
+                let cos_max = (1.0 - r2 / d2).max(0.0).sqrt();
+                1.0 / (2.0 * PI * (1.0 - cos_max)) / n
+            }
+            _ => 0.0,
+        }
+    }
+
+    pub fn sample_light(&self, p: V3, rng: &mut Rng) -> Option<LightSample> {
+        let scene = self;
+        let n = scene.lights.len();
+        if n == 0 {
+            return None;
+        }
+        let idx = ((rng.uniform() * n as f32) as usize).min(n - 1);
+        let (u1, u2) = (rng.uniform(), rng.uniform());
+        let nf = n as f32;
+        match &scene.lights[idx] {
+            Light::Point { position, intensity } => {
+                let d = *position - p;
+                let dist = d.length();
+                (dist > 0.0).then(|| LightSample {
+                    wi: d / dist,
+                    dist,
+                    li: *intensity / (dist * dist) * nf,
+                    pdf: 1.0,
+                    delta: true,
+                })
+            }
+            Light::Directional {
+                direction,
+                irradiance,
+            } => Some(LightSample {
+                wi: -*direction,
+                dist: f32::INFINITY,
+                li: *irradiance * nf,
+                pdf: 1.0,
+                delta: true,
+            }),
+            Light::Rect {
+                corner,
+                edge_u,
+                edge_v,
+                normal,
+                area,
+                radiance,
+            } => {
+                let q = *corner + *edge_u * u1 + *edge_v * u2;
+                let d = q - p;
+                let dist = d.length();
+                let wi = d / dist;
+                let cos_l = -normal.dot(wi);
+                (cos_l > 0.0 && dist > 0.0).then(|| LightSample {
+                    wi,
+                    dist,
+                    li: *radiance,
+                    pdf: dist * dist / (area * cos_l) / nf,
+                    delta: false,
+                })
+            }
+            Light::Sphere {
+                center,
+                radius,
+                radiance,
+            } => {
+                let d = *center - p;
+                let d2 = d.length_squared();
+                let r2 = radius * radius;
+                if d2 <= r2 {
+                    return None;
+                }
+                let cos_max = (1.0 - r2 / d2).max(0.0).sqrt();
+                let axis = d / d2.sqrt();
+                let wi = uniform_cone(axis, cos_max, u1, u2);
+                // Distance to the sphere along wi (nearest root).
+                let b = d.dot(wi);
+                let disc = (b * b - (d2 - r2)).max(0.0);
+                let dist = b - disc.sqrt();
+                Some(LightSample {
+                    wi,
+                    dist,
+                    li: *radiance,
+                    pdf: 1.0 / (2.0 * PI * (1.0 - cos_max)) / nf,
+                    delta: false,
+                })
+            }
+        }
+    }
+}
