@@ -329,7 +329,7 @@ fn vertex_edge_scene() -> RenderScene {
 fn vertex_edge_targets(s: &RenderScene) -> Vec<V3> {
     let mut targets = Vec::new();
     for g in &s.geoms {
-        if let snell::scene::build::Shape::Mesh(m) = &g.shape {
+        if let snell::scene::Shape::Mesh(m) = &g.shape {
             for t in &m.indices {
                 let p = t.map(|i| V3::from(m.positions[i as usize]));
                 targets.extend_from_slice(&p);
