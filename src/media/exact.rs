@@ -18,7 +18,7 @@
 use glam::DVec3;
 
 use super::field::IndexField;
-use super::stepper::{check_n, State};
+use super::state::{check_n, State};
 
 /// sinh(z)/z without cancellation.
 pub fn sinhc(z: f64) -> f64 {

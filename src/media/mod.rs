@@ -7,6 +7,7 @@ pub mod exact;
 pub mod field;
 pub mod grin_trace;
 pub mod paper;
+pub mod state;
 pub mod stepper;
 
 use std::fmt;

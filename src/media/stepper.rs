@@ -6,66 +6,10 @@ use glam::DVec3;
 use super::field::IndexField;
 use super::{exact, Method};
 
-/// The state of a ray at one point: position, unit tangent, v = n·t, and n, ∇n there.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct State {
-    /// Position, world metres.
-    pub r: DVec3,
-    /// Unit tangent (direction of travel).
-    pub t: DVec3,
-    /// v = n·t, the variable the ray equation integrates (|v| = n).
-    pub v: DVec3,
-    /// Index of refraction at `r`.
-    pub n: f64,
-    /// ∇n at `r`, per metre.
-    pub g: DVec3,
-    /// Arc length travelled since the launch.
-    pub s: f64,
-}
-
-impl State {
-    /// A state at p with unit direction d (evaluates the field once, counted in
-    /// `evals`); arc length 0.
-    ///
-    /// # Errors
-    ///
-    /// A message naming the point when n at `p` is not finite or not > 0.
-    pub fn new(field: &IndexField, p: DVec3, d: DVec3, evals: &mut u64) -> Result<State, String> {
-        let (n, g) = field.eval(p);
-        *evals += 1;
-        check_n(n, p)?;
-        Ok(State {
-            r: p,
-            t: d,
-            v: d * n,
-            n,
-            g,
-            s: 0.0,
-        })
-    }
-
-    /// Radius of curvature n/|∇n ⊥ t| (infinite when the ray is locally straight).
-    pub fn radius(&self) -> f64 {
-        let gp = self.g - self.t * self.g.dot(self.t);
-        let k = gp.length();
-        if k > 0.0 {
-            self.n / k
-        } else {
-            f64::INFINITY
-        }
-    }
-}
-
-pub(crate) fn check_n(n: f64, p: DVec3) -> Result<(), String> {
-    if n.is_finite() && n > 0.0 {
-        Ok(())
-    } else {
-        Err(format!(
-            "index of refraction {n} at ({:.6}, {:.6}, {:.6}): expected a finite n > 0 along the ray",
-            p.x, p.y, p.z
-        ))
-    }
-}
+// The state and the index check live in state.rs (exact.rs needs them,
+// and this file needs exact.rs); re-exported for `media::stepper::State` users.
+pub(crate) use super::state::check_n;
+pub use super::state::State;
 
 /// Method, tolerance and step, with an evaluation counter.
 #[derive(Debug, Clone)]
