@@ -188,31 +188,62 @@ pub(super) unsafe extern "C" fn user_occluded(args: *const sys::RTCOccludedFunct
     }
 }
 
-/// The lane-independent fields shared by Embree's intersect and occluded
-/// callback arguments.
-struct LaneArgs {
-    /// Valid mask, `n` ints (0 = inactive lane).
-    valid: *const i32,
-    /// Our `UserGeom`.
-    user: *mut c_void,
-    prim_id: u32,
-    geom_id: u32,
-    context: *mut sys::RTCIntersectContext,
-    /// The SoA ray block (`RTCRayN`, or the ray part of `RTCRayHitN`), `n` lanes.
-    ray: *mut f32,
-    n: usize,
+/// The accessors of the fields that Embree's intersect and occluded callback
+/// arguments share (same names, but distinct structs; the ray block is
+/// `rayhit` in one and `ray` in the other).
+macro_rules! lane_fields {
+    ($ray:ident) => {
+        #[inline(always)]
+        fn valid(a: &Self::Args) -> *const i32 {
+            a.valid
+        }
+        #[inline(always)]
+        fn user(a: &Self::Args) -> *mut c_void {
+            a.geometryUserPtr
+        }
+        #[inline(always)]
+        fn prim_id(a: &Self::Args) -> u32 {
+            a.primID
+        }
+        #[inline(always)]
+        fn geom_id(a: &Self::Args) -> u32 {
+            a.geomID
+        }
+        #[inline(always)]
+        fn context(a: &Self::Args) -> *mut sys::RTCIntersectContext {
+            a.context
+        }
+        #[inline(always)]
+        fn n(a: &Self::Args) -> usize {
+            a.N as usize
+        }
+        #[inline(always)]
+        fn ray(a: &Self::Args) -> *mut f32 {
+            a.$ray as *mut f32
+        }
+    };
 }
 
-/// What differs between the intersect and the occluded callback.
+/// What differs between the intersect and the occluded callback. The field
+/// accessors are read where the loop needs them, not copied up front (a
+/// copied struct cost ~10 instructions per callback, by callgrind).
 trait LaneQuery {
     /// Embree's argument struct for the callback.
     type Args;
-
-    /// The fields of `args` that the lane loop reads.
-    ///
-    /// # Safety
-    /// `args` must point to valid callback arguments.
-    unsafe fn lane_args(args: *const Self::Args) -> LaneArgs;
+    /// Valid mask, `n` ints (0 = inactive lane).
+    fn valid(a: &Self::Args) -> *const i32;
+    /// `geometryUserPtr`: our `UserGeom`.
+    fn user(a: &Self::Args) -> *mut c_void;
+    /// The primitive to intersect.
+    fn prim_id(a: &Self::Args) -> u32;
+    /// The geometry's id.
+    fn geom_id(a: &Self::Args) -> u32;
+    /// The query's intersect context (ours, or a `FilterContext`'s).
+    fn context(a: &Self::Args) -> *mut sys::RTCIntersectContext;
+    /// Number of lanes.
+    fn n(a: &Self::Args) -> usize;
+    /// The SoA ray block (`RTCRayN`, or the ray part of `RTCRayHitN`), `n` lanes.
+    fn ray(a: &Self::Args) -> *mut f32;
 
     /// Ask the context filter about the potential hit in `fargs`
     /// (`rtcFilterIntersection` / `rtcFilterOcclusion`).
@@ -234,21 +265,7 @@ enum Intersect {}
 
 impl LaneQuery for Intersect {
     type Args = sys::RTCIntersectFunctionNArguments;
-
-    #[inline(always)]
-    unsafe fn lane_args(args: *const Self::Args) -> LaneArgs {
-        // SAFETY: `args` is valid (the caller's contract).
-        let a = unsafe { &*args };
-        LaneArgs {
-            valid: a.valid,
-            user: a.geometryUserPtr,
-            prim_id: a.primID,
-            geom_id: a.geomID,
-            context: a.context,
-            ray: a.rayhit as *mut f32,
-            n: a.N as usize,
-        }
-    }
+    lane_fields!(rayhit);
 
     #[inline(always)]
     unsafe fn filter(args: *const Self::Args, fargs: &sys::RTCFilterFunctionNArguments) {
@@ -284,21 +301,7 @@ enum Occluded {}
 
 impl LaneQuery for Occluded {
     type Args = sys::RTCOccludedFunctionNArguments;
-
-    #[inline(always)]
-    unsafe fn lane_args(args: *const Self::Args) -> LaneArgs {
-        // SAFETY: `args` is valid (the caller's contract).
-        let a = unsafe { &*args };
-        LaneArgs {
-            valid: a.valid,
-            user: a.geometryUserPtr,
-            prim_id: a.primID,
-            geom_id: a.geomID,
-            context: a.context,
-            ray: a.ray as *mut f32,
-            n: a.N as usize,
-        }
-    }
+    lane_fields!(ray);
 
     #[inline(always)]
     unsafe fn filter(args: *const Self::Args, fargs: &sys::RTCFilterFunctionNArguments) {
@@ -328,19 +331,19 @@ unsafe fn lanes<Q: LaneQuery>(args: *const Q::Args) {
     // call; geometryUserPtr is our UserGeom (`add_user`), and `context` is a
     // valid intersect context (ours, or `FilterContext`'s base).
     unsafe {
-        let a = Q::lane_args(args);
-        let n = a.n;
-        let g = &*(a.user as *const UserGeom);
-        let r = a.ray;
+        let a = &*args;
+        let n = Q::n(a);
+        let g = &*(Q::user(a) as *const UserGeom);
+        let r = Q::ray(a);
         for i in 0..n {
-            if *a.valid.add(i) == 0 {
+            if *Q::valid(a).add(i) == 0 {
                 continue;
             }
             let org = V3::new(*r.add(soa(0, i, n)), *r.add(soa(1, i, n)), *r.add(soa(2, i, n)));
             let tnear = *r.add(soa(3, i, n));
             let dir = V3::new(*r.add(soa(4, i, n)), *r.add(soa(5, i, n)), *r.add(soa(6, i, n)));
             let mut cands = Candidates::default();
-            g.shape.intersect(a.prim_id, org, dir, &mut cands);
+            g.shape.intersect(Q::prim_id(a), org, dir, &mut cands);
             cands.sort();
             for c in cands.as_slice() {
                 let tfar_ptr = r.add(soa(8, i, n));
@@ -355,21 +358,21 @@ unsafe fn lanes<Q: LaneQuery>(args: *const Q::Args) {
                     Ng_z: c.ng[2],
                     u: c.u,
                     v: c.v,
-                    primID: a.prim_id,
-                    geomID: a.geom_id,
-                    instID: [(*a.context).instID[0]],
+                    primID: Q::prim_id(a),
+                    geomID: Q::geom_id(a),
+                    instID: [(*Q::context(a)).instID[0]],
                 };
                 *tfar_ptr = c.t;
                 // Without a context filter there is nothing to call: user
                 // geometries never get per-geometry filters (`add_user`), so
                 // rtcFilter* would accept the hit anyway. Wide queries are not
                 // used by snell's filters; their hits are accepted directly.
-                if n == 1 && (*a.context).filter.is_some() {
+                if n == 1 && (*Q::context(a)).filter.is_some() {
                     let mut lane_valid: i32 = -1;
                     let fargs = sys::RTCFilterFunctionNArguments {
                         valid: &mut lane_valid,
-                        geometryUserPtr: a.user,
-                        context: a.context,
+                        geometryUserPtr: Q::user(a),
+                        context: Q::context(a),
                         ray: r as *mut sys::RTCRayN,
                         hit: &mut potential as *mut sys::RTCHit as *mut sys::RTCHitN,
                         N: 1,
