@@ -1,0 +1,189 @@
+//! Rust hit filters run as Embree *context filters*: the [`HitFilter`] trait,
+//! the hit it sees ([`FilterHit`]), the extended intersect context that carries
+//! it through Embree ([`FilterContext`]) and the `extern "C"` trampoline Embree
+//! calls. Also the helpers every query uses: [`init_context`] (Embree's inline
+//! `rtcInitIntersectContext`) and [`soa`] (lane addressing in `RTCRayN`/`RTCHitN`).
+
+use super::device::{panic_message, EmbreeError};
+use super::INVALID_ID;
+use embree_sys as sys;
+use glam::Vec3A as V3;
+use std::panic::{catch_unwind, AssertUnwindSafe};
+
+/// Float index of field `k` of lane `i` in an SoA ray/hit block of width `n`.
+#[inline(always)]
+pub(super) fn soa(k: usize, i: usize, n: usize) -> usize {
+    k * n + i
+}
+
+/// A hit as a filter sees it, before it is accepted. Same conventions as
+/// [`Hit`](super::Hit): t in units of `|dir|`, the geometric normal unnormalised
+/// and as the geometry reports it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FilterHit {
+    /// Embree's geometry id.
+    pub geom_id: u32,
+    /// Primitive within the geometry.
+    pub prim_id: u32,
+    /// Ray parameter of the potential hit, in units of `|dir|`.
+    pub t: f32,
+    /// Unnormalised geometric normal (triangles: `(v1-v0)×(v2-v0)`; user
+    /// geometry: the shape's [`Candidate::ng`](super::Candidate::ng)).
+    pub ng: V3,
+    /// The query ray's origin.
+    pub org: V3,
+    /// The query ray's direction (as given, not normalised).
+    pub dir: V3,
+    /// First barycentric coordinate (triangles) or the shape's own parameter
+    /// (user geometry).
+    pub u: f32,
+    /// Second barycentric coordinate (triangles) or the shape's own parameter
+    /// (user geometry).
+    pub v: f32,
+}
+
+/// A Rust intersection filter, run as an Embree context filter. Embree calls it
+/// in traversal order (not nearest first), possibly for hits beyond the final
+/// nearest one, and possibly more than once for the same surface crossing.
+pub trait HitFilter {
+    /// Return `false` to reject the hit (Embree then continues the traversal).
+    /// A panic here is caught: the query rejects every later hit and returns
+    /// [`EmbreeError::FilterPanicked`].
+    fn accept(&mut self, hit: &FilterHit) -> bool;
+}
+
+/// The extended intersection context: Embree's context first, then our payload.
+/// Embree hands the pointer to `base` back to the trampoline, which casts it to
+/// the whole struct; `#[repr(C)]` with `base` first makes that cast valid.
+/// Built by the filtered queries of [`Scene`](super::Scene); not constructible
+/// outside this module tree.
+#[repr(C)]
+pub struct FilterContext<'a, F: HitFilter> {
+    base: sys::RTCIntersectContext,
+    filter: &'a mut F,
+    panic: Option<String>,
+}
+
+impl<'a, F: HitFilter> FilterContext<'a, F> {
+    /// A context whose filter function is the trampoline for `F`.
+    #[inline]
+    pub(super) fn new(filter: &'a mut F) -> Self {
+        FilterContext {
+            base: init_context(Some(filter_trampoline::<F>)),
+            filter,
+            panic: None,
+        }
+    }
+
+    /// The pointer to pass to `rtcIntersect1`/`rtcOccluded1`: derived from the
+    /// whole struct (not from `&mut self.base`), so the trampoline may reach
+    /// the fields after `base` through it.
+    #[inline]
+    pub(super) fn as_raw(&mut self) -> *mut sys::RTCIntersectContext {
+        (self as *mut Self).cast::<sys::RTCIntersectContext>()
+    }
+
+    /// After the query: `Err(FilterPanicked)` if the filter panicked.
+    #[inline]
+    pub(super) fn finish(self) -> Result<(), EmbreeError> {
+        match self.panic {
+            Some(p) => Err(EmbreeError::FilterPanicked(p)),
+            None => Ok(()),
+        }
+    }
+}
+
+/// `rtcInitIntersectContext` is an inline C function; this is its body for
+/// Embree 3.13 (flags incoherent, no filter, instance stack invalid), with
+/// `filter` as the context filter.
+#[inline]
+pub(super) fn init_context(filter: sys::RTCFilterFunctionN) -> sys::RTCIntersectContext {
+    let mut ctx = sys::RTCIntersectContext {
+        flags: sys::RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT,
+        filter,
+        ..Default::default()
+    };
+    for id in ctx.instID.iter_mut() {
+        *id = INVALID_ID;
+    }
+    ctx
+}
+
+/// The context filter function of a [`FilterContext<F>`]: reads each valid
+/// lane's potential hit, asks `F`, and clears the lane's valid flag on reject.
+unsafe extern "C" fn filter_trampoline<F: HitFilter>(args: *const sys::RTCFilterFunctionNArguments) {
+    // SAFETY: Embree passes valid arguments; `context` is the `base` field of a
+    // live `FilterContext<F>` (only `FilterContext::<F>::new` installs this
+    // trampoline, and the queries pass `FilterContext::as_raw`, a pointer to
+    // the whole struct).
+    let a = unsafe { &*args };
+    // SAFETY: as above; `base` is the first field of the #[repr(C)] struct.
+    let ctx = unsafe { &mut *(a.context as *mut FilterContext<'_, F>) };
+    if ctx.panic.is_some() {
+        // A previous call panicked: reject everything, the query result is discarded.
+        for i in 0..a.N as usize {
+            // SAFETY: `valid` has N entries.
+            unsafe { *a.valid.add(i) = 0 };
+        }
+        return;
+    }
+    let n = a.N as usize;
+    let ray = a.ray as *const f32;
+    let hit = a.hit as *const f32;
+    for i in 0..n {
+        // SAFETY: valid mask, ray and hit blocks have N lanes (Embree contract).
+        let fh = unsafe {
+            if *a.valid.add(i) == 0 {
+                continue;
+            }
+            FilterHit {
+                org: V3::new(
+                    *ray.add(soa(0, i, n)),
+                    *ray.add(soa(1, i, n)),
+                    *ray.add(soa(2, i, n)),
+                ),
+                dir: V3::new(
+                    *ray.add(soa(4, i, n)),
+                    *ray.add(soa(5, i, n)),
+                    *ray.add(soa(6, i, n)),
+                ),
+                t: *ray.add(soa(8, i, n)),
+                ng: V3::new(
+                    *hit.add(soa(0, i, n)),
+                    *hit.add(soa(1, i, n)),
+                    *hit.add(soa(2, i, n)),
+                ),
+                prim_id: (*hit.add(soa(5, i, n))).to_bits(),
+                u: *hit.add(soa(3, i, n)),
+                v: *hit.add(soa(4, i, n)),
+                geom_id: (*hit.add(soa(6, i, n))).to_bits(),
+            }
+        };
+        let filter = &mut *ctx.filter;
+        match catch_unwind(AssertUnwindSafe(|| filter.accept(&fh))) {
+            Ok(true) => {}
+            Ok(false) => {
+                // SAFETY: lane i of the N-entry valid mask.
+                unsafe { *a.valid.add(i) = 0 };
+            }
+            Err(p) => {
+                ctx.panic = Some(panic_message(&*p));
+                // SAFETY: lane i of the N-entry valid mask.
+                unsafe { *a.valid.add(i) = 0 };
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn init_context_matches_inline_c() {
+        let c = init_context(None);
+        assert_eq!(c.flags, sys::RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT);
+        assert!(c.filter.is_none());
+        assert!(c.instID.iter().all(|&i| i == INVALID_ID));
+    }
+}

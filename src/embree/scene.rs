@@ -1,0 +1,402 @@
+//! Scenes: [`SceneBuilder`] (triangle meshes and user geometry, flags, build
+//! quality) → [`Scene`] (committed, immutable, queried from many threads with
+//! single rays, unfiltered or through a [`HitFilter`]).
+
+use super::device::{Device, EmbreeError};
+use super::filter::{init_context, FilterContext, HitFilter};
+use super::user_geometry::{
+    check_user_panics, user_bounds, user_geometry_panics, user_intersect, user_occluded, UserGeom, UserShape,
+};
+use super::INVALID_ID;
+use crate::ray::{Hit, Ray};
+use embree_sys as sys;
+use glam::Vec3A as V3;
+use std::ffi::c_void;
+use std::ptr;
+
+/// Embree build quality (`RTCBuildQuality`): how much time the BVH build
+/// spends for faster traversal.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BuildQuality {
+    /// `RTC_BUILD_QUALITY_LOW`: fastest build (for scenes rebuilt often).
+    Low,
+    /// `RTC_BUILD_QUALITY_MEDIUM`: Embree's default.
+    Medium,
+    /// `RTC_BUILD_QUALITY_HIGH`: slowest build, fastest traversal.
+    High,
+}
+
+/// Scene flags that matter to snell.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct SceneFlags {
+    /// `RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION`: required for context filters.
+    pub context_filter: bool,
+    /// `RTC_SCENE_FLAG_ROBUST`: closes edge leaks at some cost.
+    pub robust: bool,
+}
+
+/// A scene under construction: add geometry, then [`commit`](Self::commit).
+/// Geometry ids are assigned in order of addition, from 0.
+pub struct SceneBuilder {
+    device: Device,
+    raw: sys::RTCScene,
+    // Boxed so each UserGeom keeps its address (Embree holds pointers to it) when the Vec grows.
+    #[allow(clippy::vec_box)]
+    user: Vec<Box<UserGeom>>,
+    context_filter: bool,
+}
+
+// SAFETY: a scene under construction may be moved to another thread; it is not
+// shared (no Sync), which matches Embree's rule that edits are not thread-safe.
+unsafe impl Send for SceneBuilder {}
+
+impl Drop for SceneBuilder {
+    fn drop(&mut self) {
+        if !self.raw.is_null() {
+            // SAFETY: `raw` is a valid scene owned by this builder (set to null when
+            // ownership moves to a `Scene`).
+            unsafe { sys::rtcReleaseScene(self.raw) };
+        }
+    }
+}
+
+impl SceneBuilder {
+    /// A new, empty scene on `device`.
+    ///
+    /// # Errors
+    /// [`EmbreeError::Embree`] when Embree cannot create the scene.
+    pub fn new(device: &Device, flags: SceneFlags, quality: BuildQuality) -> Result<Self, EmbreeError> {
+        // SAFETY: valid device handle.
+        let raw = unsafe { sys::rtcNewScene(device.inner.raw) };
+        device.inner.check()?;
+        if raw.is_null() {
+            return Err(EmbreeError::Embree {
+                code: "RTC_ERROR_UNKNOWN",
+                message: "rtcNewScene returned NULL".into(),
+            });
+        }
+        let mut f = sys::RTC_SCENE_FLAG_NONE;
+        if flags.context_filter {
+            f |= sys::RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION;
+        }
+        if flags.robust {
+            f |= sys::RTC_SCENE_FLAG_ROBUST;
+        }
+        let q = match quality {
+            BuildQuality::Low => sys::RTC_BUILD_QUALITY_LOW,
+            BuildQuality::Medium => sys::RTC_BUILD_QUALITY_MEDIUM,
+            BuildQuality::High => sys::RTC_BUILD_QUALITY_HIGH,
+        };
+        let b = SceneBuilder {
+            device: device.clone(),
+            raw,
+            user: Vec::new(),
+            context_filter: flags.context_filter,
+        };
+        // SAFETY: valid scene handle; flags and quality are valid enum values.
+        unsafe {
+            sys::rtcSetSceneFlags(raw, f);
+            sys::rtcSetSceneBuildQuality(raw, q);
+        }
+        b.device.inner.check()?;
+        Ok(b)
+    }
+
+    fn attach(&mut self, geom: sys::RTCGeometry) -> Result<u32, EmbreeError> {
+        // SAFETY: `geom` was created on this device and is fully set up; attaching
+        // transfers a reference to the scene, after which we drop ours.
+        let id = unsafe {
+            sys::rtcCommitGeometry(geom);
+            let id = sys::rtcAttachGeometry(self.raw, geom);
+            sys::rtcReleaseGeometry(geom);
+            id
+        };
+        self.device.inner.check()?;
+        Ok(id)
+    }
+
+    /// Attach a triangle mesh and return its geometry id. `indices` index into
+    /// `vertices`; they are checked here (an out-of-range index would make
+    /// Embree read out of bounds). A triangle's geometric normal is
+    /// `(v1-v0)×(v2-v0)`: it faces the side from which the winding is
+    /// counter-clockwise.
+    ///
+    /// # Errors
+    /// [`EmbreeError::Embree`] for an empty mesh, an out-of-range index, or an
+    /// error from Embree (e.g. out of memory).
+    pub fn add_triangles(&mut self, vertices: &[[f32; 3]], indices: &[[u32; 3]]) -> Result<u32, EmbreeError> {
+        let nv = vertices.len();
+        if indices.is_empty() || nv == 0 {
+            return Err(EmbreeError::Embree {
+                code: "RTC_ERROR_INVALID_ARGUMENT",
+                message: "a triangle mesh needs at least one triangle".into(),
+            });
+        }
+        if let Some(bad) = indices.iter().flatten().find(|&&i| i as usize >= nv) {
+            return Err(EmbreeError::Embree {
+                code: "RTC_ERROR_INVALID_ARGUMENT",
+                message: format!("triangle index {bad} out of range for {nv} vertices"),
+            });
+        }
+        // SAFETY: valid device; the new geometry is released on every path below
+        // (attach releases it; on error we release it).
+        let geom = unsafe { sys::rtcNewGeometry(self.device.inner.raw, sys::RTC_GEOMETRY_TYPE_TRIANGLE) };
+        self.device.inner.check()?;
+        // SAFETY: Embree allocates buffers of the requested size (vertex buffer with
+        // one float of padding as Embree requires for 16-byte loads); we write exactly
+        // `nv*3` floats and `indices.len()*3` u32 into them.
+        unsafe {
+            let vb = sys::rtcSetNewGeometryBuffer(
+                geom,
+                sys::RTC_BUFFER_TYPE_VERTEX,
+                0,
+                sys::RTC_FORMAT_FLOAT3,
+                12,
+                nv,
+            ) as *mut f32;
+            let ib = sys::rtcSetNewGeometryBuffer(
+                geom,
+                sys::RTC_BUFFER_TYPE_INDEX,
+                0,
+                sys::RTC_FORMAT_UINT3,
+                12,
+                indices.len(),
+            ) as *mut u32;
+            if let Err(e) = self.device.inner.check() {
+                sys::rtcReleaseGeometry(geom);
+                return Err(e);
+            }
+            if vb.is_null() || ib.is_null() {
+                sys::rtcReleaseGeometry(geom);
+                return Err(EmbreeError::Embree {
+                    code: "RTC_ERROR_OUT_OF_MEMORY",
+                    message: "rtcSetNewGeometryBuffer returned NULL".into(),
+                });
+            }
+            ptr::copy_nonoverlapping(vertices.as_ptr() as *const f32, vb, nv * 3);
+            ptr::copy_nonoverlapping(indices.as_ptr() as *const u32, ib, indices.len() * 3);
+        }
+        self.attach(geom)
+    }
+
+    /// Attach an analytic shape as user geometry and return its geometry id.
+    /// Its intersect callback calls `rtcFilterIntersection`, so filters see its
+    /// hits as they see triangles'.
+    ///
+    /// # Errors
+    /// [`EmbreeError::Embree`] when Embree refuses the geometry.
+    pub fn add_user(&mut self, shape: Box<dyn UserShape>) -> Result<u32, EmbreeError> {
+        let data = Box::new(UserGeom { shape });
+        let count = data.shape.prim_count();
+        // SAFETY: valid device.
+        let geom = unsafe { sys::rtcNewGeometry(self.device.inner.raw, sys::RTC_GEOMETRY_TYPE_USER) };
+        self.device.inner.check()?;
+        let user_ptr = &*data as *const UserGeom as *mut c_void;
+        // SAFETY: `user_ptr` points into a box kept in `self.user` (then in `Scene`)
+        // for the life of the scene; callbacks are `extern "C"` functions that
+        // catch panics.
+        unsafe {
+            sys::rtcSetGeometryUserPrimitiveCount(geom, count);
+            sys::rtcSetGeometryUserData(geom, user_ptr);
+            sys::rtcSetGeometryBoundsFunction(geom, Some(user_bounds), ptr::null_mut());
+            sys::rtcSetGeometryIntersectFunction(geom, Some(user_intersect));
+            sys::rtcSetGeometryOccludedFunction(geom, Some(user_occluded));
+        }
+        self.user.push(data);
+        self.attach(geom)
+    }
+
+    /// Build the acceleration structure. The result may be queried from many threads.
+    ///
+    /// # Errors
+    /// [`EmbreeError::Embree`] when the build fails (e.g. out of memory).
+    pub fn commit(mut self) -> Result<Scene, EmbreeError> {
+        // SAFETY: valid scene handle with committed geometries.
+        unsafe { sys::rtcCommitScene(self.raw) };
+        self.device.inner.check()?;
+        let raw = std::mem::replace(&mut self.raw, ptr::null_mut());
+        Ok(Scene {
+            device: self.device.clone(),
+            raw,
+            context_filter: self.context_filter,
+            user_panics_at_build: user_geometry_panics(),
+            _user: std::mem::take(&mut self.user),
+        })
+    }
+}
+
+/// A committed scene: immutable, queryable from many threads. Queries take a
+/// [`Ray`] (`org + t·dir`, `t ∈ [tnear, tfar]`, t in units of `|dir|`) and
+/// report [`Hit`]s with the geometric normal as the geometry gives it
+/// (triangles: winding; analytic shapes: theirs, out of closed solids).
+pub struct Scene {
+    device: Device,
+    /// The scene handle (also used by `warp_ffi`'s packet queries).
+    pub(super) raw: sys::RTCScene,
+    /// Built with `RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION`.
+    context_filter: bool,
+    /// `user_geometry_panics()` when the scene was committed.
+    user_panics_at_build: u64,
+    #[allow(clippy::vec_box)]
+    _user: Vec<Box<UserGeom>>,
+}
+
+// SAFETY: a committed Embree scene is immutable and Embree documents concurrent
+// rtcIntersect1/rtcOccluded1 calls on it as thread-safe; the boxed user shapes
+// are `Send + Sync` by the `UserShape` bound.
+unsafe impl Send for Scene {}
+// SAFETY: as above.
+unsafe impl Sync for Scene {}
+
+impl Drop for Scene {
+    fn drop(&mut self) {
+        // SAFETY: `raw` is a valid scene owned solely by this value.
+        unsafe { sys::rtcReleaseScene(self.raw) };
+    }
+}
+
+/// A single-ray query for Embree: every mask bit set, no hit yet.
+#[inline]
+fn to_rayhit(ray: &Ray) -> sys::RTCRayHit {
+    sys::RTCRayHit {
+        ray: sys::RTCRay {
+            org_x: ray.org.x,
+            org_y: ray.org.y,
+            org_z: ray.org.z,
+            tnear: ray.tnear,
+            dir_x: ray.dir.x,
+            dir_y: ray.dir.y,
+            dir_z: ray.dir.z,
+            time: 0.0,
+            tfar: ray.tfar,
+            mask: u32::MAX, // a zeroed mask hits nothing
+            id: 0,
+            flags: 0,
+        },
+        hit: sys::RTCHit {
+            geomID: INVALID_ID,
+            primID: INVALID_ID,
+            instID: [INVALID_ID],
+            ..Default::default()
+        },
+    }
+}
+
+/// The hit of an answered query, if any (t is the final tfar).
+#[inline]
+fn from_rayhit(rh: &sys::RTCRayHit) -> Option<Hit> {
+    (rh.hit.geomID != INVALID_ID).then(|| Hit {
+        geom_id: rh.hit.geomID,
+        prim_id: rh.hit.primID,
+        t: rh.ray.tfar,
+        ng: V3::new(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z),
+        u: rh.hit.u,
+        v: rh.hit.v,
+    })
+}
+
+impl Scene {
+    /// The device this scene was built on.
+    pub fn device(&self) -> &Device {
+        &self.device
+    }
+
+    /// Nearest hit along `ray` in `[tnear, tfar]`, no filter. An invalid ray
+    /// ([`Ray::is_valid`]) is a miss.
+    pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        if !ray.is_valid() {
+            return None; // an invalid ray would abort the process inside Embree
+        }
+        let mut ctx = init_context(None);
+        let mut rh = to_rayhit(ray);
+        // SAFETY: committed scene; `ctx` and `rh` are valid, properly initialised
+        // and (RTCRayHit is 16-byte aligned by its bindgen definition) aligned.
+        unsafe { sys::rtcIntersect1(self.raw, &mut ctx, &mut rh) };
+        from_rayhit(&rh)
+    }
+
+    /// Is anything hit along `ray` in `[tnear, tfar]`? No filter. An invalid
+    /// ray is not occluded.
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        if !ray.is_valid() {
+            return false;
+        }
+        let mut ctx = init_context(None);
+        let mut r = to_rayhit(ray).ray;
+        // SAFETY: as in `intersect`.
+        unsafe { sys::rtcOccluded1(self.raw, &mut ctx, &mut r) };
+        r.tfar == f32::NEG_INFINITY
+    }
+
+    /// Nearest hit accepted by `filter`. The scene must have been built with
+    /// `SceneFlags::context_filter` (Debian's Embree asserts otherwise). An
+    /// invalid ray is a miss, and the filter is not called.
+    ///
+    /// # Errors
+    /// [`EmbreeError::NoContextFilterFlag`] when it was not;
+    /// [`EmbreeError::FilterPanicked`] when the filter panicked (the query's
+    /// result is discarded).
+    pub fn intersect_filtered<F: HitFilter>(
+        &self,
+        ray: &Ray,
+        filter: &mut F,
+    ) -> Result<Option<Hit>, EmbreeError> {
+        if !self.context_filter {
+            return Err(EmbreeError::NoContextFilterFlag);
+        }
+        if !ray.is_valid() {
+            return Ok(None); // an invalid ray would abort the process inside Embree
+        }
+        let mut ctx = FilterContext::new(filter);
+        let mut rh = to_rayhit(ray);
+        // SAFETY: `as_raw` points at the #[repr(C)] FilterContext (its `base`
+        // first), which outlives the call, so the trampoline's cast back is valid.
+        unsafe { sys::rtcIntersect1(self.raw, ctx.as_raw(), &mut rh) };
+        ctx.finish()?;
+        Ok(from_rayhit(&rh))
+    }
+
+    /// Occlusion with `filter` (see [`intersect_filtered`](Self::intersect_filtered)).
+    ///
+    /// # Errors
+    /// As [`intersect_filtered`](Self::intersect_filtered).
+    pub fn occluded_filtered<F: HitFilter>(&self, ray: &Ray, filter: &mut F) -> Result<bool, EmbreeError> {
+        if !self.context_filter {
+            return Err(EmbreeError::NoContextFilterFlag);
+        }
+        if !ray.is_valid() {
+            return Ok(false);
+        }
+        let mut ctx = FilterContext::new(filter);
+        let mut r = to_rayhit(ray).ray;
+        // SAFETY: as in `intersect_filtered`.
+        unsafe { sys::rtcOccluded1(self.raw, ctx.as_raw(), &mut r) };
+        ctx.finish()?;
+        Ok(r.tfar == f32::NEG_INFINITY)
+    }
+
+    /// Errors since the last check: Embree's own (e.g. from queries), and
+    /// panics inside analytic shapes' callbacks since the scene was built
+    /// (those queries saw a miss). Renders call it after every tile.
+    ///
+    /// # Errors
+    /// The first error Embree reported ([`EmbreeError::Embree`]), or
+    /// [`EmbreeError::UserGeometryPanicked`].
+    pub fn check(&self) -> Result<(), EmbreeError> {
+        self.device.inner.check()?;
+        check_user_panics(self.user_panics_at_build)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn out_of_range_index_is_an_error() {
+        let d = Device::new("").unwrap();
+        let mut b = SceneBuilder::new(&d, SceneFlags::default(), BuildQuality::Medium).unwrap();
+        let e = b.add_triangles(&[[0.0; 3]; 3], &[[0, 1, 3]]).unwrap_err();
+        assert!(e.to_string().contains("out of range"), "{e}");
+    }
+}

@@ -1,0 +1,391 @@
+//! Analytic shapes as Embree user geometry: the [`UserShape`] trait, the
+//! `extern "C"` bounds/intersect/occluded callbacks Embree calls for them, and
+//! the count of panics caught inside those callbacks.
+//!
+//! The intersect and occluded callbacks share one lane loop, [`lanes`]; what
+//! differs between them (the argument struct, which `rtcFilter*` function
+//! asks the context filter, what an accepted hit writes) is a [`LaneQuery`].
+
+use super::device::{panic_message, EmbreeError};
+use super::filter::soa;
+use embree_sys as sys;
+use glam::Vec3A as V3;
+use std::any::Any;
+use std::ffi::c_void;
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Mutex;
+
+/// Count of panics caught inside user-geometry callbacks (the query sees a
+/// miss; `Scene::check` turns the count into an error).
+static USER_GEOMETRY_PANICS: AtomicU64 = AtomicU64::new(0);
+/// The first such panic's message.
+static USER_GEOMETRY_PANIC_MESSAGE: Mutex<Option<String>> = Mutex::new(None);
+
+/// Panics caught inside user-geometry callbacks since the process started
+/// (each made its query see a miss; [`Scene::check`](super::Scene::check)
+/// reports them as [`EmbreeError::UserGeometryPanicked`]).
+pub fn user_geometry_panics() -> u64 {
+    USER_GEOMETRY_PANICS.load(Ordering::Relaxed)
+}
+
+fn record_user_panic(p: &(dyn Any + Send)) {
+    if USER_GEOMETRY_PANICS.fetch_add(1, Ordering::Relaxed) == 0 {
+        if let Ok(mut m) = USER_GEOMETRY_PANIC_MESSAGE.lock() {
+            *m = Some(panic_message(p));
+        }
+    }
+}
+
+/// `Err(UserGeometryPanicked)` when user-geometry callbacks have panicked
+/// since the counter stood at `since`.
+pub(super) fn check_user_panics(since: u64) -> Result<(), EmbreeError> {
+    let count = USER_GEOMETRY_PANICS.load(Ordering::Relaxed);
+    if count > since {
+        let message = USER_GEOMETRY_PANIC_MESSAGE
+            .lock()
+            .ok()
+            .and_then(|m| m.clone())
+            .unwrap_or_default();
+        return Err(EmbreeError::UserGeometryPanicked { count, message });
+    }
+    Ok(())
+}
+
+/// Axis-aligned bounds of one user-geometry primitive, in scene units. They
+/// must contain every point the primitive reports as a hit (pad them for
+/// rounding): Embree only calls `intersect` for rays that reach the box.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Bounds {
+    /// Smallest x, y, z.
+    pub lower: [f32; 3],
+    /// Largest x, y, z.
+    pub upper: [f32; 3],
+}
+
+/// One candidate crossing of a ray with an analytic primitive.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Candidate {
+    /// Ray parameter: the point is `org + t·dir`, so `t` is in units of
+    /// `|dir|` (a distance only for a unit direction).
+    pub t: f32,
+    /// Geometric normal, any length, reported as is in [`Hit::ng`](super::Hit::ng)
+    /// and [`FilterHit::ng`](super::FilterHit::ng). Closed solids must point
+    /// it out of the solid (snell's nested-dielectric logic relies on it).
+    pub ng: [f32; 3],
+    /// The shape's first surface parameter (reported as `Hit::u`).
+    pub u: f32,
+    /// The shape's second surface parameter (reported as `Hit::v`).
+    pub v: f32,
+}
+
+/// Up to four candidate crossings of one primitive; the callbacks sort them
+/// by ascending `t` before use.
+#[derive(Debug, Clone, Default)]
+pub struct Candidates {
+    items: [Candidate; 4],
+    len: usize,
+}
+
+impl Candidates {
+    /// Add a candidate; silently ignores more than four (no analytic shape of
+    /// snell has more than two crossings per primitive).
+    pub fn push(&mut self, c: Candidate) {
+        if self.len < self.items.len() {
+            self.items[self.len] = c;
+            self.len += 1;
+        }
+    }
+
+    /// The candidates pushed so far (in push order until the callback sorts them).
+    pub fn as_slice(&self) -> &[Candidate] {
+        &self.items[..self.len]
+    }
+
+    /// Insertion sort by t: at most four items (a generic slice sort cost
+    /// 4% of a deep-nesting trace, by callgrind).
+    #[inline]
+    fn sort(&mut self) {
+        for i in 1..self.len {
+            let mut j = i;
+            while j > 0 && self.items[j - 1].t > self.items[j].t {
+                self.items.swap(j - 1, j);
+                j -= 1;
+            }
+        }
+    }
+}
+
+/// An analytic shape exposed to Embree as user geometry
+/// ([`SceneBuilder::add_user`](super::SceneBuilder::add_user)). Its methods run
+/// inside Embree callbacks, possibly on several threads at once; a panic in
+/// them is caught, makes the query see a miss and is reported by
+/// [`Scene::check`](super::Scene::check).
+pub trait UserShape: Send + Sync + 'static {
+    /// Number of primitives (e.g. a closed cylinder: tube + two caps).
+    fn prim_count(&self) -> u32 {
+        1
+    }
+    /// Bounds of primitive `prim` (`prim < prim_count()`).
+    fn bounds(&self, prim: u32) -> Bounds;
+    /// Push every crossing of the ray `org + t·dir` with primitive `prim` onto
+    /// `out`, for any t and in any order (the caller sorts them and clips
+    /// to the ray interval). `dir` need not be unit length.
+    fn intersect(&self, prim: u32, org: V3, dir: V3, out: &mut Candidates);
+}
+
+/// What Embree's `geometryUserPtr` points at for a user geometry: boxed and
+/// owned by the builder, then the scene, so the address stays valid for the
+/// scene's life.
+pub(super) struct UserGeom {
+    pub(super) shape: Box<dyn UserShape>,
+}
+
+/// The bounds callback (`RTCBoundsFunction`) of every user geometry.
+pub(super) unsafe extern "C" fn user_bounds(args: *const sys::RTCBoundsFunctionArguments) {
+    let r = catch_unwind(AssertUnwindSafe(|| {
+        // SAFETY: Embree passes valid arguments; geometryUserPtr is our UserGeom
+        // (see `add_user`), bounds_o is writable.
+        unsafe {
+            let a = &*args;
+            let g = &*(a.geometryUserPtr as *const UserGeom);
+            let b = g.shape.bounds(a.primID);
+            let o = &mut *a.bounds_o;
+            o.lower_x = b.lower[0];
+            o.lower_y = b.lower[1];
+            o.lower_z = b.lower[2];
+            o.upper_x = b.upper[0];
+            o.upper_y = b.upper[1];
+            o.upper_z = b.upper[2];
+        }
+    }));
+    if let Err(p) = r {
+        record_user_panic(&*p);
+    }
+}
+
+/// The intersect callback (`RTCIntersectFunctionN`) of every user geometry.
+pub(super) unsafe extern "C" fn user_intersect(args: *const sys::RTCIntersectFunctionNArguments) {
+    let r = catch_unwind(AssertUnwindSafe(|| {
+        // SAFETY: Embree calls this callback only for geometries made by
+        // `add_user`, with the arguments of its intersect contract.
+        unsafe { lanes::<Intersect>(args) }
+    }));
+    if let Err(p) = r {
+        record_user_panic(&*p);
+    }
+}
+
+/// The occluded callback (`RTCOccludedFunctionN`) of every user geometry.
+pub(super) unsafe extern "C" fn user_occluded(args: *const sys::RTCOccludedFunctionNArguments) {
+    let r = catch_unwind(AssertUnwindSafe(|| {
+        // SAFETY: Embree calls this callback only for geometries made by
+        // `add_user`, with the arguments of its occluded contract.
+        unsafe { lanes::<Occluded>(args) }
+    }));
+    if let Err(p) = r {
+        record_user_panic(&*p);
+    }
+}
+
+/// The accessors of the fields that Embree's intersect and occluded callback
+/// arguments share (same names, but distinct structs; the ray block is
+/// `rayhit` in one and `ray` in the other).
+macro_rules! lane_fields {
+    ($ray:ident) => {
+        #[inline(always)]
+        fn valid(a: &Self::Args) -> *const i32 {
+            a.valid
+        }
+        #[inline(always)]
+        fn user(a: &Self::Args) -> *mut c_void {
+            a.geometryUserPtr
+        }
+        #[inline(always)]
+        fn prim_id(a: &Self::Args) -> u32 {
+            a.primID
+        }
+        #[inline(always)]
+        fn geom_id(a: &Self::Args) -> u32 {
+            a.geomID
+        }
+        #[inline(always)]
+        fn context(a: &Self::Args) -> *mut sys::RTCIntersectContext {
+            a.context
+        }
+        #[inline(always)]
+        fn n(a: &Self::Args) -> usize {
+            a.N as usize
+        }
+        #[inline(always)]
+        fn ray(a: &Self::Args) -> *mut f32 {
+            a.$ray as *mut f32
+        }
+    };
+}
+
+/// What differs between the intersect and the occluded callback. The field
+/// accessors are read where the loop needs them, not copied up front (a
+/// copied struct cost ~10 instructions per callback, by callgrind).
+trait LaneQuery {
+    /// Embree's argument struct for the callback.
+    type Args;
+    /// Valid mask, `n` ints (0 = inactive lane).
+    fn valid(a: &Self::Args) -> *const i32;
+    /// `geometryUserPtr`: our `UserGeom`.
+    fn user(a: &Self::Args) -> *mut c_void;
+    /// The primitive to intersect.
+    fn prim_id(a: &Self::Args) -> u32;
+    /// The geometry's id.
+    fn geom_id(a: &Self::Args) -> u32;
+    /// The query's intersect context (ours, or a `FilterContext`'s).
+    fn context(a: &Self::Args) -> *mut sys::RTCIntersectContext;
+    /// Number of lanes.
+    fn n(a: &Self::Args) -> usize;
+    /// The SoA ray block (`RTCRayN`, or the ray part of `RTCRayHitN`), `n` lanes.
+    fn ray(a: &Self::Args) -> *mut f32;
+
+    /// Ask the context filter about the potential hit in `fargs`
+    /// (`rtcFilterIntersection` / `rtcFilterOcclusion`).
+    ///
+    /// # Safety
+    /// `args` are the callback's arguments and `fargs` a single-lane filter
+    /// argument block built from them, with the candidate's t in the ray's tfar.
+    unsafe fn filter(args: *const Self::Args, fargs: &sys::RTCFilterFunctionNArguments);
+
+    /// Record the accepted hit `hit` of lane `i` whose t is already in tfar.
+    ///
+    /// # Safety
+    /// `ray` is the callback's SoA block of `n` lanes, `i < n`.
+    unsafe fn accept(ray: *mut f32, i: usize, n: usize, hit: &sys::RTCHit);
+}
+
+/// `rtcIntersect*`: the nearest accepted candidate becomes the lane's hit.
+enum Intersect {}
+
+impl LaneQuery for Intersect {
+    type Args = sys::RTCIntersectFunctionNArguments;
+    lane_fields!(rayhit);
+
+    #[inline(always)]
+    unsafe fn filter(args: *const Self::Args, fargs: &sys::RTCFilterFunctionNArguments) {
+        // SAFETY: the caller's contract is rtcFilterIntersection's.
+        unsafe { sys::rtcFilterIntersection(args, fargs) }
+    }
+
+    #[inline(always)]
+    unsafe fn accept(ray: *mut f32, i: usize, n: usize, hit: &sys::RTCHit) {
+        let h = [
+            hit.Ng_x,
+            hit.Ng_y,
+            hit.Ng_z,
+            hit.u,
+            hit.v,
+            f32::from_bits(hit.primID),
+            f32::from_bits(hit.geomID),
+            f32::from_bits(hit.instID[0]),
+        ];
+        // SAFETY: in an RTCRayHitN of n lanes, the RTCHitN block of 8 fields
+        // follows the 12 ray fields; lane i < n of each field is in bounds.
+        unsafe {
+            let hit_base = ray.add(12 * n);
+            for (k, v) in h.iter().enumerate() {
+                *hit_base.add(soa(k, i, n)) = *v;
+            }
+        }
+    }
+}
+
+/// `rtcOccluded*`: any accepted candidate marks the lane occluded.
+enum Occluded {}
+
+impl LaneQuery for Occluded {
+    type Args = sys::RTCOccludedFunctionNArguments;
+    lane_fields!(ray);
+
+    #[inline(always)]
+    unsafe fn filter(args: *const Self::Args, fargs: &sys::RTCFilterFunctionNArguments) {
+        // SAFETY: the caller's contract is rtcFilterOcclusion's.
+        unsafe { sys::rtcFilterOcclusion(args, fargs) }
+    }
+
+    #[inline(always)]
+    unsafe fn accept(ray: *mut f32, i: usize, n: usize, _hit: &sys::RTCHit) {
+        // SAFETY: tfar (field 8) of lane i < n of the n-lane RTCRayN.
+        unsafe { *ray.add(soa(8, i, n)) = f32::NEG_INFINITY }; // Embree's "occluded"
+    }
+}
+
+/// The lane loop of both callbacks: for each active lane, intersect the shape,
+/// sort the candidates, clip them to `[tnear, tfar]`, and offer them nearest
+/// first to the context filter (if any); the first accepted one is recorded
+/// by `Q::accept`.
+///
+/// # Safety
+/// `args` must be the arguments Embree passes to the `Q` callback of a
+/// geometry created by `add_user`.
+#[inline(always)]
+unsafe fn lanes<Q: LaneQuery>(args: *const Q::Args) {
+    // SAFETY: guaranteed by the caller (Embree's callback contract): `args`, its
+    // valid mask of N ints and its SoA ray block of N lanes are valid for this
+    // call; geometryUserPtr is our UserGeom (`add_user`), and `context` is a
+    // valid intersect context (ours, or `FilterContext`'s base).
+    unsafe {
+        let a = &*args;
+        let n = Q::n(a);
+        let g = &*(Q::user(a) as *const UserGeom);
+        let r = Q::ray(a);
+        for i in 0..n {
+            if *Q::valid(a).add(i) == 0 {
+                continue;
+            }
+            let org = V3::new(*r.add(soa(0, i, n)), *r.add(soa(1, i, n)), *r.add(soa(2, i, n)));
+            let tnear = *r.add(soa(3, i, n));
+            let dir = V3::new(*r.add(soa(4, i, n)), *r.add(soa(5, i, n)), *r.add(soa(6, i, n)));
+            let mut cands = Candidates::default();
+            g.shape.intersect(Q::prim_id(a), org, dir, &mut cands);
+            cands.sort();
+            for c in cands.as_slice() {
+                let tfar_ptr = r.add(soa(8, i, n));
+                let tfar = *tfar_ptr;
+                if !(c.t >= tnear && c.t <= tfar) {
+                    continue;
+                }
+                // Potential hit in single-lane layout; filters read t from ray.tfar.
+                let mut potential = sys::RTCHit {
+                    Ng_x: c.ng[0],
+                    Ng_y: c.ng[1],
+                    Ng_z: c.ng[2],
+                    u: c.u,
+                    v: c.v,
+                    primID: Q::prim_id(a),
+                    geomID: Q::geom_id(a),
+                    instID: [(*Q::context(a)).instID[0]],
+                };
+                *tfar_ptr = c.t;
+                // Without a context filter there is nothing to call: user
+                // geometries never get per-geometry filters (`add_user`), so
+                // rtcFilter* would accept the hit anyway. Wide queries are not
+                // used by snell's filters; their hits are accepted directly.
+                if n == 1 && (*Q::context(a)).filter.is_some() {
+                    let mut lane_valid: i32 = -1;
+                    let fargs = sys::RTCFilterFunctionNArguments {
+                        valid: &mut lane_valid,
+                        geometryUserPtr: Q::user(a),
+                        context: Q::context(a),
+                        ray: r as *mut sys::RTCRayN,
+                        hit: &mut potential as *mut sys::RTCHit as *mut sys::RTCHitN,
+                        N: 1,
+                    };
+                    Q::filter(args, &fargs);
+                    if lane_valid == 0 {
+                        *tfar_ptr = tfar;
+                        continue;
+                    }
+                }
+                Q::accept(r, i, n, &potential);
+                break; // candidates are sorted: the first accepted one is nearest
+            }
+        }
+    }
+}
