@@ -13,6 +13,7 @@ use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::Instant;
 
+/// Tile edge, pixels: the unit of work of a render thread.
 pub const TILE: u32 = 16;
 
 /// A per-pixel diagnostic layer (AOV): per pixel, the mean over its samples
@@ -82,13 +83,18 @@ impl Aovs {
 /// A rendered image (linear RGB, row 0 at the top) with statistics.
 #[derive(Debug, Clone)]
 pub struct Rendered {
+    /// Width of the rendered region, pixels.
     pub width: u32,
+    /// Height of the rendered region, pixels.
     pub height: u32,
+    /// Linear RGB, row-major, row 0 at the top.
     pub pixels: Vec<V3>,
     /// Per pixel and channel: estimated variance of the pixel mean (sample
     /// variance over the pixel's samples / spp). Monte Carlo noise only.
     pub variance: Vec<V3>,
+    /// Diagnostic layers (empty unless asked for).
     pub aovs: Aovs,
+    /// Wall time and counters.
     pub stats: RenderStats,
     /// Samples per pixel requested (every pixel of a completed tile has them).
     pub spp_done: u32,
@@ -96,7 +102,9 @@ pub struct Rendered {
     pub complete: bool,
     /// Samples per pixel actually taken, per pixel (spp or 0 when interrupted).
     pub pixel_spp: Vec<f32>,
+    /// Tiles rendered (fewer than `tiles_total` when interrupted).
     pub tiles_done: u32,
+    /// Tiles in the region.
     pub tiles_total: u32,
     /// The pixels rendered (the whole film unless a region was asked for);
     /// `width` x `height` is its size.
@@ -221,8 +229,11 @@ impl RenderSettings {
 /// Render options beyond the scene file.
 #[derive(Debug, Clone, Default)]
 pub struct RenderOptions {
+    /// Render threads (`None`: one per core).
     pub threads: Option<usize>,
+    /// No progress bar.
     pub quiet: bool,
+    /// Keep the diagnostic layers (`Rendered::aovs`).
     pub want_aovs: bool,
 }
 

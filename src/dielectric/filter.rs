@@ -13,8 +13,11 @@ pub struct Rejected {
     pub solid: u32,
     /// The solid's rank.
     pub rank: u32,
+    /// Primitive hit (triangle or analytic part).
     pub prim: u32,
+    /// Ray parameter of the hit, in units of the query ray's |dir|.
     pub t: f32,
+    /// The ray enters the solid here (`ray::front_facing` of the hit normal).
     pub entering: bool,
     /// Within `EDGE_EPS` (barycentric) of a mesh edge or vertex, where the
     /// normal alone cannot tell a crossing from a touch: verified after the query.
@@ -37,6 +40,7 @@ pub const REJECT_CAPACITY: usize = 32;
 /// reused: initialising them on every query was ~200 instructions, 40% of the
 /// filter's cost over a plain query (callgrind, glass_of_water_nested).
 pub struct FilterRecords {
+    /// False hits of the current query, in the order Embree reported them.
     pub rejected: [Rejected; REJECT_CAPACITY],
     /// Accepted hits on solids within the crossing window of the nearest
     /// accepted t seen so far: after the query these are the true hit and any
@@ -68,15 +72,23 @@ thread_local! {
 /// The Embree context filter: rejects hits on solids ranked below `p0` and
 /// records them. Stateless in its decision, so traversal order does not matter.
 pub struct FalseHitFilter<'a> {
+    /// Rank per geometry id (`u32::MAX` for non-solids: never false).
     pub rank_by_geom: &'a [u32],
+    /// Solid index per geometry id.
     pub solid_by_geom: &'a [Option<u32>],
+    /// The top rank of the ray's interior list (the paper's P0): hits on lower ranks are false.
     pub p0: u32,
     /// `rec.rejected[..len]` and `rec.near[..near_len]` are this query's.
     pub rec: &'a mut FilterRecords,
+    /// Number of records in `rec.rejected`.
     pub len: usize,
+    /// More false hits than `REJECT_CAPACITY` (or coincident accepted hits than `NEAR_CAPACITY`): the query is redone by re-casting.
     pub overflow: bool,
+    /// Filter calls in this query.
     pub calls: u32,
+    /// Number of records in `rec.near`.
     pub near_len: usize,
+    /// The nearest accepted t so far.
     pub near_t: f32,
     /// `crossing_window` of this query's ray is `win_a + win_b · t`
     /// (precomputed: no square root per callback).
@@ -221,7 +233,9 @@ impl Coincident {
 /// The first true hit of a query and the solid surfaces coincident with it.
 #[derive(Debug, Clone, Copy)]
 pub struct TrueHit {
+    /// The nearest hit on a solid ranked at or above P0, or on a non-solid.
     pub hit: Hit,
+    /// Solid surfaces at the same point (within the crossing window), crossed with it.
     pub coincident: Coincident,
 }
 

@@ -32,8 +32,11 @@ pub use trace::trace;
 /// How false hits are found and skipped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum NestedStrategy {
+    /// False hits are skipped inside an Embree context filter (default).
     Filter,
+    /// The paper's method: nearest hit, and cast again past each false one.
     Recast,
+    /// `Recast` with the paper's toggle deciding entering vs leaving.
     Toggle,
     /// No nesting at all: every hit is true, lists are ignored. Wrong for
     /// overlapping solids; the "unmodified ray tracer" speed reference.
@@ -54,6 +57,7 @@ impl std::str::FromStr for NestedStrategy {
 }
 
 impl NestedStrategy {
+    /// The strategy's name on the command line and in reports.
     pub fn name(self) -> &'static str {
         match self {
             NestedStrategy::Filter => "filter",

@@ -490,17 +490,23 @@ fn whitted(
 /// One surface event along a deterministic refraction-only path.
 #[derive(Debug, Clone)]
 pub struct PathEvent {
+    /// Embree geometry id of the surface.
     pub geom: u32,
+    /// The reconstructed hit point.
     pub point: V3,
     /// Distance from the previous event (or the start).
     pub t: f32,
+    /// Index on the side the ray arrived from.
     pub n1: f32,
+    /// Index on the far side.
     pub n2: f32,
     /// Interior list (sorted solid indices) of the ray leaving this event.
     pub list_after: Vec<u32>,
+    /// Total internal reflection: the ray was reflected.
     pub tir: bool,
     /// The ray leaving this event (origin offset off the surface, unit direction).
     pub next_org: V3,
+    /// Unit direction of the ray leaving this event.
     pub next_dir: V3,
 }
 
@@ -591,6 +597,7 @@ pub fn refraction_path(
 /// Result of [`refraction_path`].
 #[derive(Debug, Clone)]
 pub struct RefractionPath {
+    /// The surface events, in order.
     pub events: Vec<PathEvent>,
     /// Interior list after the last event.
     pub final_list: Vec<u32>,

@@ -9,7 +9,7 @@ fn f3(v: DVec3) -> [f32; 3] {
 }
 
 /// A rectangle as two triangles, counter-clockwise seen from `normal`.
-/// `v_axis = normal × u_axis`; uv spans [0,1]² along (u_axis, v_axis).
+/// `v_axis = normal × u_axis`; uv spans [0, 1]² along (u_axis, v_axis).
 pub fn rect(center: DVec3, normal: DVec3, u_axis: DVec3, size: [f64; 2]) -> Mesh {
     let v_axis = normal.cross(u_axis);
     let hu = u_axis * (size[0] * 0.5);
@@ -65,7 +65,10 @@ pub enum LatheShading {
     /// Vertex normals smooth around the axis; along the profile, a joint whose
     /// turn is at most `crease_deg` degrees is smoothed too, a sharper one (a
     /// rim, a base edge) keeps each band's own normal.
-    Smooth { crease_deg: f64 },
+    Smooth {
+        /// The largest profile turn (degrees) that is smoothed.
+        crease_deg: f64,
+    },
 }
 
 /// A profile of (radius, height) points revolved around +y, `segments` around.
@@ -383,7 +386,7 @@ pub fn find_degenerate(m: &Mesh) -> Option<usize> {
 }
 
 /// A bilinear grid of `nx` × `ny` vertices over the quad `corners` (in the
-/// order of `rect`: counter-clockwise seen from `normal`), uv over [0,1]².
+/// order of `rect`: counter-clockwise seen from `normal`), uv over [0, 1]².
 /// Used by the warp benchmarks to set a vertex count.
 pub fn grid(corners: [DVec3; 4], normal: DVec3, nx: u32, ny: u32) -> Mesh {
     let (nx, ny) = (nx.max(2), ny.max(2));

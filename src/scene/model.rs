@@ -23,18 +23,25 @@ pub const MAX_PIXELS: u64 = 1 << 27;
 /// Surface response.
 #[derive(Debug, Clone)]
 pub enum Material {
+    /// Lambertian reflection.
     Diffuse {
+        /// Albedo, in [0, 1] per channel.
         reflectance: Texture,
+        /// Reflects on both sides (else black from behind the normal).
         two_sided: bool,
     },
+    /// A perfect mirror.
     Mirror {
+        /// Reflectance per channel.
         reflectance: V3,
     },
     /// A closed solid of the priority scheme (index into `RenderScene::solids`).
     Solid(u32),
     /// An interface: `int_ior` on the side opposite the normal, `ext_ior` on the normal side.
     Interface {
+        /// Index on the side opposite the normal.
         int_ior: f32,
+        /// Index on the side the normal points to.
         ext_ior: f32,
     },
     /// Absorbs everything (lights' bodies).
@@ -44,16 +51,22 @@ pub enum Material {
 /// Geometry shape as the integrator sees it.
 #[derive(Debug, Clone)]
 pub enum Shape {
+    /// A triangle mesh (closed when it bounds a solid).
     Mesh(Arc<Mesh>),
+    /// An analytic shape on Embree user geometry.
     Analytic(Analytic),
 }
 
 /// One Embree geometry (indexed by geomID).
 #[derive(Debug, Clone)]
 pub struct GeomRecord {
+    /// The object's name (unique in the scene).
     pub name: String,
+    /// Its shape, in world space.
     pub shape: Shape,
+    /// Its material (`Material::Solid` for priority solids).
     pub material: Material,
+    /// Emitted radiance, if it is a light source.
     pub emission: Option<Texture>,
     /// Index into `RenderScene::lights` when this surface is also an NEE light.
     pub light: Option<u32>,
@@ -71,50 +84,80 @@ impl GeomRecord {
 /// A priority solid (Schmidt & Budge).
 #[derive(Debug, Clone)]
 pub struct Solid {
+    /// The object's name.
     pub name: String,
+    /// Its geometry id.
     pub geom: u32,
+    /// Its declared priority (higher wins).
     pub priority: i64,
     /// Dense total order: priority first, then declaration order (the later
     /// declared object wins a tie, as if its priority were higher by an infinitesimal).
     pub rank: u32,
+    /// Its index of refraction.
     pub ior: f32,
     /// Beer–Lambert absorption coefficient per metre, per channel.
     pub sigma_a: V3,
+    /// Its world-space bounds (min, max).
     pub aabb: (DVec3, DVec3),
 }
 
 /// Light sources for next-event estimation.
 #[derive(Debug, Clone)]
 pub enum Light {
+    /// A point light.
     Point {
+        /// Position.
         position: V3,
+        /// Radiant intensity per channel (W/sr in scene units).
         intensity: V3,
     },
+    /// A directional light (the sun).
     Directional {
         /// Unit direction the light travels in.
         direction: V3,
+        /// Irradiance on a surface facing the light.
         irradiance: V3,
     },
+    /// A rectangular area light, emitting on the side of `normal`.
     Rect {
+        /// One corner.
         corner: V3,
+        /// The edge from `corner` along u.
         edge_u: V3,
+        /// The edge from `corner` along v.
         edge_v: V3,
+        /// Unit normal, the emitting side.
         normal: V3,
+        /// Area.
         area: f32,
+        /// Emitted radiance.
         radiance: V3,
     },
+    /// A spherical area light.
     Sphere {
+        /// Centre.
         center: V3,
+        /// Radius.
         radius: f32,
+        /// Emitted radiance.
         radiance: V3,
     },
 }
 
 #[derive(Debug, Clone)]
+/// Radiance arriving from infinitely far away.
 pub enum Environment {
+    /// No light.
     Black,
+    /// The same radiance from every direction.
     Constant(V3),
-    Map { image: Arc<ImageData>, scale: f32 },
+    /// An equirectangular (latitude-longitude) map.
+    Map {
+        /// The image, linear RGB.
+        image: Arc<ImageData>,
+        /// Multiplier of the image's values.
+        scale: f32,
+    },
 }
 
 impl Environment {
@@ -134,21 +177,29 @@ impl Environment {
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// Which integrator a scene renders with (`[integrator] type`).
 pub enum IntegratorKind {
+    /// The unbiased path tracer.
     Path,
+    /// The Whitted preview.
     Whitted,
 }
 
 /// Everything a render needs.
 pub struct RenderScene {
+    /// The Embree scene of every geometry.
     pub embree: crate::embree::Scene,
+    /// Geometry records, indexed by Embree geometry id.
     pub geoms: Vec<GeomRecord>,
+    /// Priority solids, indexed by solid index.
     pub solids: Vec<Solid>,
     /// Rank per geomID: the solid's rank, or `u32::MAX` for non-solids (never false).
     pub rank_by_geom: Vec<u32>,
     /// Solid index per geomID.
     pub solid_by_geom: Vec<Option<u32>>,
+    /// Light sources for next-event estimation.
     pub lights: Vec<Light>,
+    /// Radiance from infinity.
     pub environment: Environment,
     /// The camera at the film resolution the scene file declares (a render
     /// at another resolution uses `Camera::with_resolution`).
@@ -162,9 +213,13 @@ pub struct RenderScene {
     pub spp: u32,
     /// Seed the scene file declares.
     pub seed: u64,
+    /// The integrator.
     pub integrator: IntegratorKind,
+    /// Path segments including the camera ray (1: emitters only).
     pub max_depth: u32,
+    /// Segment index from which Russian roulette starts.
     pub rr_depth: u32,
+    /// Index of the medium outside every solid.
     pub ambient_ior: f32,
     /// Solids that contain the camera (found by point-in-solid tests or given).
     pub camera_interior: Vec<u32>,
@@ -234,11 +289,13 @@ impl RenderScene {
 /// Geometry at a hit, in world space.
 #[derive(Debug, Clone, Copy)]
 pub struct SurfacePoint {
+    /// The point on the surface (reconstructed, not org + t·dir).
     pub p: V3,
     /// Unit geometric normal with the shape's convention (see `scene::shapes`).
     pub ng: V3,
     /// Unit shading normal on the same side as `ng`.
     pub ns: V3,
+    /// Texture coordinates in [0, 1]² (zero unless a texture needs them).
     pub uv: [f32; 2],
 }
 
@@ -323,6 +380,7 @@ impl RenderScene {
         }
     }
 
+    /// A light chosen uniformly and a point on it, seen from `p` (`None` when the sample cannot reach `p`).
     pub fn sample_light(&self, p: V3, rng: &mut Rng) -> Option<LightSample> {
         let scene = self;
         let n = scene.lights.len();

@@ -50,34 +50,52 @@ fn to_f(v: DVec3) -> V3 {
 /// An analytic primitive set. Closed sets of primitives share one geometry.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Analytic {
+    /// A sphere.
     Sphere {
+        /// Centre.
         center: DVec3,
+        /// Radius.
         radius: f64,
     },
     /// Tube of `radius` from `p0` along unit `axis` for `height`; `inward`
     /// flips the normal; `caps` adds disks at both ends (prims 1 and 2).
     Cylinder {
+        /// Centre of the base.
         p0: DVec3,
+        /// Unit axis.
         axis: DVec3,
+        /// Height along the axis.
         height: f64,
+        /// Radius.
         radius: f64,
+        /// Normals point to the axis.
         inward: bool,
+        /// Closed by two disks (a solid).
         caps: bool,
     },
     /// Closed thick tube: prim 0 outer wall (out), 1 inner wall (in, towards
     /// the axis), 2 and 3 annular caps at p0 (−axis) and p0 + h·axis (+axis).
     Tube {
+        /// Centre of the base.
         p0: DVec3,
+        /// Unit axis.
         axis: DVec3,
+        /// Height along the axis.
         height: f64,
+        /// Outer radius.
         outer: f64,
+        /// Inner radius.
         inner: f64,
     },
     /// Disk or annulus (inner > 0) with unit `normal`.
     Disk {
+        /// Centre.
         center: DVec3,
+        /// Unit normal.
         normal: DVec3,
+        /// Outer radius.
         radius: f64,
+        /// Inner radius (0 for a full disk).
         inner: f64,
     },
 }
@@ -278,7 +296,7 @@ impl Analytic {
         }
     }
 
-    /// Texture coordinates in [0,1]² at `p` (sphere: longitude/latitude around y).
+    /// Texture coordinates in [0, 1]² at `p` (sphere: longitude/latitude around y).
     pub fn uv(&self, p: DVec3) -> [f32; 2] {
         match *self {
             Analytic::Sphere { center, radius } => {
@@ -449,7 +467,9 @@ impl UserShape for Analytic {
 /// A triangle mesh in world space.
 #[derive(Debug, Clone, Default)]
 pub struct Mesh {
+    /// Vertex positions, world space.
     pub positions: Vec<[f32; 3]>,
+    /// Triangles (counter-clockwise seen from outside, for closed meshes).
     pub indices: Vec<[u32; 3]>,
     /// Per-vertex shading normals (same length as positions) or none (flat).
     pub normals: Option<Vec<[f32; 3]>>,

@@ -18,7 +18,9 @@ mod lights;
 mod object;
 mod upload;
 mod warp;
+/// Largest samples per pixel a scene may ask for.
 pub const MAX_SPP: u64 = 1 << 24;
+/// Deepest heightfield subdivision (4097² vertices, ~33 M triangles).
 pub const MAX_HEIGHTFIELD_LEVELS: u32 = 12; // 4097² vertices, ~33 M triangles
 
 /// How the scene is built for a render.
@@ -26,6 +28,7 @@ pub const MAX_HEIGHTFIELD_LEVELS: u32 = 12; // 4097² vertices, ~33 M triangles
 pub struct BuildOptions {
     /// Override of the Embree robust flag (default: on when the scene has priority solids).
     pub robust: Option<bool>,
+    /// Embree build quality of the scene.
     pub quality: BuildQuality,
 }
 
