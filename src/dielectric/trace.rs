@@ -69,6 +69,52 @@ fn recast_tnear(r: &Ray, t: f32) -> f32 {
 /// Find the first true hit along `ray` for a ray inside `list`, updating the
 /// list with every false crossing before it. `None` when nothing true is hit
 /// (the list then reflects all false crossings to infinity).
+///
+/// # Errors
+/// A filter that panicked or an Embree error during the query; a ray that
+/// crosses more than 100 000 false surfaces (degenerate geometry).
+///
+/// # Examples
+///
+/// A ray inside water (priority 1) and the glass that overlaps it
+/// (priority 2): the water's face at x = 0.5 lies inside the glass and is
+/// false, so the first true hit is the glass's face at x = 0.8, and the list
+/// has left the water on the way.
+///
+/// ```
+/// use glam::Vec3A;
+/// use snell::counters::Counters;
+/// use snell::dielectric::{trace, InteriorList, NestedStrategy};
+/// use snell::ray::Ray;
+/// use snell::scene::{load_scene_str, BuildOptions};
+///
+/// let text = r#"
+/// [camera]
+/// position = [0.0, 0.0, 5.0]
+/// target = [0.0, 0.0, 0.0]
+/// fov = 40.0
+/// [[objects]]
+/// name = "water"
+/// shape = { type = "box", center = [0.0, 0.0, 0.0], size = [1.0, 1.0, 1.0] }
+/// material = { type = "dielectric", ior = 1.33, priority = 1 }
+/// [[objects]]
+/// name = "glass"
+/// shape = { type = "box", center = [0.3, 0.0, 0.0], size = [1.0, 2.0, 2.0] }
+/// material = { type = "dielectric", ior = 1.5, priority = 2 }
+/// "#;
+/// let scene = load_scene_str("t.toml", text, std::path::Path::new("."), &BuildOptions::default())?;
+/// let (water, glass) = (0, 1); // solid indices follow declaration order
+/// for strategy in [NestedStrategy::Filter, NestedStrategy::Recast] {
+///     let mut list = InteriorList::from_solids(&scene.solids, &[water, glass]);
+///     let mut counters = Counters::default();
+///     let ray = Ray::new(Vec3A::new(0.0, 0.1, 0.3), Vec3A::X);
+///     let hit = trace(&scene, strategy, &ray, &mut list, &mut counters)?.expect("the glass is ahead");
+///     assert!((hit.hit.t - 0.8).abs() < 1e-5, "the glass's far face");
+///     assert_eq!(list.sorted(), vec![glass]);
+///     assert_eq!(counters.false_hits, 1);
+/// }
+/// # Ok::<(), snell::Error>(())
+/// ```
 pub fn trace(
     scene: &RenderScene,
     strategy: NestedStrategy,
