@@ -27,7 +27,7 @@ pub struct RayAudit {
 /// Audit one ray from `org` (the start list is found by point-in-solid tests).
 pub fn audit_ray(tr: Tracer<'_>, org: V3, dir: V3, counters: &mut Counters) -> Result<RayAudit> {
     let scene = tr.scene;
-    let to_d = |v: V3| DVec3::new(v.x as f64, v.y as f64, v.z as f64);
+    let to_d = |v: V3| v.as_dvec3();
     let start = scene.solids_containing(to_d(org));
     let path = refraction_path(tr, org, dir, &start, 512, counters)?;
     let mut a = RayAudit::default();
@@ -106,10 +106,9 @@ pub fn audit_scene(tr: Tracer<'_>, n: u64, seed: u64) -> Result<AuditReport> {
                     targets.push((p[1] + p[2]) * 0.5);
                 }
             }
-            Shape::Analytic(Analytic::Sphere { center, radius }) => spheres.push((
-                V3::new(center.x as f32, center.y as f32, center.z as f32),
-                *radius as f32,
-            )),
+            Shape::Analytic(Analytic::Sphere { center, radius }) => {
+                spheres.push((center.as_vec3a(), *radius as f32))
+            }
             Shape::Analytic(_) => {}
         }
     }
@@ -123,7 +122,7 @@ pub fn audit_scene(tr: Tracer<'_>, n: u64, seed: u64) -> Result<AuditReport> {
     }
     let centre = (lo + hi) * 0.5;
     let radius = ((hi - lo).length() * 0.5 + 1.0) as f32;
-    let c = V3::new(centre.x as f32, centre.y as f32, centre.z as f32);
+    let c = centre.as_vec3a();
     let chunk = 4096u64;
     let chunks: Vec<u64> = (0..n.div_ceil(chunk)).collect();
     let parts: Vec<Result<AuditReport>> = chunks
@@ -156,8 +155,8 @@ pub fn audit_scene(tr: Tracer<'_>, n: u64, seed: u64) -> Result<AuditReport> {
                     }
                     _ => {
                         let u = V3::new(rng.uniform(), rng.uniform(), rng.uniform());
-                        let l = V3::new(lo.x as f32, lo.y as f32, lo.z as f32);
-                        let h = V3::new(hi.x as f32, hi.y as f32, hi.z as f32);
+                        let l = lo.as_vec3a();
+                        let h = hi.as_vec3a();
                         l + (h - l) * u
                     }
                 };

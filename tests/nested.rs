@@ -218,10 +218,6 @@ fn scene_of(objects: &str) -> RenderScene {
     .unwrap()
 }
 
-fn to_d(v: V3) -> DVec3 {
-    DVec3::new(v.x as f64, v.y as f64, v.z as f64)
-}
-
 /// Exact union of two spheres: refraction in at the first, out at the union's exit.
 fn union_exit(c: [DVec3; 2], r: f64, o: DVec3, d: DVec3, n: f64) -> (DVec3, DVec3) {
     let hits = |o: DVec3, d: DVec3, c: DVec3| {
@@ -272,7 +268,7 @@ fn overlapping_equal_ior_spheres_refract_like_their_union() {
             let mut c = Counters::default();
             let p = refraction_path(
                 Tracer { scene: &s, strategy },
-                V3::new(o.x as f32, o.y as f32, o.z as f32),
+                o.as_vec3a(),
                 V3::X,
                 &[],
                 16,
@@ -299,7 +295,7 @@ fn overlapping_equal_ior_spheres_refract_like_their_union() {
             );
             let last = bends[1];
             assert!(
-                (to_d(last.point) - q).length() < 1e-4,
+                (last.point.as_dvec3() - q).length() < 1e-4,
                 "exit point {:?} vs {q}",
                 last.point
             );
@@ -360,7 +356,7 @@ fn audit_all(strategy: NestedStrategy) -> (u32, u32, u32, usize) {
                     Tracer { scene: &s, strategy },
                     e,
                     (t - e).normalize(),
-                    &s.solids_containing(to_d(e)),
+                    &s.solids_containing(e.as_dvec3()),
                     64,
                     &mut c,
                 )

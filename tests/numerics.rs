@@ -99,7 +99,7 @@ material = { type = "dielectric", ior = 1.5 }
         let d = DVec3::new(th.sin(), -th.cos(), 0.0);
         let o = DVec3::new(-0.5 * th.tan(), 0.5, 0.1);
         let mut c = Counters::default();
-        let to_f = |v: DVec3| V3::new(v.x as f32, v.y as f32, v.z as f32);
+        let to_f = |v: DVec3| v.as_vec3a();
         let p = refraction_path(Tracer::new(&s), to_f(o), to_f(d), &[], 8, &mut c).unwrap();
         assert_eq!(p.events.len(), 2, "{deg}°: {:?}", p.events);
         assert!(p.final_list.is_empty() && p.escaped);

@@ -17,8 +17,8 @@ fn window(r: &Ray, t: f32) -> f32 {
 /// Point-in-solid tests just before and after: `None` for a touch (no change),
 /// `Some(inside_after)` otherwise. Used only near mesh edges and vertices.
 fn verify_crossing(scene: &RenderScene, solid: u32, ray: &Ray, t: f32) -> Option<bool> {
-    let d = glam::DVec3::new(ray.dir.x as f64, ray.dir.y as f64, ray.dir.z as f64).normalize();
-    let o = glam::DVec3::new(ray.org.x as f64, ray.org.y as f64, ray.org.z as f64);
+    let d = ray.dir.as_dvec3().normalize();
+    let o = ray.org.as_dvec3();
     let len = (ray.dir.length() as f64) * t as f64;
     let p = o + d * len;
     let delta = 2e-5 * (1.0 + p.abs().max_element());

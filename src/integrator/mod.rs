@@ -12,7 +12,7 @@ use crate::ray::{front_facing, offset_origin, offset_size, spawn_transmitted, Ra
 use crate::sampling::{cosine_hemisphere, power_heuristic, Rng};
 use crate::scene::IntegratorKind;
 use crate::scene::{Material, RenderScene};
-use glam::{DVec3, Vec3A as V3};
+use glam::Vec3A as V3;
 use std::f32::consts::FRAC_1_PI;
 
 /// What every path of a render shares: the scene, and how nested
@@ -48,13 +48,6 @@ fn unoccluded(scene: &RenderScene, from: V3, side: V3, wi: V3, dist: f32, st: &m
     !scene.embree.occluded(&r)
 }
 
-fn to_d(v: V3) -> DVec3 {
-    DVec3::new(v.x as f64, v.y as f64, v.z as f64)
-}
-fn to_f(v: DVec3) -> V3 {
-    V3::new(v.x as f32, v.y as f32, v.z as f32)
-}
-
 /// One path segment: the first true hit (if any) and the straight chord it
 /// lies on, the direction the ray arrives with and the distance travelled.
 struct Segment {
@@ -85,7 +78,7 @@ pub const MAX_CHORDS_PER_SEGMENT: u32 = 200_000;
 fn meets_medium(scene: &RenderScene, p: V3, wi: V3, dist: f32) -> bool {
     scene.medium.as_ref().is_some_and(|m| {
         m.bounds()
-            .clip(to_d(p), to_d(wi))
+            .clip(p.as_dvec3(), wi.as_dvec3())
             .is_some_and(|(t0, t1)| t1 > 0.0 && t0 < dist as f64)
     })
 }
@@ -105,13 +98,13 @@ fn cast(tr: Tracer<'_>, ray: &Ray, list: &mut InteriorList, st: &mut Counters) -
             entered_medium: false,
         });
     };
-    let mut curved = med.start_ray(to_d(ray.org), to_d(ray.dir));
+    let mut curved = med.start_ray(ray.org.as_dvec3(), ray.dir.as_dvec3());
     let mut travelled = 0.0f64;
     // The first chord is inside the medium when the ray starts in its bounds;
     // every later chord is (the first one ends at the entry).
     let starts_inside = med
         .bounds()
-        .clip(to_d(ray.org), to_d(ray.dir))
+        .clip(ray.org.as_dvec3(), ray.dir.as_dvec3())
         .is_some_and(|(t0, t1)| t0 <= 0.0 && t1 > med.tolerance());
     // A budget of chords per segment (the load-time checks bound the chord
     // count across the box; this also covers rays trapped in a duct).
@@ -135,7 +128,7 @@ fn cast(tr: Tracer<'_>, ray: &Ray, list: &mut InteriorList, st: &mut Counters) -
                 entered_medium,
             });
         }
-        let mut r = Ray::new(to_f(chord.origin), to_f(chord.dir));
+        let mut r = Ray::new(chord.origin.as_vec3a(), chord.dir.as_vec3a());
         if chord.length.is_finite() {
             r.tfar = chord.length as f32;
         }
@@ -146,13 +139,13 @@ fn cast(tr: Tracer<'_>, ray: &Ray, list: &mut InteriorList, st: &mut Counters) -
                 med,
                 &chord,
                 th.hit.t as f64,
-                to_d(p),
-                to_d(th.hit.ng.normalize_or(V3::Y)),
+                p.as_dvec3(),
+                (th.hit.ng.normalize_or(V3::Y)).as_dvec3(),
             );
             return Ok(Segment {
                 hit: Some(th),
                 chord: r,
-                dir: to_f(tangent.normalize()),
+                dir: (tangent.normalize()).as_vec3a(),
                 length: (travelled + th.hit.t as f64) as f32,
                 failed: false,
                 entered_medium,
@@ -294,7 +287,7 @@ fn path(
             }
             Material::Mirror { reflectance } => {
                 let n = if front { sp.ns } else { -sp.ns };
-                let wi = to_f(optics::reflect(to_d(ray.dir), to_d(n)).normalize());
+                let wi = (optics::reflect(ray.dir.as_dvec3(), n.as_dvec3()).normalize()).as_vec3a();
                 beta *= *reflectance;
                 specular = true;
                 prev_p = sp.p;
@@ -312,8 +305,8 @@ fn path(
                 ) else {
                     break;
                 };
-                let d = to_d(ray.dir);
-                let n = to_d(sp.ns);
+                let d = ray.dir.as_dvec3();
+                let n = sp.ns.as_dvec3();
                 let cos_i = d.dot(n).abs();
                 let fr = optics::fresnel_dielectric(cos_i, c.n1 as f64, c.n2 as f64);
                 let refr = optics::refract(d, n, c.n1 as f64, c.n2 as f64);
@@ -325,21 +318,20 @@ fn path(
                 let incident_side = if front { sp.ng } else { -sp.ng };
                 if choose_reflect {
                     let r = optics::reflect(d, n).normalize();
-                    let mut wi = to_f(r);
+                    let mut wi = r.as_vec3a();
                     if wi.dot(incident_side) <= 0.0 {
                         // Shading normal pushed the reflection below the surface.
-                        wi = to_f(optics::reflect(d, to_d(incident_side)).normalize());
+                        wi = (optics::reflect(d, incident_side.as_dvec3()).normalize()).as_vec3a();
                     }
                     ray = Ray::new(offset_origin(sp.p, incident_side), wi);
                 } else {
                     let t = refr.expect("checked above").normalize();
-                    let mut wi = to_f(t);
+                    let mut wi = t.as_vec3a();
                     if wi.dot(incident_side) >= 0.0 {
-                        wi = to_f(
-                            optics::refract(d, to_d(incident_side), c.n1 as f64, c.n2 as f64)
-                                .unwrap_or(d)
-                                .normalize(),
-                        );
+                        wi = (optics::refract(d, incident_side.as_dvec3(), c.n1 as f64, c.n2 as f64)
+                            .unwrap_or(d)
+                            .normalize())
+                        .as_vec3a();
                     }
                     let k = c.n1 / c.n2;
                     beta *= k * k;
@@ -438,7 +430,7 @@ fn whitted(
         Material::Mirror { reflectance } => {
             let n = if front { sp.ns } else { -sp.ns };
             let side = if front { sp.ng } else { -sp.ng };
-            let wi = to_f(optics::reflect(to_d(dir), to_d(n)).normalize());
+            let wi = (optics::reflect(dir.as_dvec3(), n.as_dvec3()).normalize()).as_vec3a();
             l += *reflectance * whitted(tr, offset_origin(sp.p, side), wi, list, rng, st, depth + 1)?;
         }
         m @ (Material::Interface { .. } | Material::Solid(_)) => {
@@ -452,11 +444,11 @@ fn whitted(
             ) else {
                 return Ok(att * l);
             };
-            let d = to_d(dir);
-            let n = to_d(sp.ns);
+            let d = dir.as_dvec3();
+            let n = sp.ns.as_dvec3();
             let fr = optics::fresnel_dielectric(d.dot(n).abs(), c.n1 as f64, c.n2 as f64) as f32;
             let side = if front { sp.ng } else { -sp.ng };
-            let wr = to_f(optics::reflect(d, n).normalize());
+            let wr = (optics::reflect(d, n).normalize()).as_vec3a();
             l += fr
                 * whitted(
                     tr,
@@ -472,7 +464,7 @@ fn whitted(
                 let (n1, n2) = (c.n1, c.n2);
                 let mut nl = list;
                 c.transmit(&mut nl);
-                let (org, wt) = spawn_transmitted(sp.p, -side, dir, to_f(t.normalize()), n1, n2);
+                let (org, wt) = spawn_transmitted(sp.p, -side, dir, (t.normalize()).as_vec3a(), n1, n2);
                 l += (1.0 - fr) * k * k * whitted(tr, org, wt, nl, rng, st, depth + 1)?;
             } else {
                 st.tir += 1;
@@ -557,17 +549,17 @@ pub fn refraction_path(
         ) else {
             unreachable!("a dielectric material, checked above");
         };
-        let d = to_d(ray.dir);
-        let n = to_d(sp.ng);
+        let d = ray.dir.as_dvec3();
+        let n = sp.ng.as_dvec3();
         let incident_side = if front { sp.ng } else { -sp.ng };
         let (wi, tir) = match optics::refract(d, n, c.n1 as f64, c.n2 as f64) {
             Some(t) => {
                 if let Some(nl) = c.transmitted_list() {
                     list = nl.clone();
                 }
-                (to_f(t.normalize()), false)
+                ((t.normalize()).as_vec3a(), false)
             }
-            None => (to_f(optics::reflect(d, n).normalize()), true),
+            None => ((optics::reflect(d, n).normalize()).as_vec3a(), true),
         };
         let (next_org, wi) = if tir {
             (offset_origin(sp.p, incident_side), wi)

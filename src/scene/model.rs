@@ -338,10 +338,10 @@ impl RenderScene {
                 SurfacePoint { p, ng, ns, uv }
             }
             Shape::Analytic(a) => {
-                let pd = a.project(hit.prim_id, DVec3::new(p.x as f64, p.y as f64, p.z as f64));
-                let p = V3::new(pd.x as f32, pd.y as f32, pd.z as f32);
+                let pd = a.project(hit.prim_id, p.as_dvec3());
+                let p = pd.as_vec3a();
                 let n = a.normal(hit.prim_id, pd);
-                let ng = V3::new(n.x as f32, n.y as f32, n.z as f32);
+                let ng = n.as_vec3a();
                 SurfacePoint {
                     p,
                     ng,

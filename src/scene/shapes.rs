@@ -39,14 +39,6 @@ fn is_touch(t0: f64, t1: f64, o: DVec3, d: DVec3) -> bool {
     (t1 - t0).abs() <= 1e-6 + t0.abs() * 4e-7 || (t1 - t0).abs() <= win
 }
 
-fn to_d(v: V3) -> DVec3 {
-    DVec3::new(v.x as f64, v.y as f64, v.z as f64)
-}
-
-fn to_f(v: DVec3) -> V3 {
-    V3::new(v.x as f32, v.y as f32, v.z as f32)
-}
-
 /// An analytic primitive set. Closed sets of primitives share one geometry.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Analytic {
@@ -327,8 +319,8 @@ fn cyl_bounds(p0: DVec3, axis: DVec3, h: f64, r: f64) -> Bounds {
 fn pad(lo: DVec3, hi: DVec3) -> Bounds {
     let m = (lo.abs().max(hi.abs()).max_element() * 1e-6).max(1e-6);
     Bounds {
-        lower: to_f(lo - DVec3::splat(m)).into(),
-        upper: to_f(hi + DVec3::splat(m)).into(),
+        lower: (lo - DVec3::splat(m)).as_vec3a().into(),
+        upper: (hi + DVec3::splat(m)).as_vec3a().into(),
     }
 }
 
@@ -374,14 +366,14 @@ impl UserShape for Analytic {
     }
 
     fn intersect(&self, prim: u32, org: V3, dir: V3, out: &mut Candidates) {
-        let o = to_d(org);
-        let d = to_d(dir);
+        let o = org.as_dvec3();
+        let d = dir.as_dvec3();
         // u = v = 1/3: analytic hits are never "near a mesh edge" (see dielectric).
         let mut push = |t: f64, n: DVec3| {
             if t.is_finite() {
                 out.push(Candidate {
                     t: t as f32,
-                    ng: to_f(n).into(),
+                    ng: n.as_vec3a().into(),
                     u: 1.0 / 3.0,
                     v: 1.0 / 3.0,
                 });
@@ -508,7 +500,7 @@ impl Mesh {
             DVec3::new(q[0] as f64, q[1] as f64, q[2] as f64)
         });
         let p = a * w + b * u + c * v;
-        V3::new(p.x as f32, p.y as f32, p.z as f32)
+        p.as_vec3a()
     }
 
     /// Axis-aligned bounds.

@@ -1,6 +1,6 @@
 //! The `[[lights]]` section: lights for next-event estimation; area lights
 //! are also geometry (black bodies that emit), pending like objects.
-use super::{f, Builder, Pending};
+use super::{Builder, Pending};
 use crate::error::Result;
 use crate::scene::desc::*;
 use crate::scene::meshgen;
@@ -17,11 +17,11 @@ impl Builder<'_> {
             let k = format!("lights[{i}]");
             match l {
                 LightDesc::Point(p) => lights.push(Light::Point {
-                    position: f(self.finite3(&format!("{k}.position"), p.position)?),
+                    position: (self.finite3(&format!("{k}.position"), p.position)?).as_vec3a(),
                     intensity: self.color(&format!("{k}.intensity"), p.intensity)?,
                 }),
                 LightDesc::Directional(p) => lights.push(Light::Directional {
-                    direction: f(self.unit(&format!("{k}.direction"), p.direction)?),
+                    direction: (self.unit(&format!("{k}.direction"), p.direction)?).as_vec3a(),
                     irradiance: self.color(&format!("{k}.irradiance"), p.irradiance)?,
                 }),
                 LightDesc::Rect(r) => {
@@ -40,10 +40,10 @@ impl Builder<'_> {
                     let v = normal.cross(u);
                     let li = lights.len() as u32;
                     lights.push(Light::Rect {
-                        corner: f(center - u * su * 0.5 - v * sv * 0.5),
-                        edge_u: f(u * su),
-                        edge_v: f(v * sv),
-                        normal: f(normal),
+                        corner: (center - u * su * 0.5 - v * sv * 0.5).as_vec3a(),
+                        edge_u: (u * su).as_vec3a(),
+                        edge_v: (v * sv).as_vec3a(),
+                        normal: normal.as_vec3a(),
                         area: (su * sv) as f32,
                         radiance,
                     });
@@ -63,7 +63,7 @@ impl Builder<'_> {
                     let radiance = self.color(&format!("{k}.radiance"), s.radiance)?;
                     let li = lights.len() as u32;
                     lights.push(Light::Sphere {
-                        center: f(center),
+                        center: center.as_vec3a(),
                         radius: radius as f32,
                         radiance,
                     });

@@ -73,9 +73,6 @@ struct Builder<'a> {
 fn v3(a: Vec3) -> DVec3 {
     DVec3::from_array(a)
 }
-fn f(a: DVec3) -> V3 {
-    V3::new(a.x as f32, a.y as f32, a.z as f32)
-}
 
 struct Pending {
     name: String,
@@ -134,7 +131,7 @@ impl Builder<'_> {
 
     fn color(&self, key: &str, c: Vec3) -> Result<V3> {
         if c.iter().all(|x| x.is_finite() && *x >= 0.0 && *x <= 1e15) {
-            Ok(f(v3(c)))
+            Ok((v3(c)).as_vec3a())
         } else {
             Err(self.err(key, format!("expected three finite values >= 0, got {c:?}")))
         }
@@ -281,9 +278,9 @@ impl Builder<'_> {
             None => (target - position).length(),
         };
         let camera = Camera::try_new(
-            f(position),
-            f(target),
-            f(up),
+            position.as_vec3a(),
+            target.as_vec3a(),
+            up.as_vec3a(),
             c.fov as f32,
             film.width as u32,
             film.height as u32,
