@@ -101,6 +101,7 @@ pub mod accum;
 pub mod audit;
 pub mod bench;
 pub mod camera;
+pub mod ceiling;
 pub mod counters;
 pub mod dielectric;
 #[allow(unsafe_code)] // the one FFI module: every unsafe block says why it is sound

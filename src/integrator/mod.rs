@@ -35,6 +35,53 @@ impl<'a> Tracer<'a> {
     }
 }
 
+/// The rays a render asks Embree for, recorded for `snell bench render`'s
+/// replay through bare Embree (the ceiling of the same rays). Off unless a
+/// benchmark turns it on: then one relaxed load and a branch per query.
+pub mod ray_log {
+    use crate::ray::Ray;
+    use std::sync::atomic::{AtomicBool, Ordering};
+    use std::sync::Mutex;
+
+    /// A recorded query.
+    #[derive(Debug, Clone, Copy)]
+    pub enum Logged {
+        /// A nearest-hit query (a path segment or a chord; the nested rule's
+        /// re-casts and filter calls are not separate entries).
+        Nearest(Ray),
+        /// A shadow ray.
+        Shadow(Ray),
+    }
+
+    static ON: AtomicBool = AtomicBool::new(false);
+    static LOG: Mutex<Vec<Logged>> = Mutex::new(Vec::new());
+
+    /// Start recording (clears what was recorded before).
+    pub fn start() {
+        if let Ok(mut l) = LOG.lock() {
+            l.clear();
+        }
+        ON.store(true, Ordering::SeqCst);
+    }
+
+    /// Stop recording and take the rays.
+    pub fn stop() -> Vec<Logged> {
+        ON.store(false, Ordering::SeqCst);
+        LOG.lock()
+            .map(|mut l| std::mem::take(&mut *l))
+            .unwrap_or_default()
+    }
+
+    #[inline]
+    pub(super) fn record(q: impl FnOnce() -> Logged) {
+        if ON.load(Ordering::Relaxed) {
+            if let Ok(mut l) = LOG.lock() {
+                l.push(q());
+            }
+        }
+    }
+}
+
 fn unoccluded(scene: &RenderScene, from: V3, side: V3, wi: V3, dist: f32, st: &mut Counters) -> bool {
     st.shadow_rays += 1;
     let o = offset_origin(from, side);
@@ -45,6 +92,7 @@ fn unoccluded(scene: &RenderScene, from: V3, side: V3, wi: V3, dist: f32, st: &m
             return true;
         }
     }
+    ray_log::record(|| ray_log::Logged::Shadow(r));
     !scene.embree.occluded(&r)
 }
 
@@ -88,6 +136,7 @@ fn meets_medium(scene: &RenderScene, p: V3, wi: V3, dist: f32) -> bool {
 fn cast(tr: Tracer<'_>, ray: &Ray, list: &mut InteriorList, st: &mut Counters) -> Result<Segment> {
     let scene = tr.scene;
     let Some(med) = &scene.medium else {
+        ray_log::record(|| ray_log::Logged::Nearest(*ray));
         let hit = dielectric::trace(scene, tr.strategy, ray, list, st)?;
         return Ok(Segment {
             length: hit.map(|h| h.hit.t).unwrap_or(f32::INFINITY),
@@ -133,6 +182,7 @@ fn cast(tr: Tracer<'_>, ray: &Ray, list: &mut InteriorList, st: &mut Counters) -
             r.tfar = chord.length as f32;
         }
         st.chords += 1;
+        ray_log::record(|| ray_log::Logged::Nearest(r));
         if let Some(th) = dielectric::trace(scene, tr.strategy, &r, list, st)? {
             let p = r.org + r.dir * th.hit.t;
             let (_, tangent) = curved.refine_hit(

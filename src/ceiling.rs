@@ -1,0 +1,203 @@
+//! `snell bench render`: the renderer against the Embree ceiling of its own
+//! rays. A render's queries (every path segment or chord, every shadow ray;
+//! see [`crate::integrator::ray_log`]) are recorded on a smaller render of the
+//! same scene, then replayed through bare `rtcIntersect1` / `rtcOccluded1`
+//! with no shading, on the same threads. The share of the ceiling is the
+//! render's rate of those rays over the replay's rate:
+//!
+//! share = (samples/s × recorded rays per sample) ÷ replay rays/s.
+//!
+//! 1 would mean all the render's time is Embree's; the rest is snell's own
+//! work (shading, sampling, the nested rule's bookkeeping, re-casts).
+//! Renders and replays are interleaved and each ratio is the median over
+//! repetitions, with its range.
+use crate::error::Result;
+use crate::integrator::ray_log::{self, Logged};
+use crate::render::{render, RenderOptions, RenderSettings};
+use crate::scene::{load_scene, BuildOptions, RenderScene};
+use rayon::prelude::*;
+use std::path::Path;
+use std::time::Instant;
+
+/// What to measure.
+#[derive(Debug, Clone)]
+pub struct CeilingOptions {
+    /// Directory of the scene files.
+    pub scenes_dir: std::path::PathBuf,
+    /// Scene names (files `NAME.toml`).
+    pub scenes: Vec<String>,
+    /// Film width, height and samples per pixel of the timed renders.
+    pub render: (u32, u32, u32),
+    /// Samples per pixel of the recording render (its rays are replayed).
+    pub record_spp: u32,
+    /// Threads of the renders and the replays.
+    pub threads: usize,
+    /// Interleaved repetitions (render, replay).
+    pub reps: usize,
+}
+
+/// One scene's figures.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct CeilingRun {
+    /// Scene name.
+    pub scene: String,
+    /// Render samples per second (median).
+    pub samples_per_s: f64,
+    /// Embree queries of the render per second, re-casts included (median).
+    pub render_queries_per_s: f64,
+    /// Recorded rays (segments, chords, shadow rays) per sample.
+    pub rays_per_sample: f64,
+    /// Bare-Embree replay rays per second (median).
+    pub replay_rays_per_s: f64,
+    /// samples/s × rays per sample ÷ replay rays/s, per repetition: median, min, max.
+    pub share: [f64; 3],
+}
+
+fn median_min_max(mut v: Vec<f64>) -> [f64; 3] {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n == 0 {
+        return [f64::NAN; 3];
+    }
+    let med = if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    };
+    [med, v[0], v[n - 1]]
+}
+
+/// Replay `rays` through bare Embree on `pool`; returns the wall time (s).
+fn replay(scene: &RenderScene, rays: &[Logged], pool: &rayon::ThreadPool) -> f64 {
+    let t = Instant::now();
+    let hits: u64 = pool.install(|| {
+        rays.par_chunks(4096)
+            .map(|chunk| {
+                let mut n = 0u64;
+                for q in chunk {
+                    n += match q {
+                        Logged::Nearest(r) => scene.embree.intersect(r).is_some() as u64,
+                        Logged::Shadow(r) => scene.embree.occluded(r) as u64,
+                    };
+                }
+                n
+            })
+            .sum()
+    });
+    std::hint::black_box(hits);
+    t.elapsed().as_secs_f64()
+}
+
+/// Measure every scene of `opts`; `progress` gets a line per step.
+///
+/// # Errors
+/// A scene that does not load or render, or threads that cannot start.
+pub fn ceiling(opts: &CeilingOptions, mut progress: impl FnMut(&str)) -> Result<Vec<CeilingRun>> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(opts.threads)
+        .build()
+        .map_err(|e| crate::Error::Invalid(format!("cannot start threads: {e}")))?;
+    let ropts = RenderOptions {
+        threads: Some(opts.threads),
+        quiet: true,
+        want_aovs: false,
+    };
+    let mut out = Vec::new();
+    for name in &opts.scenes {
+        let scene = load_scene(
+            &opts.scenes_dir.join(format!("{name}.toml")),
+            &BuildOptions::default(),
+        )?;
+        let (w, h, spp) = opts.render;
+        let settings = RenderSettings::from_scene(&scene)
+            .with_resolution(w, h)?
+            .with_spp(spp)
+            .with_seed(1);
+        // Record the rays of a smaller render of the same film.
+        ray_log::start();
+        let rec = render(&scene, &settings.with_spp(opts.record_spp.max(1)), &ropts);
+        let rays = ray_log::stop();
+        let rec = rec?;
+        let rays_per_sample = rays.len() as f64 / rec.stats.counters.samples.max(1) as f64;
+        progress(&format!(
+            "{name}: {} rays recorded ({rays_per_sample:.2} per sample)",
+            rays.len()
+        ));
+        let (mut sps, mut qps, mut rps, mut share) = (vec![], vec![], vec![], vec![]);
+        for _ in 0..opts.reps.max(1) {
+            let r = render(&scene, &settings, &ropts)?;
+            let wall = r.stats.wall_s.max(1e-9);
+            let s = r.stats.counters.samples as f64 / wall;
+            let replay_s = replay(&scene, &rays, &pool).max(1e-9);
+            let rr = rays.len() as f64 / replay_s;
+            sps.push(s);
+            qps.push(r.stats.counters.rays() as f64 / wall);
+            rps.push(rr);
+            share.push(s * rays_per_sample / rr);
+        }
+        let run = CeilingRun {
+            scene: name.clone(),
+            samples_per_s: median_min_max(sps)[0],
+            render_queries_per_s: median_min_max(qps)[0],
+            rays_per_sample,
+            replay_rays_per_s: median_min_max(rps)[0],
+            share: median_min_max(share),
+        };
+        progress(&format!("{name}: share of the ceiling {:.2}", run.share[0]));
+        out.push(run);
+    }
+    Ok(out)
+}
+
+/// The table `snell bench render` prints.
+pub fn table(runs: &[CeilingRun], opts: &CeilingOptions) -> String {
+    let (w, h, spp) = opts.render;
+    let mut s = format!(
+        "render vs the Embree ceiling of its own rays ({w}x{h}, {spp} spp, {} threads, {} reps; rays recorded at {} spp; share = samples/s x rays per sample / bare-Embree replay rays/s, median (min-max))\n",
+        opts.threads, opts.reps, opts.record_spp
+    );
+    s.push_str("| scene | samples/s | Embree queries/s (render) | rays/sample | replay rays/s | share of ceiling |\n|---|---|---|---|---|---|\n");
+    for r in runs {
+        s.push_str(&format!(
+            "| {} | {:.3e} | {:.3e} | {:.2} | {:.3e} | {:.2} ({:.2}-{:.2}) |\n",
+            r.scene,
+            r.samples_per_s,
+            r.render_queries_per_s,
+            r.rays_per_sample,
+            r.replay_rays_per_s,
+            r.share[0],
+            r.share[1],
+            r.share[2]
+        ));
+    }
+    s
+}
+
+/// The default scene set: the reference scenes and the nested ones.
+pub fn default_scenes() -> Vec<String> {
+    [
+        "three_spheres",
+        "glass_of_water",
+        "cylinder_refraction",
+        "glass_of_water_nested",
+        "glass_ice_bubbles",
+        "deep_nesting",
+        "nested_spheres_a",
+    ]
+    .map(String::from)
+    .to_vec()
+}
+
+/// Defaults: 320x240, 16 spp timed, 4 spp recorded, 2 threads, 3 reps.
+impl Default for CeilingOptions {
+    fn default() -> Self {
+        CeilingOptions {
+            scenes_dir: Path::new("scenes").to_path_buf(),
+            scenes: default_scenes(),
+            render: (320, 240, 16),
+            record_spp: 4,
+            threads: 2,
+            reps: 3,
+        }
+    }
+}
