@@ -6,7 +6,7 @@ DEMO_SCENE ?= scenes/three_spheres.toml
 DEMO_OUT ?= out/demo.png
 APT_PACKAGES := libembree-dev libclang-dev
 
-.PHONY: deps demo test build bench fmt lint clean fuzz check-memory openjd
+.PHONY: deps demo test build bench fmt lint clean fuzz check-memory openjd bench-peers
 
 # Probes for exactly what the build loads: Embree's header and libembree3.so, and
 # the libclang that bindgen (clang-sys) opens: libclang.so or libclang-<version>.so*.
@@ -86,6 +86,20 @@ fuzz: build
 
 bench: deps
 	$(CARGO) bench --locked
+
+# The peer race (issue 14, docs/peers.md): snell against Mitsuba 3 (from PyPI, in
+# PEERS_VENV, with Debian's libllvm19 for its llvm_* variants) on the three
+# reference scenes, equal spp and threads, images checked by block means.
+# Options through PEERS_ARGS: make bench-peers PEERS_ARGS='--reps 5 --json peers.json'
+PEERS_VENV ?= .venv-peers
+PEERS_MITSUBA ?= mitsuba==3.9.1
+PEERS_NUMPY ?= numpy>=1.24,<3
+PEERS_ARGS ?=
+SNELL_BIN ?= $(or $(CARGO_TARGET_DIR),target)/release/snell
+bench-peers: build
+	@llvm=$$(bench/peers/setup.sh '$(PEERS_VENV)' '$(PEERS_MITSUBA)' '$(PEERS_NUMPY)') || exit 1; \
+	echo "bench-peers: DRJIT_LIBLLVM_PATH=$$llvm"; \
+	DRJIT_LIBLLVM_PATH="$$llvm" $(PEERS_VENV)/bin/python bench/peers/bench_peers.py --snell '$(SNELL_BIN)' $(PEERS_ARGS)
 
 fmt:
 	$(CARGO) fmt --all
