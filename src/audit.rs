@@ -3,6 +3,9 @@
 //! highest-ranked solid, which cannot change between true hits) with an
 //! independent point-in-solid classification of the segment's midpoint; and
 //! check that a ray which has left everything has an empty list.
+//!
+//! [`audit_scene`] runs it on many rays of a scene (what `snell audit nested`
+//! prints, one [`AuditReport`] line per strategy); [`audit_ray`] on one.
 use crate::counters::Counters;
 use crate::error::Result;
 use crate::integrator::{refraction_path, Tracer};
@@ -12,6 +15,8 @@ use glam::{DVec3, Vec3A as V3};
 /// Outcome of auditing one ray.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct RayAudit {
+    /// Segments between consecutive true hits (longer than 1e-4 scene units)
+    /// that were checked.
     pub segments: u32,
     /// Segments whose claimed interior list differs from the point-in-solid truth.
     pub mismatches: u32,
@@ -25,6 +30,13 @@ pub struct RayAudit {
 }
 
 /// Audit one ray from `org` (the start list is found by point-in-solid tests).
+///
+/// The ray follows its refraction path (always refracting, at most 512
+/// events) under `tr`'s strategy; `counters` gains that path's counts.
+///
+/// # Errors
+///
+/// An error of the traced path (Embree failing to trace).
 pub fn audit_ray(tr: Tracer<'_>, org: V3, dir: V3, counters: &mut Counters) -> Result<RayAudit> {
     let scene = tr.scene;
     let to_d = |v: V3| v.as_dvec3();
@@ -70,24 +82,77 @@ fn medium(scene: &RenderScene, solids: &[u32]) -> Option<u32> {
         .max_by_key(|&s| scene.solids[s as usize].rank)
 }
 
-/// Totals of an audit run.
+/// Totals of an audit run (counts; serialised as is in `--json`).
+///
+/// `Display` is the one-line summary `snell audit nested` prints after the
+/// strategy's name; the percentage is `wrong_rays` over `rays`:
+///
+/// ```
+/// let r = snell::audit::AuditReport {
+///     rays: 1000,
+///     vertex_edge_rays: 334,
+///     silhouette_rays: 333,
+///     segments: 2310,
+///     mismatches: 3,
+///     ambiguous: 1,
+///     left_nonempty: 1,
+///     wrong_rays: 4,
+/// };
+/// assert_eq!(
+///     r.to_string(),
+///     "1000 rays (334 at vertices/edges, 333 at silhouettes), 2310 segments: \
+///      3 mismatches (+1 within f32 resolution of a surface), 1 left non-empty, \
+///      4 wrong rays (0.4000%)"
+/// );
+/// ```
 #[derive(Debug, Clone, Copy, Default, serde::Serialize)]
 pub struct AuditReport {
+    /// Rays audited (rays with a zero direction are skipped and not counted).
     pub rays: u64,
+    /// Of these, rays aimed exactly at a mesh vertex or edge midpoint.
     pub vertex_edge_rays: u64,
+    /// Of these, rays grazing the silhouette of an analytic sphere.
     pub silhouette_rays: u64,
+    /// Segments between true hits checked, over all rays.
     pub segments: u64,
+    /// Segments whose claimed medium differs from the point-in-solid truth.
     pub mismatches: u64,
     /// Disagreements within floating-point resolution of a surface (see `RayAudit`).
     pub ambiguous: u64,
+    /// Rays that escaped with a non-empty interior list.
     pub left_nonempty: u64,
     /// Rays with at least one mismatch or a non-empty list after leaving everything.
     pub wrong_rays: u64,
 }
 
+impl std::fmt::Display for AuditReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} rays ({} at vertices/edges, {} at silhouettes), {} segments: {} mismatches (+{} within f32 resolution of a surface), {} left non-empty, {} wrong rays ({:.4}%)",
+            self.rays,
+            self.vertex_edge_rays,
+            self.silhouette_rays,
+            self.segments,
+            self.mismatches,
+            self.ambiguous,
+            self.left_nonempty,
+            self.wrong_rays,
+            100.0 * self.wrong_rays as f64 / self.rays.max(1) as f64,
+        )
+    }
+}
+
 /// Audit `n` rays: a third aimed exactly at mesh vertices and edge midpoints,
 /// a third grazing analytic silhouettes, the rest random rays through the
-/// solids' bounds. Deterministic in `seed`; parallel over chunks.
+/// solids' bounds. Deterministic in `seed`; parallel over chunks of 4096 rays
+/// on the current rayon pool. A scene without solids gives an empty report.
+///
+/// Set `SNELL_AUDIT_VERBOSE` to print every wrong ray to stderr.
+///
+/// # Errors
+///
+/// The first error of a traced path (see [`audit_ray`]).
 pub fn audit_scene(tr: Tracer<'_>, n: u64, seed: u64) -> Result<AuditReport> {
     let scene = tr.scene;
     use crate::sampling::{uniform_sphere, Rng};

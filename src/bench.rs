@@ -5,6 +5,16 @@
 //! - `nested`: every nested-dielectric strategy on every nested scene and the
 //!   no-overlap reference scenes, trace-only (a fixed set of rays taken from
 //!   real refraction paths) and full render, repeats interleaved.
+//! - `chord_sweep`: render time and image change against the chord tolerance
+//!   of a gradient-index medium.
+//!
+//! Conventions: times are wall-clock seconds; speeds are rays per second
+//! (`rays_per_s`) or millions of rays per second where a name or a printed
+//! column says Mrays/s; every figure of a repeated measurement is the median
+//! over the repetitions. Ratios are written as `a / b` and say which way
+//! means faster where they are defined. [`BareFigures`] prints itself
+//! (`Display`, what `snell bench embree` prints) and [`nested_ratios`] formats
+//! the table of `snell bench nested`.
 use crate::counters::Counters;
 use crate::dielectric::{self, InteriorList, NestedStrategy};
 use crate::embree::{BuildQuality, Device, FilterHit, HitFilter, SceneBuilder, SceneFlags};
@@ -24,6 +34,14 @@ pub(crate) fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
+/// A benchmark's medians need at least one repetition.
+fn at_least_one_rep(reps: usize) -> Result<()> {
+    if reps == 0 {
+        return Err(crate::Error::Invalid("reps must be at least 1".into()));
+    }
+    Ok(())
+}
+
 /// Fastest and slowest of a set of timings.
 fn spread(v: &[f64]) -> [f64; 2] {
     let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
@@ -32,13 +50,48 @@ fn spread(v: &[f64]) -> [f64; 2] {
 }
 
 /// Figures of the bare-Embree benchmark (Mrays/s, one thread).
+///
+/// `Display` prints what `snell bench embree` prints: a header line and one
+/// line per filter with its speed and its ratio to the no-filter speed
+/// (filtered Mrays/s / unfiltered Mrays/s: < 1 means the filter costs speed).
 #[derive(Debug, Clone)]
 pub struct BareFigures {
+    /// Triangles in the scene (the two meshes together).
     pub triangles: usize,
+    /// Rays cast per repetition and configuration.
     pub rays: usize,
+    /// Repetitions (each configuration once per repetition, interleaved).
+    pub reps: usize,
+    /// Closest hit with no filter: millions of rays per second (median).
     pub no_filter: f64,
+    /// A context filter that accepts every hit: millions of rays per second (median).
     pub accept_all: f64,
+    /// A context filter that records up to 32 hits and accepts them: millions
+    /// of rays per second (median).
     pub recording: f64,
+}
+
+impl std::fmt::Display for BareFigures {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(
+            f,
+            "bare Embree, 1 thread, {} incoherent rays against two overlapping meshes ({} triangles), median of {}:",
+            self.rays, self.triangles, self.reps
+        )?;
+        writeln!(f, "  no filter          {:8.3} Mrays/s  1.000", self.no_filter)?;
+        writeln!(
+            f,
+            "  accept-all filter  {:8.3} Mrays/s  {:.3}",
+            self.accept_all,
+            self.accept_all / self.no_filter
+        )?;
+        write!(
+            f,
+            "  recording filter   {:8.3} Mrays/s  {:.3}",
+            self.recording,
+            self.recording / self.no_filter
+        )
+    }
 }
 
 struct AcceptAll;
@@ -64,8 +117,16 @@ impl HitFilter for Recording {
     }
 }
 
-/// Bare Embree on `n_rays` incoherent rays, single thread, `reps` interleaved repeats.
+/// Bare Embree on `n_rays` incoherent rays, single thread, `reps` interleaved
+/// repeats (at least 1), against two overlapping spheres of ~20k triangles
+/// each; rays start at random points around them in random directions.
+///
+/// # Errors
+///
+/// [`crate::Error::Invalid`] when `reps` is 0; an Embree device, scene-build
+/// or trace error.
 pub fn embree_bare(n_rays: usize, reps: usize) -> Result<BareFigures> {
+    at_least_one_rep(reps)?;
     // Two overlapping spheres of ~20k triangles each (lathe, 100 × 100).
     let profile: Vec<[f64; 2]> = (0..=100)
         .map(|i| {
@@ -142,13 +203,14 @@ pub fn embree_bare(n_rays: usize, reps: usize) -> Result<BareFigures> {
     Ok(BareFigures {
         triangles: sphere.indices.len() * 2,
         rays: n_rays,
+        reps,
         no_filter: median(a),
         accept_all: median(b),
         recording: median(c),
     })
 }
 
-/// The nested scenes and the no-overlap references.
+/// The nested scenes (overlapping solids with priorities), by name in `scenes/`.
 pub const NESTED_SCENES: [&str; 5] = [
     "nested_spheres_a",
     "nested_spheres_b",
@@ -156,17 +218,25 @@ pub const NESTED_SCENES: [&str; 5] = [
     "glass_ice_bubbles",
     "deep_nesting",
 ];
+/// The no-overlap reference scenes, by name in `scenes/`.
 pub const REFERENCE_SCENES: [&str; 3] = ["three_spheres", "glass_of_water", "cylinder_refraction"];
 
 /// A fixed ray with the interior list at its origin.
 #[derive(Clone)]
 pub struct ListedRay {
+    /// The ray.
     pub ray: Ray,
+    /// Solid indices (into `RenderScene::solids`) containing the ray's origin.
     pub list: Vec<u32>,
 }
 
 /// Rays of real refraction paths through `scene` (always refracting, from a
-/// `w`×`h` grid of camera rays): the camera rays and every continuation.
+/// `w`×`h` grid of camera rays): the camera rays and every continuation
+/// (paths of at most 24 events, traced with the filter strategy).
+///
+/// # Errors
+///
+/// An error of a traced path (Embree failing to trace).
 pub fn path_rays(scene: &RenderScene, w: u32, h: u32) -> Result<Vec<ListedRay>> {
     let mut out = Vec::new();
     let mut c = Counters::default();
@@ -194,19 +264,31 @@ pub fn path_rays(scene: &RenderScene, w: u32, h: u32) -> Result<Vec<ListedRay>> 
     Ok(out)
 }
 
-/// One measured run.
+/// One measured run: a scene, a strategy and a mode, over all repetitions
+/// (serialised as is in `snell bench nested --json`).
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct NestedRun {
+    /// Scene name (the TOML file's stem).
     pub scene: String,
+    /// Strategy name: `filter`, `recast`, `toggle` or `off`.
     pub strategy: String,
+    /// `trace` (the fixed set of [`path_rays`], one thread, no shading) or
+    /// `render` (a full render at [`NestedBenchOptions::render`]).
     pub mode: String,
+    /// Rays per second: `rays` / `wall_s`.
     pub rays_per_s: f64,
+    /// False hits skipped per ray (trace) or per scene query (render), from
+    /// the last repetition (the same in every repetition).
     pub false_hits_per_ray: f64,
+    /// Median wall time of one repetition (seconds).
     pub wall_s: f64,
+    /// Number of repetitions the median is over.
     pub median_of: usize,
     /// Fastest and slowest of the repetitions (seconds).
     pub spread_s: [f64; 2],
+    /// Rays of one repetition (trace: the ray set; render: rays cast).
     pub rays: u64,
+    /// Samples per second (render mode only).
     pub samples_per_s: Option<f64>,
     /// Wall time of every repetition, in the interleaved order (repetition k
     /// of every strategy ran back to back, so per-repetition ratios compare
@@ -227,14 +309,22 @@ fn trace_only(scene: &RenderScene, strategy: NestedStrategy, rays: &[ListedRay])
     Ok((t.elapsed().as_secs_f64(), c))
 }
 
-/// Options of the nested benchmark.
+/// Options of the nested benchmark (the default: every nested and reference
+/// scene in `scenes/`, 5 repetitions, one thread).
 #[derive(Debug, Clone)]
 pub struct NestedBenchOptions {
+    /// Directory holding `NAME.toml` for every name of `scenes`.
     pub scenes_dir: std::path::PathBuf,
+    /// Repetitions (at least 1); every strategy runs once per repetition,
+    /// back to back.
     pub reps: usize,
+    /// Width and height of the camera-ray grid the trace-only rays start from.
     pub trace_grid: (u32, u32),
+    /// Width, height and samples per pixel of the render mode (seed 1).
     pub render: (u32, u32, u32),
+    /// Render threads (trace-only runs on the calling thread).
     pub threads: usize,
+    /// Scene names (without `.toml`).
     pub scenes: Vec<String>,
 }
 
@@ -255,8 +345,16 @@ impl Default for NestedBenchOptions {
     }
 }
 
-/// Run the nested benchmark; returns every run (medians over interleaved repeats).
+/// Run the nested benchmark; returns every run (medians over interleaved
+/// repeats): per scene, filter, recast, toggle and off in trace mode then
+/// render mode. `progress` receives a line per scene.
+///
+/// # Errors
+///
+/// [`crate::Error::Invalid`] when `reps` is 0; a scene that does not load or
+/// build; a render or trace error.
 pub fn nested(opts: &NestedBenchOptions, mut progress: impl FnMut(&str)) -> Result<Vec<NestedRun>> {
+    at_least_one_rep(opts.reps)?;
     let strategies = [
         NestedStrategy::Filter,
         NestedStrategy::Recast,
@@ -335,7 +433,9 @@ pub fn nested(opts: &NestedBenchOptions, mut progress: impl FnMut(&str)) -> Resu
 }
 
 /// Speed ratio `other / filter` per interleaved repetition: (median, min,
-/// max). A ratio whose range straddles 1 is within noise.
+/// max), from wall times in seconds (so > 1 means filter is faster). A ratio
+/// whose range straddles 1 is within noise. NaNs when there are no
+/// repetitions.
 pub fn ratio_spread(filter: &[f64], other: &[f64]) -> (f64, f64, f64) {
     let r: Vec<f64> = filter.iter().zip(other).map(|(f, o)| o / f.max(1e-12)).collect();
     if r.is_empty() {
@@ -349,6 +449,10 @@ pub fn ratio_spread(filter: &[f64], other: &[f64]) -> (f64, f64, f64) {
 /// Ratio table: filter/recast and filter/off, per scene and mode, each as the
 /// median of per-repetition ratios with its range; `~` marks a ratio whose
 /// range includes 1 (the two strategies are within noise of each other).
+/// Speeds in Mrays/s; ratios are time of the other strategy / time of filter
+/// (> 1 means filter is faster). One line per scene and mode, with a header
+/// and a closing legend line; every line ends in a newline. A scene lacking
+/// one of the four strategies in a mode is left out.
 pub fn nested_ratios(runs: &[NestedRun]) -> String {
     let mut out = String::from(
         "scene                   mode    filter Mrays/s  recast  toggle  off   filter/recast (min-max)   filter/off (min-max)      false hits/ray\n",
@@ -390,9 +494,13 @@ pub fn nested_ratios(runs: &[NestedRun]) -> String {
 /// One render of a chord-tolerance sweep.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct ChordRun {
+    /// The medium's chord tolerance (chord–arc deviation, metres).
     pub tolerance: f64,
+    /// Render wall time (seconds).
     pub wall_s: f64,
+    /// Rays per second of the render.
     pub rays_per_s: f64,
+    /// Straight chords cast per path segment.
     pub chords_per_segment: f64,
     /// RMSE of linear RGB against the finest tolerance's render (same pixels,
     /// same random numbers: only the chords differ).
@@ -402,7 +510,13 @@ pub struct ChordRun {
 }
 
 /// Render `scene` (which must have a `[medium]`) at each chord tolerance and
-/// compare every image with the render at the last (finest) one.
+/// compare every image with the render at the last (finest) one. The
+/// scene's medium is restored afterwards.
+///
+/// # Errors
+///
+/// [`crate::Error::Invalid`] when the scene has no `[medium]` or a tolerance
+/// is not a valid medium tolerance (finite, > 0); a render error.
 pub fn chord_sweep(
     scene: &mut RenderScene,
     settings: &RenderSettings,
