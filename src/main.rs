@@ -89,6 +89,8 @@ enum BenchCmd {
     Embree(BenchEmbreeArgs),
     /// Nested-dielectric strategies on every nested and reference scene: trace-only and full render.
     Nested(BenchNestedArgs),
+    /// The renderer against the Embree ceiling of its own rays (recorded, replayed through bare Embree).
+    Render(BenchRenderArgs),
 }
 
 // `snell render`.
@@ -329,6 +331,29 @@ struct BenchNestedArgs {
     scenes_dir: PathBuf,
 }
 
+// `snell bench render`.
+#[derive(Args)]
+struct BenchRenderArgs {
+    /// Write the table as a JSON array (one object per scene, with provenance).
+    #[arg(long)]
+    json: Option<PathBuf>,
+    #[arg(long, default_value_t = 3, value_parser = at_least_one::<usize>)]
+    reps: usize,
+    #[arg(long, default_value_t = 2, value_parser = at_least_one::<usize>)]
+    threads: usize,
+    /// Film of the timed renders: WIDTHxHEIGHTxSPP.
+    #[arg(long, default_value = "320x240x16")]
+    size: String,
+    /// Samples per pixel of the render whose rays are recorded and replayed.
+    #[arg(long, default_value_t = 4, value_parser = at_least_one::<u32>)]
+    record_spp: u32,
+    /// Only these scenes (names in scenes/, without .toml; default: the reference and nested scenes).
+    #[arg(long, value_delimiter = ',')]
+    scenes: Vec<String>,
+    #[arg(long, default_value = "scenes")]
+    scenes_dir: PathBuf,
+}
+
 /// `--spp`, `--reps`: a count of at least 1.
 fn at_least_one<T>(s: &str) -> std::result::Result<T, String>
 where
@@ -373,6 +398,9 @@ fn run(cli: Cli) -> Result<()> {
         Cmd::Bench {
             which: BenchCmd::Nested(a),
         } => bench_nested(a),
+        Cmd::Bench {
+            which: BenchCmd::Render(a),
+        } => bench_render(a),
     }
 }
 
@@ -383,6 +411,20 @@ fn run(cli: Cli) -> Result<()> {
 fn write_json(path: &Path, value: &impl serde::Serialize) -> Result<()> {
     let text = serde_json::to_string_pretty(value).map_err(|e| Error::Invalid(e.to_string()))?;
     snell::image_io::write_atomic(path, text.as_bytes())
+}
+
+/// Write benchmark runs as a JSON array, each object with the provenance.
+fn write_runs_json(path: &Path, runs: &[impl serde::Serialize]) -> Result<()> {
+    let prov = snell::provenance::json();
+    let v: Vec<serde_json::Value> = runs
+        .iter()
+        .map(|r| {
+            let mut o = serde_json::to_value(r).unwrap_or_default();
+            o["provenance"] = prov.clone();
+            o
+        })
+        .collect();
+    write_json(path, &v)
 }
 
 /// Write `text` to `output`, or print it when there is none.
@@ -892,16 +934,45 @@ fn bench_nested(a: BenchNestedArgs) -> Result<()> {
     let runs = snell::bench::nested(&opts, |m| eprintln!("{m}"))?;
     say!("{}", snell::bench::nested_ratios(&runs).trim_end());
     if let Some(p) = &a.json {
-        let prov = snell::provenance::json();
-        let v: Vec<serde_json::Value> = runs
-            .iter()
-            .map(|r| {
-                let mut o = serde_json::to_value(r).unwrap_or_default();
-                o["provenance"] = prov.clone();
-                o
-            })
-            .collect();
-        write_json(p, &v)?;
+        write_runs_json(p, &runs)?;
+    }
+    Ok(())
+}
+
+fn bench_render(a: BenchRenderArgs) -> Result<()> {
+    let bad = || {
+        Error::Invalid(format!(
+            "--size {}: expected WIDTHxHEIGHTxSPP, e.g. 320x240x16",
+            a.size
+        ))
+    };
+    let v: Vec<u32> = a
+        .size
+        .split('x')
+        .map(|t| t.trim().parse().map_err(|_| bad()))
+        .collect::<Result<_>>()?;
+    let [w, h, spp] = v[..] else {
+        return Err(bad());
+    };
+    if w == 0 || h == 0 || spp == 0 {
+        return Err(bad());
+    }
+    let mut opts = snell::ceiling::CeilingOptions {
+        scenes_dir: a.scenes_dir,
+        render: (w, h, spp),
+        record_spp: a.record_spp,
+        threads: a.threads,
+        reps: a.reps,
+        ..Default::default()
+    };
+    if !a.scenes.is_empty() {
+        opts.scenes = a.scenes;
+    }
+    say!("{}", snell::bench_header());
+    let runs = snell::ceiling::ceiling(&opts, |m| eprintln!("{m}"))?;
+    say!("{}", snell::ceiling::table(&runs, &opts).trim_end());
+    if let Some(p) = &a.json {
+        write_runs_json(p, &runs)?;
     }
     Ok(())
 }
