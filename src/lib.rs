@@ -123,6 +123,7 @@ pub mod report;
 pub mod sampling;
 pub mod scene;
 pub mod warp;
+pub mod warp_render;
 
 pub use error::{Error, Result};
 

@@ -730,7 +730,7 @@ fn warp_points(a: QueriesArgs) -> Result<()> {
 // `snell warp-render`.
 
 fn warp_render(a: WarpRenderArgs) -> Result<()> {
-    use snell::warp::render::{run as warp_run, WarpRunOptions};
+    use snell::warp_render::{run as warp_run, WarpRunOptions};
     let mut s = load_scene(&a.scene, &BuildOptions::default())?;
     if a.width.is_some() || a.height.is_some() {
         s.set_resolution(a.width.unwrap_or(s.width), a.height.unwrap_or(s.height))?;
@@ -767,11 +767,11 @@ fn warp_render(a: WarpRenderArgs) -> Result<()> {
     Ok(())
 }
 
-// The warp report's lines (its types live in `snell::warp::render`).
+// The warp report's lines (its types live in `snell::warp_render`).
 
 /// Warp frame against the exact trace: image RMSE and position error, in
 /// scene units and in pixel footprints.
-fn warp_comparison_line(cmp: &snell::warp::render::Comparison, heatmap: &Path) -> String {
+fn warp_comparison_line(cmp: &snell::warp_render::Comparison, heatmap: &Path) -> String {
     format!(
         "compare: RMSE {:.4}; position error over {} matched pixels: mean {:.3e} / median {:.3e} / p95 {:.3e} / max {:.3e} units = mean {:.3} / median {:.3} / p95 {:.3} / max {:.2} pixel footprints; {} pixels ({:.2}%) show different objects; heatmap {}",
         cmp.rmse,
@@ -792,7 +792,7 @@ fn warp_comparison_line(cmp: &snell::warp::render::Comparison, heatmap: &Path) -
 
 /// Seconds per warp frame (and its parts) against the exact trace; the
 /// ratios are exact time / warp time (> 1: the warp is faster).
-fn warp_speed_line(rep: &snell::warp::render::WarpReport, exact: &snell::warp::render::Frame) -> String {
+fn warp_speed_line(rep: &snell::warp_render::WarpReport, exact: &snell::warp_render::Frame) -> String {
     format!(
         "speed: warp frame {:.4} s (warp {:.4} + copies {:.4} + primary rays {:.4}) vs exact trace {:.4} s: {:.2}x (render only {:.2}x)",
         rep.frame_s(),
@@ -806,7 +806,7 @@ fn warp_speed_line(rep: &snell::warp::render::WarpReport, exact: &snell::warp::r
 }
 
 /// The warped meshes: size, images, dropped triangles, copies per object.
-fn warp_summary_line(rep: &snell::warp::render::WarpReport) -> String {
+fn warp_summary_line(rep: &snell::warp_render::WarpReport) -> String {
     format!(
         "warp: {} vertices, {} triangles (longest projected edge {:.2} px), {} images, {} triangles in no copy; copies {:?}",
         rep.vertices, rep.triangles, rep.max_edge_px, rep.images, rep.dropped_triangles, rep.copies

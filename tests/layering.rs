@@ -31,13 +31,13 @@ const LAYERS: &[&[&str]] = &[
     // Renders and the audit of interior lists.
     &["render", "audit"],
     // What drives renders: parts, overrides, benchmarks, the warp renderer.
-    &["part", "overrides", "bench", "warp_render"],
+    &["part", "overrides", "bench", "ceiling", "warp_render"],
     &["merge", "farm", "fuzz"],
     &["report"],
 ];
 
-fn layer_of(m: &str) -> Option<usize> {
-    LAYERS.iter().position(|l| l.contains(&m))
+fn layer_of(layers: &[&[&str]], m: &str) -> Option<usize> {
+    layers.iter().position(|l| l.contains(&m))
 }
 
 /// Every `.rs` file under `dir`.
@@ -225,17 +225,17 @@ fn module_graph() -> BTreeMap<String, BTreeSet<String>> {
     g
 }
 
-#[test]
-fn every_module_uses_only_lower_layers() {
+/// Every use against `layers` in the graph of `src/`.
+fn violations(layers: &[&[&str]]) -> Vec<String> {
     let g = module_graph();
     let mut wrong = Vec::new();
     for (m, uses) in &g {
-        let Some(lm) = layer_of(m) else {
+        let Some(lm) = layer_of(layers, m) else {
             wrong.push(format!("{m}: not in LAYERS (give it a layer)"));
             continue;
         };
         for u in uses {
-            match layer_of(u) {
+            match layer_of(layers, u) {
                 None if g.contains_key(u) => wrong.push(format!("{u}: not in LAYERS")),
                 None => {} // not a module of ours (e.g. `crate::Result` re-exports)
                 Some(lu) if lu >= lm => wrong.push(format!(
@@ -247,7 +247,30 @@ fn every_module_uses_only_lower_layers() {
     }
     wrong.sort();
     wrong.dedup();
+    wrong
+}
+
+#[test]
+fn every_module_uses_only_lower_layers() {
+    let wrong = violations(LAYERS);
     assert!(wrong.is_empty(), "layering violations:\n{}", wrong.join("\n"));
+}
+
+/// The check has power: with the nested rule put above the integrator (the
+/// circle issue 13 removed), the integrator's use of it is reported.
+#[test]
+fn a_wrong_order_is_caught() {
+    let mut swapped: Vec<&[&str]> = LAYERS.to_vec();
+    let d = swapped.iter().position(|l| l.contains(&"dielectric")).unwrap();
+    let i = swapped.iter().position(|l| l.contains(&"integrator")).unwrap();
+    swapped.swap(d, i);
+    let wrong = violations(&swapped);
+    assert!(
+        wrong
+            .iter()
+            .any(|w| w.starts_with("integrator") && w.contains("uses dielectric")),
+        "{wrong:?}"
+    );
 }
 
 #[test]

@@ -1,15 +1,14 @@
 //! Analytic refraction warps (Mukai et al.): move mesh vertices by Snell's law
 //! so that straight primary rays see them where refraction would. The solvers
-//! (`plate`, `cylinder`, `paper`) are pure f64 with no Embree; `render` is the
-//! primary-ray renderer on Embree and the exact trace it is judged against.
+//! (`plate`, `cylinder`, `paper`) are pure f64 with no Embree; the primary-ray
+//! renderer on Embree and the exact trace it is judged against are in
+//! `warp_render` (above the scene layer; these solvers are below it).
 pub mod cylinder;
 pub mod fastcyl;
 pub mod glass;
 pub mod paper;
-pub mod pipeline;
 pub mod plate;
 pub mod points;
-pub mod render;
 
 pub use cylinder::{CylImage, CylStatus, Family, HollowCylinder};
 pub use glass::{CopyKey, ExactPath, RayClass, Segment, WarpGlass};

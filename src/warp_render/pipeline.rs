@@ -26,13 +26,11 @@
 //! tested exactly along its ray) gave the same pixels no faster: the
 //! per-pixel passes (classification, shading, buffers) dominate, not the
 //! visibility query (docs/warp.md, "What did not pay").
-use super::render::{
-    d3, f3, pixel_ray, shade, Frame, Originals, Prepared, Shown, VertexImages, VertexSolver,
-};
-use super::{CopyKey, Family, PlateStatus, WarpGlass, WarpSpec};
+use super::{d3, f3, pixel_ray, shade, Frame, Originals, Prepared, Shown, VertexImages, VertexSolver};
 use crate::embree::warp_ffi::{Committed, DynamicMesh, Packet8};
 use crate::error::{Error, Result};
 use crate::scene::RenderScene;
+use crate::warp::{CopyKey, Family, PlateStatus, WarpGlass, WarpSpec};
 use glam::{DVec3, Vec3A as V3};
 use rayon::prelude::*;
 use std::time::Instant;
@@ -64,7 +62,7 @@ pub struct FrameWarp {
 /// The warp renderer's state for one scene.
 pub struct Pipeline {
     glass: WarpGlass,
-    method: super::WarpMethod,
+    method: crate::warp::WarpMethod,
     /// All objects' vertices, concatenated.
     positions: Vec<[f32; 3]>,
     /// All triangles, indices into `positions`.
@@ -377,7 +375,7 @@ pub fn render_exact_packets(
             let mut packet = Packet8::new();
             for x0 in (0..w).step_by(SPAN) {
                 let n = SPAN.min(w - x0);
-                let paths: Vec<super::ExactPath> = (0..n)
+                let paths: Vec<crate::warp::ExactPath> = (0..n)
                     .map(|l| {
                         let (o, d) = pixel_ray(scene, (x0 + l) as u32, y as u32);
                         spec.glass.exact_path(o, d)

@@ -21,12 +21,13 @@
 //! Both shade the surface point they show with the same unshadowed local
 //! model (emission + reflectance × (constant environment + directional and
 //! point lights with |cos|)), so their difference is the warp's error alone.
-use super::paper::paper_image;
-use super::{CopyKey, Family, PlateStatus, WarpGlass, WarpMethod, WarpSpec};
+pub mod pipeline;
 use crate::embree::{BuildQuality, Ray, Scene, SceneBuilder, SceneFlags};
 use crate::error::{Error, Result};
 use crate::scene::shapes::Mesh;
 use crate::scene::{Environment, Light, Material, RenderScene, Shape};
+use crate::warp::paper::paper_image;
+use crate::warp::{CopyKey, Family, PlateStatus, WarpGlass, WarpMethod, WarpSpec};
 use glam::{DVec3, Vec3A as V3};
 use rayon::prelude::*;
 use std::collections::HashMap;
@@ -226,7 +227,7 @@ pub struct VertexSolver {
     glass: WarpGlass,
     method: WarpMethod,
     eye: DVec3,
-    fast: Option<super::fastcyl::CylinderWarper>,
+    fast: Option<crate::warp::fastcyl::CylinderWarper>,
 }
 
 impl VertexSolver {
@@ -246,7 +247,7 @@ impl VertexSolver {
                     }
                 }
                 if lo <= hi {
-                    super::fastcyl::CylinderWarper::new(*c, eye, lo, hi).ok()
+                    crate::warp::fastcyl::CylinderWarper::new(*c, eye, lo, hi).ok()
                 } else {
                     None
                 }
@@ -272,7 +273,7 @@ pub fn vertex_images(
     method: WarpMethod,
     eye: DVec3,
     p: DVec3,
-    fast: Option<&super::fastcyl::CylinderWarper>,
+    fast: Option<&crate::warp::fastcyl::CylinderWarper>,
 ) -> VertexImages {
     let mut out = VertexImages::default();
     match glass {
@@ -899,14 +900,14 @@ pub fn run(scene: &RenderScene, opts: &WarpRunOptions) -> Result<WarpReport> {
         let t0 = Instant::now();
         let prep = prepare(scene, &spec, spec.subdivide)?;
         let subdivide_s = t0.elapsed().as_secs_f64();
-        let mut pipe = super::pipeline::Pipeline::new(scene, &spec, &prep, false)?;
+        let mut pipe = pipeline::Pipeline::new(scene, &spec, &prep, false)?;
         let warped = pipe.warp(scene)?;
         let frame = pipe.render(scene, &spec, &prep);
         let mut exact_build_s = 0.0;
         let exact = if opts.compare {
             let orig = build_originals(scene, &prep)?;
             exact_build_s = orig.build_s;
-            let ex = super::pipeline::render_exact_packets(scene, &spec, &prep, &orig);
+            let ex = pipeline::render_exact_packets(scene, &spec, &prep, &orig);
             let (cmp, heat) = compare(scene, &frame, &ex);
             Some((ex, cmp, heat))
         } else {
