@@ -19,12 +19,12 @@
 use glam::{DVec3, Vec3A};
 use rayon::prelude::*;
 use snell::camera::Camera;
-use snell::warp::pipeline::{render_exact_packets, Pipeline};
-use snell::warp::render::{
-    build_originals, compare, grid_scene as setup, render_exact, render_warped, warp_scene, Comparison,
-};
 use snell::warp::{
     fastcyl::CylinderWarper, paper::paper_image, HollowCylinder, Plate, PlateStatus, WarpGlass,
+};
+use snell::warp_render::pipeline::{render_exact_packets, Pipeline};
+use snell::warp_render::{
+    build_originals, compare, grid_scene as setup, render_exact, render_warped, warp_scene, Comparison,
 };
 use std::time::Instant;
 

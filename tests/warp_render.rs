@@ -2,12 +2,12 @@
 //! the same scene, with stated tolerances; the paper's approximation is
 //! measurably worse; `snell render` traces the same [warp] scene; bad input.
 use snell::scene::{load_scene, load_scene_str, BuildOptions};
-use snell::warp::render::{run, WarpRunOptions};
 use snell::warp::WarpMethod;
+use snell::warp_render::{run, WarpRunOptions};
 use std::path::Path;
 use std::process::Command;
 
-fn compare(scene: &str, w: u32, h: u32, method: WarpMethod) -> snell::warp::render::Comparison {
+fn compare(scene: &str, w: u32, h: u32, method: WarpMethod) -> snell::warp_render::Comparison {
     let mut s = load_scene(Path::new(scene), &BuildOptions::default()).unwrap();
     s.set_resolution(w, h).unwrap();
     let rep = run(
@@ -195,8 +195,8 @@ fn fresnel_weights_darken_the_view_through_the_glass() {
 /// scenes, for a first frame, a refitted repeat and a moved camera.
 #[test]
 fn pipeline_and_packets_match_the_single_ray_renderers() {
-    use snell::warp::pipeline::{render_exact_packets, Pipeline};
-    use snell::warp::render::{build_originals, prepare, render_exact, render_warped, warp_scene, Frame};
+    use snell::warp_render::pipeline::{render_exact_packets, Pipeline};
+    use snell::warp_render::{build_originals, prepare, render_exact, render_warped, warp_scene, Frame};
     let same = |a: &Frame, b: &Frame| -> (usize, f64) {
         let mut differ = 0;
         let mut worst: f64 = 0.0;
