@@ -32,6 +32,12 @@ fn quick() -> bool {
     std::env::var("SNELL_BENCH_QUICK").is_ok()
 }
 
+/// `SNELL_BENCH_ONLY=solvers` or `=frames`: run that part alone (for
+/// profiling and A/B runs; the JSON is then not written).
+fn only() -> Option<String> {
+    std::env::var("SNELL_BENCH_ONLY").ok()
+}
+
 fn reps() -> usize {
     if quick() {
         3
@@ -73,6 +79,9 @@ struct Summary {
 fn solvers(sum: &mut Summary) {
     println!("\n## Solvers\n");
     let eye = DVec3::new(0.0, 0.0, 4.0);
+    if only().as_deref() == Some("cylinder") {
+        return cylinder_solver(sum, eye);
+    }
     let n = if quick() { 300 } else { 1000 };
     // Plate: tilted, 0.3 thick, targets behind it, as a mesh stores them (f32).
     let plate = Plate::try_new(DVec3::new(0.0, 0.0, 1.0), DVec3::new(0.2, -0.1, -1.0), 0.3, 1.5).unwrap();
@@ -184,6 +193,11 @@ fn solvers(sum: &mut Summary) {
         nv / tc / 1e6,
         worst
     );
+    cylinder_solver(sum, eye);
+}
+
+/// The hollow-cylinder solvers on the warp_cylinder plane.
+fn cylinder_solver(sum: &mut Summary, eye: DVec3) {
     // Cylinder: the warp_cylinder plane, ~100k vertices.
     let c = HollowCylinder::try_new(DVec3::ZERO, DVec3::Y, 1.0, 0.8, 1.5).unwrap();
     let m = if quick() { 100 } else { 316 };
@@ -218,6 +232,17 @@ fn solvers(sum: &mut Summary) {
         tf.push(t.elapsed().as_secs_f64());
     }
     let (tables, fast) = (median(tt), median(tf));
+    if only().as_deref() == Some("cylinder") {
+        // Profiling the fast solver alone.
+        println!(
+            "cylinder fast: {:.3} s + tables {:.3} s per {} vertices, {:.2} images/vertex",
+            fast,
+            tables,
+            pts.len(),
+            imgs as f64 / pts.len() as f64
+        );
+        return;
+    }
     let w = CylinderWarper::new(c, eye, lo, hi).unwrap();
     let sample: Vec<DVec3> = pts.iter().step_by(pts.len() / 500).copied().collect();
     let t = Instant::now();
@@ -523,7 +548,12 @@ fn main() -> snell::Result<()> {
     println!("{}", snell::bench_header());
     println!("threads: {}", rayon::current_num_threads());
     let mut sum = Summary::default();
-    solvers(&mut sum);
+    if only().as_deref() != Some("frames") {
+        solvers(&mut sum);
+    }
+    if matches!(only().as_deref(), Some("solvers" | "cylinder")) {
+        return Ok(());
+    }
     let (bw, bh) = if quick() { (640, 480) } else { (1600, 1200) };
     println!(
         "\n## Frames at {bw}x{bh}, 100k vertices (median of {} interleaved repetitions)\n",
@@ -543,6 +573,9 @@ fn main() -> snell::Result<()> {
         } else {
             sum.plate = Some(f);
         }
+    }
+    if only().is_some() {
+        return Ok(());
     }
     let n = if quick() { 6 } else { 24 };
     println!("\n## Orbit: the camera circles the tube, {n} frames at {bw}x{bh}, 100k vertices\n");
