@@ -569,7 +569,8 @@ fn main() -> snell::Result<()> {
         let mut pipe = Pipeline::new(&scene, &spec, &prep, false)?;
         let mut fb = empty_frame();
         let cpu = || snell::farm::cpu_seconds().unwrap_or(0.0);
-        let (mut cw, mut cr, mut cf) = (0.0, 0.0, 0.0);
+        let (mut cw, mut cr, mut cf, mut ce) = (0.0, 0.0, 0.0, 0.0);
+        let orig = build_originals(&scene, &prep)?;
         for _ in 0..reps() {
             let c0 = cpu();
             let f = pipe.warp(&scene)?;
@@ -580,16 +581,21 @@ fn main() -> snell::Result<()> {
             let fresh = pipe.render(&scene, &spec, &prep);
             cf += cpu() - c2;
             drop(fresh);
+            let c3 = cpu();
+            let e = render_exact(&scene, &spec, &prep, &orig);
+            ce += cpu() - c3;
+            drop(e);
             println!(
                 "warp {:.4} s, copies {:.4} s, rays {:.4} s",
                 f.warp_s, f.build_s, fb.render_s
             );
         }
         println!(
-            "CPU seconds per frame: warp + copies {:.3}, rays {:.3} (into a fresh frame {:.3})",
+            "CPU seconds per frame: warp + copies {:.3}, rays {:.3} (into a fresh frame {:.3}); exact trace {:.3}",
             cw / reps() as f64,
             cr / reps() as f64,
-            cf / reps() as f64
+            cf / reps() as f64,
+            ce / reps() as f64
         );
         return Ok(());
     }
