@@ -364,7 +364,7 @@ impl CylinderWarper {
             }
             b -= (r[0] * j[1][1] - r[1] * j[0][1]) / det;
             beta -= (j[0][0] * r[1] - j[1][0] * r[0]) / det;
-            if !(beta.abs() < 0.999_999) {
+            if beta.is_nan() || beta.abs() >= 0.999_999 {
                 return None;
             }
         }
