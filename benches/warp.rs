@@ -361,8 +361,9 @@ fn frame_row(
         (vec![], vec![], vec![], vec![], vec![], vec![], vec![]);
     let mut refit_rays = vec![];
     let mut cmp = None;
-    // The viewer's frame buffer, kept across frames (as the copies are).
-    let mut fb = empty_frame();
+    // The viewer's frame buffers, kept across frames (as the copies are):
+    // `fb` holds the rebuilt copies' frame, compared with the exact trace.
+    let (mut fb, mut fb_refit) = (empty_frame(), empty_frame());
     for _ in 0..reps {
         // Copies rebuilt every frame (Embree's fast builder).
         let mut pipe = Pipeline::new(&scene, &spec, &prep, false)?;
@@ -377,8 +378,8 @@ fn frame_row(
         rpipe.warp(&scene)?;
         let f2 = rpipe.warp(&scene)?;
         refit.push(f2.build_s);
-        rpipe.render_into(&scene, &spec, &prep, &mut fb);
-        refit_rays.push(fb.render_s);
+        rpipe.render_into(&scene, &spec, &prep, &mut fb_refit);
+        refit_rays.push(fb_refit.render_s);
         drop(rpipe);
         let warped = warp_scene(&scene, &spec, &prep)?;
         let of = render_warped(&scene, &spec, &prep, &warped);
