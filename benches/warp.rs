@@ -24,12 +24,18 @@ use snell::warp::{
 };
 use snell::warp_render::pipeline::{render_exact_packets, Pipeline};
 use snell::warp_render::{
-    build_originals, compare, grid_scene as setup, render_exact, render_warped, warp_scene, Comparison,
+    build_originals, compare, grid_scene as setup, render_exact, render_warped, warp_scene, Comparison, Frame,
 };
 use std::time::Instant;
 
 fn quick() -> bool {
     std::env::var("SNELL_BENCH_QUICK").is_ok()
+}
+
+/// `SNELL_BENCH_ONLY=solvers` or `=frames`: run that part alone (for
+/// profiling and A/B runs; the JSON is then not written).
+fn only() -> Option<String> {
+    std::env::var("SNELL_BENCH_ONLY").ok()
 }
 
 fn reps() -> usize {
@@ -73,6 +79,9 @@ struct Summary {
 fn solvers(sum: &mut Summary) {
     println!("\n## Solvers\n");
     let eye = DVec3::new(0.0, 0.0, 4.0);
+    if only().as_deref() == Some("cylinder") {
+        return cylinder_solver(sum, eye);
+    }
     let n = if quick() { 300 } else { 1000 };
     // Plate: tilted, 0.3 thick, targets behind it, as a mesh stores them (f32).
     let plate = Plate::try_new(DVec3::new(0.0, 0.0, 1.0), DVec3::new(0.2, -0.1, -1.0), 0.3, 1.5).unwrap();
@@ -184,6 +193,11 @@ fn solvers(sum: &mut Summary) {
         nv / tc / 1e6,
         worst
     );
+    cylinder_solver(sum, eye);
+}
+
+/// The hollow-cylinder solvers on the warp_cylinder plane.
+fn cylinder_solver(sum: &mut Summary, eye: DVec3) {
     // Cylinder: the warp_cylinder plane, ~100k vertices.
     let c = HollowCylinder::try_new(DVec3::ZERO, DVec3::Y, 1.0, 0.8, 1.5).unwrap();
     let m = if quick() { 100 } else { 316 };
@@ -218,6 +232,17 @@ fn solvers(sum: &mut Summary) {
         tf.push(t.elapsed().as_secs_f64());
     }
     let (tables, fast) = (median(tt), median(tf));
+    if only().as_deref() == Some("cylinder") {
+        // Profiling the fast solver alone.
+        println!(
+            "cylinder fast: {:.3} s + tables {:.3} s per {} vertices, {:.2} images/vertex",
+            fast,
+            tables,
+            pts.len(),
+            imgs as f64 / pts.len() as f64
+        );
+        return;
+    }
     let w = CylinderWarper::new(c, eye, lo, hi).unwrap();
     let sample: Vec<DVec3> = pts.iter().step_by(pts.len() / 500).copied().collect();
     let t = Instant::now();
@@ -336,22 +361,25 @@ fn frame_row(
         (vec![], vec![], vec![], vec![], vec![], vec![], vec![]);
     let mut refit_rays = vec![];
     let mut cmp = None;
+    // The viewer's frame buffers, kept across frames (as the copies are):
+    // `fb` holds the rebuilt copies' frame, compared with the exact trace.
+    let (mut fb, mut fb_refit) = (empty_frame(), empty_frame());
     for _ in 0..reps {
         // Copies rebuilt every frame (Embree's fast builder).
         let mut pipe = Pipeline::new(&scene, &spec, &prep, false)?;
         let f1 = pipe.warp(&scene)?;
-        let frame = pipe.render(&scene, &spec, &prep);
+        pipe.render_into(&scene, &spec, &prep, &mut fb);
         warp.push(f1.warp_s);
         copies.push(f1.build_s);
-        rays.push(frame.render_s);
+        rays.push(fb.render_s);
         drop(pipe);
         // Refitting copies: the second frame of an unmoved camera refits.
         let mut rpipe = Pipeline::new(&scene, &spec, &prep, true)?;
         rpipe.warp(&scene)?;
         let f2 = rpipe.warp(&scene)?;
         refit.push(f2.build_s);
-        let rf = rpipe.render(&scene, &spec, &prep);
-        refit_rays.push(rf.render_s);
+        rpipe.render_into(&scene, &spec, &prep, &mut fb_refit);
+        refit_rays.push(fb_refit.render_s);
         drop(rpipe);
         let warped = warp_scene(&scene, &spec, &prep)?;
         let of = render_warped(&scene, &spec, &prep, &warped);
@@ -361,7 +389,7 @@ fn frame_row(
         ex.push(e.render_s);
         let e2 = render_exact_packets(&scene, &spec, &prep, &orig);
         exp.push(e2.render_s);
-        cmp.get_or_insert_with(|| compare(&scene, &frame, &e).0);
+        cmp.get_or_insert_with(|| compare(&scene, &fb, &e).0);
     }
     let render_1spp_s = if with_render {
         let t = Instant::now();
@@ -395,6 +423,16 @@ fn frame_row(
         render_1spp_s,
         cmp: cmp.unwrap(),
     })
+}
+
+fn empty_frame() -> Frame {
+    Frame {
+        width: 0,
+        height: 0,
+        pixels: Vec::new(),
+        shown: Vec::new(),
+        render_s: 0.0,
+    }
 }
 
 fn header() {
@@ -442,6 +480,8 @@ fn orbit(n: usize, w: u32, h: u32, vertices: usize) -> snell::Result<serde_json:
     let mut rows = Vec::new();
     let (mut tw, mut te, mut tep) = (0.0, 0.0, 0.0);
     let (mut fw, mut fe, mut fep, mut errs) = (vec![], vec![], vec![], vec![]);
+    // The viewer's frame buffer, kept across frames.
+    let mut fb = empty_frame();
     for i in 0..n {
         let a = (-20.0 + 40.0 * i as f64 / (n.max(2) - 1) as f64).to_radians();
         scene.camera = Camera::try_new(
@@ -456,11 +496,11 @@ fn orbit(n: usize, w: u32, h: u32, vertices: usize) -> snell::Result<serde_json:
         )?;
         let t = Instant::now();
         let f = pipe.warp(&scene)?;
-        let frame = pipe.render(&scene, &spec, &prep);
+        pipe.render_into(&scene, &spec, &prep, &mut fb);
         let frame_s = t.elapsed().as_secs_f64();
         let e = render_exact(&scene, &spec, &prep, &orig);
         let ep = render_exact_packets(&scene, &spec, &prep, &orig);
-        let (cmp, _) = compare(&scene, &frame, &e);
+        let (cmp, _) = compare(&scene, &fb, &e);
         tw += frame_s;
         te += e.render_s;
         tep += ep.render_s;
@@ -474,7 +514,7 @@ fn orbit(n: usize, w: u32, h: u32, vertices: usize) -> snell::Result<serde_json:
             a.to_degrees(),
             f.warp_s,
             f.build_s,
-            frame.render_s,
+            fb.render_s,
             frame_s,
             f.rebuilds,
             f.refits,
@@ -485,7 +525,7 @@ fn orbit(n: usize, w: u32, h: u32, vertices: usize) -> snell::Result<serde_json:
             100.0 * cmp.mismatched as f64 / cmp.pixels as f64
         );
         rows.push(serde_json::json!({
-            "angle_deg": a.to_degrees(), "warp_s": f.warp_s, "copies_s": f.build_s, "rays_s": frame.render_s,
+            "angle_deg": a.to_degrees(), "warp_s": f.warp_s, "copies_s": f.build_s, "rays_s": fb.render_s,
             "frame_s": frame_s, "rebuilt": f.rebuilds, "refit": f.refits, "exact_s": e.render_s,
             "exact_packets_s": ep.render_s, "px_mean": cmp.px_mean, "px_p95": cmp.px_p95,
             "mismatched_fraction": cmp.mismatched as f64 / cmp.pixels as f64,
@@ -523,7 +563,49 @@ fn main() -> snell::Result<()> {
     println!("{}", snell::bench_header());
     println!("threads: {}", rayon::current_num_threads());
     let mut sum = Summary::default();
-    solvers(&mut sum);
+    if let Some(path) = only().as_deref().and_then(|o| o.strip_prefix("pipeline:")) {
+        // Profiling the warp frame alone: `SNELL_BENCH_ONLY=pipeline:SCENE`.
+        let (scene, prep) = setup(path, 1600, 1200, 100_000)?;
+        let spec = scene.warp.clone().unwrap();
+        let mut pipe = Pipeline::new(&scene, &spec, &prep, false)?;
+        let mut fb = empty_frame();
+        let cpu = || snell::farm::cpu_seconds().unwrap_or(0.0);
+        let (mut cw, mut cr, mut cf, mut ce) = (0.0, 0.0, 0.0, 0.0);
+        let orig = build_originals(&scene, &prep)?;
+        for _ in 0..reps() {
+            let c0 = cpu();
+            let f = pipe.warp(&scene)?;
+            let c1 = cpu();
+            pipe.render_into(&scene, &spec, &prep, &mut fb);
+            let c2 = cpu();
+            (cw, cr) = (cw + c1 - c0, cr + c2 - c1);
+            let fresh = pipe.render(&scene, &spec, &prep);
+            cf += cpu() - c2;
+            drop(fresh);
+            let c3 = cpu();
+            let e = render_exact(&scene, &spec, &prep, &orig);
+            ce += cpu() - c3;
+            drop(e);
+            println!(
+                "warp {:.4} s, copies {:.4} s, rays {:.4} s",
+                f.warp_s, f.build_s, fb.render_s
+            );
+        }
+        println!(
+            "CPU seconds per frame: warp + copies {:.3}, rays {:.3} (into a fresh frame {:.3}); exact trace {:.3}",
+            cw / reps() as f64,
+            cr / reps() as f64,
+            cf / reps() as f64,
+            ce / reps() as f64
+        );
+        return Ok(());
+    }
+    if only().as_deref() != Some("frames") {
+        solvers(&mut sum);
+    }
+    if matches!(only().as_deref(), Some("solvers" | "cylinder")) {
+        return Ok(());
+    }
     let (bw, bh) = if quick() { (640, 480) } else { (1600, 1200) };
     println!(
         "\n## Frames at {bw}x{bh}, 100k vertices (median of {} interleaved repetitions)\n",
@@ -543,6 +625,9 @@ fn main() -> snell::Result<()> {
         } else {
             sum.plate = Some(f);
         }
+    }
+    if only().is_some() {
+        return Ok(());
     }
     let n = if quick() { 6 } else { 24 };
     println!("\n## Orbit: the camera circles the tube, {n} frames at {bw}x{bh}, 100k vertices\n");

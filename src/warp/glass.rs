@@ -80,7 +80,7 @@ const MAX_EVENTS: usize = 8;
 
 /// Roots of |q + t·d|² = c² for vectors already projected perpendicular to
 /// the axis (`a = |d|²`), ascending; cancellation-free.
-fn cyl_roots(q: DVec3, d: DVec3, c: f64) -> Option<(f64, f64)> {
+pub(crate) fn cyl_roots(q: DVec3, d: DVec3, c: f64) -> Option<(f64, f64)> {
     let a = d.length_squared();
     if a < 1e-300 {
         return None;

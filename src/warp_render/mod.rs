@@ -484,6 +484,9 @@ pub(crate) fn shade(
     (col * weight as f32, p)
 }
 
+// Inlined: returned through memory from a call, the ray's 48 bytes were
+// read back right after being written (a store-forwarding stall, perf).
+#[inline]
 pub(crate) fn pixel_ray(scene: &RenderScene, x: u32, y: u32) -> (DVec3, DVec3) {
     let (o, d) = scene.camera.ray(x as f32 + 0.5, y as f32 + 0.5, (0.0, 0.0));
     let o = DVec3::new(o.x as f64, o.y as f64, o.z as f64);

@@ -74,9 +74,119 @@ pub struct Pipeline {
     masks: Vec<u8>,
     /// Scratch for the plate's batch.
     plate_class: Vec<std::result::Result<bool, PlateStatus>>,
+    /// `positions` in f64 (the tube's solver input), made once.
+    positions64: Vec<DVec3>,
+    /// Scratch for the tube's per-vertex images, kept across frames so that
+    /// a frame does not page in a fresh array.
+    imgs: Vec<VertexImages>,
 }
 
 const SPAN: usize = 8;
+
+/// `WarpGlass::classify_keys` for one frame's eye, answering copy bit masks
+/// (bit k: copy k) instead of keys. What depends on the eye alone is
+/// computed once per frame, and the family tests compare squares
+/// (|b| < r ⇔ (e × h)² < r²·|h|², and the TIR test |b|·m_a < r·m_g
+/// likewise), so a tube ray costs one square root (its entry into the
+/// tube, as `classify_keys` computes it) instead of five, and no key
+/// look-ups. Same classes up to rounding at the family edges (tested
+/// through the same pixels as `render_warped`).
+enum Classifier {
+    Plate {
+        glass: WarpGlass,
+        eye: DVec3,
+        /// Bits of the direct and warped copies.
+        bits: [u8; 2],
+    },
+    Tube {
+        c: crate::warp::HollowCylinder,
+        /// The frame's axes across (u, w) and along (a) the tube.
+        u: DVec3,
+        w: DVec3,
+        a: DVec3,
+        /// The eye across the axis: 2-D and as a 3-D offset (for `cyl_roots`).
+        e: glam::DVec2,
+        qp: DVec3,
+        /// hollow2 + through4, tir2 −/+, wall2 −/+.
+        bits: [u8; 5],
+    },
+}
+
+impl Classifier {
+    fn new(pipe: &Pipeline, eye: DVec3) -> Classifier {
+        let bit = |k: CopyKey| pipe.key_index(k).map_or(0u8, |i| 1 << i);
+        let key = |family, side| CopyKey { family, side };
+        match pipe.glass {
+            WarpGlass::Plate(_) => Classifier::Plate {
+                glass: pipe.glass,
+                eye,
+                bits: [bit(CopyKey::DIRECT), bit(key(Family::Wall2, 0))],
+            },
+            WarpGlass::Cylinder(c) => {
+                let (u, w, a) = c.frame_axes();
+                let q = eye - c.axis_point;
+                Classifier::Tube {
+                    c,
+                    u,
+                    w,
+                    a,
+                    e: c.to2(eye).0,
+                    qp: q - a * q.dot(a),
+                    bits: [
+                        bit(key(Family::Hollow2, 0)) | bit(key(Family::Through4, 0)),
+                        bit(key(Family::Tir2, -1)),
+                        bit(key(Family::Tir2, 1)),
+                        bit(key(Family::Wall2, -1)),
+                        bit(key(Family::Wall2, 1)),
+                    ],
+                }
+            }
+        }
+    }
+
+    /// (distance to the glass, copies to look at beyond it) for unit `d`.
+    #[inline]
+    fn classify(&self, d: DVec3) -> (f64, u8) {
+        match self {
+            Classifier::Plate { glass, eye, bits } => {
+                let (t, keys) = glass.classify_keys(*eye, d);
+                (t, if keys[0].is_some() { bits[1] } else { 0 })
+            }
+            Classifier::Tube {
+                c,
+                u,
+                w,
+                a,
+                e,
+                qp,
+                bits,
+            } => {
+                let beta = d.dot(*a);
+                let t_enter = match crate::warp::glass::cyl_roots(*qp, d - *a * beta, c.outer_radius) {
+                    Some((t0, _)) if t0 > 0.0 => t0,
+                    _ => return (f64::INFINITY, 0),
+                };
+                let h = glam::DVec2::new(d.dot(*u), d.dot(*w));
+                let hh = h.length_squared();
+                // b·|h| = e × h.
+                let cross = e.perp_dot(h);
+                let r2 = c.inner_radius * c.inner_radius;
+                let b2h = cross * cross;
+                let side = if cross < 0.0 { 0 } else { 1 };
+                let m = if b2h < r2 * hh {
+                    bits[0]
+                } else if b2h * (1.0 - beta * beta).max(0.0)
+                    < r2 * hh * (c.ior * c.ior - beta * beta).max(0.0)
+                {
+                    bits[1 + side]
+                } else {
+                    bits[3 + side]
+                };
+                (t_enter, m)
+            }
+        }
+    }
+}
 
 /// A lane's nearest hit so far: (t, copy, primitive, u, v).
 type LaneHit = (f32, usize, u32, f32, f32);
@@ -113,6 +223,8 @@ impl Pipeline {
             method: spec.method,
             masks: vec![0; positions.len()],
             plate_class: Vec::new(),
+            positions64: positions.iter().map(|p| d3(*p)).collect(),
+            imgs: Vec::new(),
             positions,
             tris,
             tri_src,
@@ -168,15 +280,17 @@ impl Pipeline {
                 images = self.masks.iter().filter(|&&m| m != 0).count();
             }
             (glass, method) => {
-                let all: Vec<DVec3> = self.positions.iter().map(|p| d3(*p)).collect();
-                let solver = VertexSolver::new(*glass, method, eye, &all);
-                let imgs: Vec<VertexImages> = all
-                    .par_iter()
+                let all = &self.positions64;
+                let solver = VertexSolver::new(*glass, method, eye, all);
+                self.imgs.resize(nv, VertexImages::default());
+                self.imgs
+                    .par_iter_mut()
+                    .zip(all)
                     .with_min_len(256)
-                    .map(|p| solver.images(*p))
-                    .collect();
+                    .for_each(|(out, p)| *out = solver.images(*p));
+                let imgs = &self.imgs;
                 let keys: Vec<CopyKey> = self.copies.iter().map(|c| c.key).collect();
-                self.masks.par_iter_mut().zip(&imgs).for_each(|(m, vi)| {
+                self.masks.par_iter_mut().zip(imgs).for_each(|(m, vi)| {
                     *m = keys
                         .iter()
                         .enumerate()
@@ -188,7 +302,7 @@ impl Pipeline {
                     let key = c.key;
                     c.next
                         .par_iter_mut()
-                        .zip(&imgs)
+                        .zip(imgs)
                         .zip(positions)
                         .for_each(|((out, vi), p)| *out = vi.get(key).unwrap_or(*p));
                 });
@@ -262,11 +376,33 @@ impl Pipeline {
 
     /// Render the current copies with straight primary rays in packets of eight.
     pub fn render(&self, scene: &RenderScene, spec: &WarpSpec, prep: &Prepared) -> Frame {
+        let mut frame = Frame {
+            width: 0,
+            height: 0,
+            pixels: Vec::new(),
+            shown: Vec::new(),
+            render_s: 0.0,
+        };
+        self.render_into(scene, spec, prep, &mut frame);
+        frame
+    }
+
+    /// `render` into a frame kept across frames (an interactive viewer's
+    /// frame buffer): every pixel is written, hit or not, so the buffers are
+    /// reused without clearing, and a frame does not page in ~120 MB of
+    /// fresh memory at 1600×1200 (the kernel's page faults were ~10 % of the
+    /// tube's frame in perf). `render_s` includes resizing on the first use.
+    pub fn render_into(&self, scene: &RenderScene, spec: &WarpSpec, prep: &Prepared, frame: &mut Frame) {
         let t0 = Instant::now();
         let (w, h) = (scene.width as usize, scene.height as usize);
-        let mut pixels = vec![V3::ZERO; w * h];
-        let mut shown: Vec<Option<Shown>> = vec![None; w * h];
+        frame.width = scene.width;
+        frame.height = scene.height;
+        frame.pixels.resize(w * h, V3::ZERO);
+        frame.shown.resize(w * h, None);
+        let (pixels, shown) = (&mut frame.pixels, &mut frame.shown);
         let direct = self.key_index(CopyKey::DIRECT);
+        let eye = DVec3::from(scene.camera.position.to_array().map(|x| x as f64));
+        let classifier = Classifier::new(self, eye);
         pixels
             .par_chunks_mut(w)
             .zip(shown.par_chunks_mut(w))
@@ -276,16 +412,12 @@ impl Pipeline {
                 for x0 in (0..w).step_by(SPAN) {
                     let n = SPAN.min(w - x0);
                     let mut rays = [(DVec3::ZERO, DVec3::ZERO); SPAN];
-                    let mut class = [(f64::INFINITY, [None, None]); SPAN];
+                    let mut class = [(f64::INFINITY, 0u8); SPAN];
                     let mut want = 0u8;
                     for l in 0..n {
                         rays[l] = pixel_ray(scene, (x0 + l) as u32, y as u32);
-                        class[l] = self.glass.classify_keys(rays[l].0, rays[l].1);
-                        for k in class[l].1.iter().flatten() {
-                            if let Some(i) = self.key_index(*k) {
-                                want |= 1 << i;
-                            }
-                        }
+                        class[l] = classifier.classify(rays[l].1);
+                        want |= class[l].1;
                     }
                     // Nearest hit per lane: (t, copy, prim, u, v).
                     let mut best: [Option<LaneHit>; SPAN] = [None; SPAN];
@@ -308,7 +440,7 @@ impl Pipeline {
                         }
                         packet.clear();
                         for l in 0..n {
-                            if class[l].1.contains(&Some(c.key)) {
+                            if class[l].1 & (1 << ci) != 0 {
                                 packet.set(l, f3(rays[l].0), f3(rays[l].1), f32::INFINITY);
                             }
                         }
@@ -323,6 +455,8 @@ impl Pipeline {
                     }
                     for l in 0..n {
                         let Some((_, ci, prim, u, v)) = best[l] else {
+                            prow[x0 + l] = V3::ZERO;
+                            srow[x0 + l] = None;
                             continue;
                         };
                         let c = &self.copies[ci];
@@ -342,13 +476,7 @@ impl Pipeline {
                     }
                 }
             });
-        Frame {
-            width: scene.width,
-            height: scene.height,
-            pixels,
-            shown,
-            render_s: t0.elapsed().as_secs_f64(),
-        }
+        frame.render_s = t0.elapsed().as_secs_f64();
     }
 }
 
