@@ -96,6 +96,7 @@
 //! # Ok::<(), snell::Error>(())
 //! ```
 #![deny(unsafe_code)]
+#![warn(missing_docs)]
 
 pub mod accum;
 pub mod audit;

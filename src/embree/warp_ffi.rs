@@ -110,10 +110,12 @@ impl DynamicMesh {
         Ok(m)
     }
 
+    /// The current vertex positions (world space).
     pub fn vertices(&self) -> &[[f32; 3]] {
         &self.vertices
     }
 
+    /// The triangles (indices into `vertices`).
     pub fn indices(&self) -> &[[u32; 3]] {
         &self.indices
     }
@@ -286,6 +288,7 @@ impl Packet8 {
         })
     }
 
+    /// Is any lane of the packet valid?
     pub fn any_active(&self) -> bool {
         self.valid.iter().any(|&v| v != 0)
     }

@@ -21,11 +21,15 @@ use glam::{DVec2, DVec3};
 /// A thick glass tube, infinitely tall.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct HollowCylinder {
+    /// A point on the axis (metres).
     pub axis_point: DVec3,
     /// Unit axis direction.
     pub axis_direction: DVec3,
+    /// Outer radius R (metres).
     pub outer_radius: f64,
+    /// Inner radius r < R (metres).
     pub inner_radius: f64,
+    /// Index of the glass (the surroundings have index 1).
     pub ior: f64,
     /// Cached unit vector across the axis (the frame's u; w = axis × u).
     across: DVec3,
@@ -48,6 +52,7 @@ pub enum Family {
 }
 
 impl Family {
+    /// Number of refractions along paths of this family.
     pub fn refractions(self) -> u32 {
         match self {
             Family::Direct => 0,
@@ -60,11 +65,13 @@ impl Family {
 /// One image of a target.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct CylImage {
+    /// The path family.
     pub family: Family,
     /// Unit direction of the straight eye ray that sees the target.
     pub direction: DVec3,
     /// eye + direction·|target − eye|: where the vertex must move.
     pub position: DVec3,
+    /// Refractions along the path.
     pub refractions: u32,
     /// +1 upright, −1 mirrored (horizontally), relative to a direct view;
     /// 0 where it was not computed (the renderer's fast path).
@@ -77,7 +84,9 @@ pub struct CylImage {
 /// Why a target has no images.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum CylStatus {
+    /// The eye is inside the tube's outer radius.
     EyeNotOutside,
+    /// The target is inside the glass wall.
     InsideGlass,
 }
 
@@ -194,6 +203,11 @@ struct Path2 {
 }
 
 impl HollowCylinder {
+    /// A tube from its axis, radii and index.
+    ///
+    /// # Errors
+    /// A non-finite point or a zero axis direction (it is normalised), radii
+    /// out of order (0 < r < R), or an index below 1.
     pub fn try_new(
         axis_point: DVec3,
         axis_direction: DVec3,

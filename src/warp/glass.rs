@@ -13,7 +13,9 @@ use glam::DVec3;
 /// The glass the warp moves vertices through.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum WarpGlass {
+    /// A parallel plate.
     Plate(Plate),
+    /// A hollow cylinder.
     Cylinder(HollowCylinder),
 }
 
@@ -24,11 +26,14 @@ pub enum WarpGlass {
 /// intervals); it is 0 for `direct`, `through4`, `hollow2` and the plate.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct CopyKey {
+    /// The path family the copy shows.
     pub family: Family,
+    /// Which band of a two-refraction family (−1, +1), 0 otherwise.
     pub side: i8,
 }
 
 impl CopyKey {
+    /// The unwarped scene seen directly.
     pub const DIRECT: CopyKey = CopyKey {
         family: Family::Direct,
         side: 0,
@@ -59,7 +64,9 @@ pub struct RayClass {
 /// One straight piece of an exact transmission path.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Segment {
+    /// Start of the piece.
     pub origin: DVec3,
+    /// Unit direction.
     pub dir: DVec3,
     /// The piece ends at `origin + dir·t_end` (∞ for the last one).
     pub t_end: f64,
@@ -69,6 +76,7 @@ pub struct Segment {
 /// total internal reflection otherwise (the paths the warp families model).
 #[derive(Debug, Clone, PartialEq)]
 pub struct ExactPath {
+    /// The straight pieces, in order from the eye.
     pub segments: Vec<Segment>,
     /// Product of the Fresnel transmittances (1 − F) of the refractions.
     pub transmittance: f64,
@@ -98,6 +106,7 @@ pub(crate) fn cyl_roots(q: DVec3, d: DVec3, c: f64) -> Option<(f64, f64)> {
 }
 
 impl WarpGlass {
+    /// Index of the glass.
     pub fn ior(&self) -> f64 {
         match self {
             WarpGlass::Plate(p) => p.ior,

@@ -26,11 +26,14 @@ pub enum WarpMethod {
 /// A scene's `[warp]` table, validated.
 #[derive(Debug, Clone)]
 pub struct WarpSpec {
+    /// The glass.
     pub glass: WarpGlass,
     /// The glass's own geometries in the render scene (skipped by the warp renderer).
     pub glass_geoms: Vec<u32>,
     /// Longest projected edge after subdivision, in pixels.
     pub subdivide: f64,
+    /// Weight pixels by the Fresnel transmittance of their paths.
     pub fresnel: bool,
+    /// How vertex images are found.
     pub method: WarpMethod,
 }

@@ -61,6 +61,7 @@ pub struct PlateImage {
     pub slope: f64,
     /// Shift towards the eye along the normal (metres).
     pub shift: f64,
+    /// Newton steps taken.
     pub iterations: u32,
 }
 

@@ -41,17 +41,22 @@ pub const MAX_WARP_TRIANGLES: u64 = 1 << 23;
 pub struct WarpObject {
     /// Its geometry index in the render scene (material, emission).
     pub geom: u32,
+    /// The mesh, subdivided, in world space.
     pub mesh: Mesh,
+    /// Subdivision levels applied.
     pub levels: u32,
 }
 
 /// The meshes ready to warp.
 #[derive(Debug, Clone)]
 pub struct Prepared {
+    /// The meshes.
     pub objects: Vec<WarpObject>,
     /// Longest projected edge after subdivision (pixels, unwarped view).
     pub max_edge_px: f64,
+    /// Vertices over all objects.
     pub vertices: usize,
+    /// Triangles over all objects.
     pub triangles: usize,
 }
 
@@ -208,15 +213,18 @@ impl VertexImages {
             self.len += 1;
         }
     }
+    /// The image of the vertex in copy `key`, if it has one.
     pub fn get(&self, key: CopyKey) -> Option<[f32; 3]> {
         self.items[..self.len as usize]
             .iter()
             .find(|(k, _)| *k == key)
             .map(|(_, p)| *p)
     }
+    /// Number of images.
     pub fn len(&self) -> usize {
         self.len as usize
     }
+    /// Has the vertex no image at all?
     pub fn is_empty(&self) -> bool {
         self.len == 0
     }
@@ -262,6 +270,7 @@ impl VertexSolver {
         }
     }
 
+    /// The images of the point `p`.
     pub fn images(&self, p: DVec3) -> VertexImages {
         vertex_images(&self.glass, self.method, self.eye, p, self.fast.as_ref())
     }
@@ -307,7 +316,9 @@ pub fn vertex_images(
 
 /// One warped copy: an Embree scene and, per triangle, its source.
 pub struct WarpedCopy {
+    /// Which copy.
     pub key: CopyKey,
+    /// Its Embree scene.
     pub scene: Scene,
     /// (object index in `Prepared::objects`, triangle index in its mesh).
     pub source: Vec<(u32, u32)>,
@@ -315,11 +326,13 @@ pub struct WarpedCopy {
 
 /// All warped copies of a scene, with timings.
 pub struct Warped {
+    /// The copies.
     pub copies: Vec<WarpedCopy>,
     /// Seconds spent moving vertices.
     pub warp_s: f64,
     /// Seconds spent building the copies' BVHs.
     pub build_s: f64,
+    /// Vertex images found.
     pub images: usize,
     /// Triangles in no copy (vertices in different families or without image).
     pub dropped_triangles: usize,
@@ -422,7 +435,9 @@ pub fn warp_scene(scene: &RenderScene, spec: &WarpSpec, prep: &Prepared) -> Resu
 /// What a pixel shows: the surface point on the unwarped mesh.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Shown {
+    /// Index into `Prepared::objects`.
     pub object: u32,
+    /// The point on the unwarped mesh (world space).
     pub point: DVec3,
     /// Length of the (possibly refracted) path from the eye to the point.
     pub path_length: f64,
@@ -431,10 +446,15 @@ pub struct Shown {
 /// A primary-ray image.
 #[derive(Debug, Clone)]
 pub struct Frame {
+    /// Width, pixels.
     pub width: u32,
+    /// Height, pixels.
     pub height: u32,
+    /// Linear RGB, row-major, row 0 at the top.
     pub pixels: Vec<V3>,
+    /// What each pixel shows (`None`: the environment).
     pub shown: Vec<Option<Shown>>,
+    /// Seconds spent on the primary rays and shading.
     pub render_s: f64,
 }
 
@@ -573,11 +593,18 @@ pub fn render_warped(scene: &RenderScene, spec: &WarpSpec, prep: &Prepared, warp
 
 /// The unwarped meshes as one Embree scene (for the exact trace).
 pub struct Originals {
+    /// Their Embree scene.
     pub scene: Scene,
+    /// Per triangle: (object index, triangle index).
     pub source: Vec<(u32, u32)>,
+    /// Seconds building it.
     pub build_s: f64,
 }
 
+/// The unwarped meshes of `prep` as one Embree scene, for the exact trace.
+///
+/// # Errors
+/// An Embree error while building.
 pub fn build_originals(scene: &RenderScene, prep: &Prepared) -> Result<Originals> {
     let t0 = Instant::now();
     let mut positions = Vec::new();
@@ -649,17 +676,24 @@ pub struct Comparison {
     pub matched: u64,
     /// Pixels where one shows something and the other nothing or another object.
     pub mismatched: u64,
+    /// Pixels compared.
     pub pixels: u64,
     /// Distance between the shown surface points (scene units).
     pub pos_mean: f64,
+    /// Median distance.
     pub pos_median: f64,
+    /// 95th percentile.
     pub pos_p95: f64,
+    /// Largest.
     pub pos_max: f64,
     /// The same in pixel footprints (distance / size of a pixel at the exact
     /// point: the spacing of the exact points of neighbouring pixels).
     pub px_mean: f64,
+    /// Median, in pixel footprints.
     pub px_median: f64,
+    /// 95th percentile, in pixel footprints.
     pub px_p95: f64,
+    /// Largest, in pixel footprints.
     pub px_max: f64,
 }
 
@@ -808,10 +842,13 @@ pub fn grid_scene(path: &str, w: u32, h: u32, vertices: usize) -> Result<(Render
 /// What `snell warp-render` does, as a library call (the bench and tests use it).
 #[derive(Debug, Clone, Default)]
 pub struct WarpRunOptions {
+    /// Render threads (`None`: one per core).
     pub threads: Option<usize>,
     /// Override of `[warp].subdivide` (pixels).
     pub subdivide: Option<f64>,
+    /// Override of `[warp].method`.
     pub method: Option<WarpMethod>,
+    /// Override of `[warp].fresnel`.
     pub fresnel: Option<bool>,
     /// Also run the exact trace and compare.
     pub compare: bool,
@@ -819,16 +856,27 @@ pub struct WarpRunOptions {
 
 /// Everything one warp render measured.
 pub struct WarpReport {
+    /// The warped frame.
     pub frame: Frame,
+    /// The exact trace, its comparison with the frame and the error heat map (with `compare`).
     pub exact: Option<(Frame, Comparison, Vec<V3>)>,
+    /// Vertices after subdivision.
     pub vertices: usize,
+    /// Triangles after subdivision.
     pub triangles: usize,
+    /// Longest projected edge after subdivision (pixels).
     pub max_edge_px: f64,
+    /// Seconds subdividing.
     pub subdivide_s: f64,
+    /// Seconds moving vertices.
     pub warp_s: f64,
+    /// Seconds building the copies' BVHs.
     pub build_s: f64,
+    /// Vertex images found.
     pub images: usize,
+    /// Triangles in no copy.
     pub dropped_triangles: usize,
+    /// Triangles per copy, by copy name.
     pub copies: Vec<(String, usize)>,
     /// Exact trace: BVH build of the unwarped meshes and the trace itself.
     pub exact_build_s: f64,
@@ -840,6 +888,7 @@ impl WarpReport {
         self.warp_s + self.build_s + self.frame.render_s
     }
 
+    /// The report as JSON (timings, sizes, speed-up, the comparison).
     pub fn to_json(&self) -> serde_json::Value {
         let mut v = serde_json::json!({
             "width": self.frame.width,

@@ -52,8 +52,11 @@ pub struct FrameWarp {
     pub warp_s: f64,
     /// Seconds updating the copies (index lists, refit or rebuild).
     pub build_s: f64,
+    /// Vertex images found.
     pub images: usize,
+    /// Copies refitted.
     pub refits: usize,
+    /// Copies rebuilt.
     pub rebuilds: usize,
     /// Triangles in no copy.
     pub dropped_triangles: usize,
