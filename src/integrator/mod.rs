@@ -96,6 +96,29 @@ fn unoccluded(scene: &RenderScene, from: V3, side: V3, wi: V3, dist: f32, st: &m
     !scene.embree.occluded(&r)
 }
 
+/// A light sample seen from the diffuse point `p` (shading normal `n`,
+/// geometric normal `ng`, both on the side the light must be on) and its
+/// cosine at `p`: `None` unless the light is above both normals (a shading
+/// normal can lean past the surface), its straight connection avoids the
+/// gradient-index medium, and nothing occludes it. The one light-sampling
+/// test of both integrators: Whitted's copy had lost the `ng` check.
+fn light_seen(
+    scene: &RenderScene,
+    p: V3,
+    n: V3,
+    ng: V3,
+    rng: &mut Rng,
+    st: &mut Counters,
+) -> Option<(crate::scene::LightSample, f32)> {
+    let ls = scene.sample_light(p, rng)?;
+    let cos = n.dot(ls.wi);
+    (cos > 0.0
+        && ng.dot(ls.wi) > 0.0
+        && !meets_medium(scene, p, ls.wi, ls.dist)
+        && unoccluded(scene, p, ng, ls.wi, ls.dist, st))
+    .then_some((ls, cos))
+}
+
 /// One path segment: the first true hit (if any) and the straight chord it
 /// lies on, the direction the ray arrives with and the distance travelled.
 struct Segment {
@@ -309,21 +332,14 @@ fn path(
                 let ng = if front { sp.ng } else { -sp.ng };
                 let albedo = reflectance.eval(sp.p, sp.uv);
                 // Next-event estimation.
-                if let Some(ls) = scene.sample_light(sp.p, rng) {
-                    let cos = n.dot(ls.wi);
-                    if cos > 0.0
-                        && ng.dot(ls.wi) > 0.0
-                        && !meets_medium(scene, sp.p, ls.wi, ls.dist)
-                        && unoccluded(scene, sp.p, ng, ls.wi, ls.dist, st)
-                    {
-                        let f = albedo * FRAC_1_PI;
-                        let w = if ls.delta {
-                            1.0
-                        } else {
-                            power_heuristic(ls.pdf, cos * FRAC_1_PI)
-                        };
-                        l += beta * f * ls.li * (cos * w / ls.pdf);
-                    }
+                if let Some((ls, cos)) = light_seen(scene, sp.p, n, ng, rng, st) {
+                    let f = albedo * FRAC_1_PI;
+                    let w = if ls.delta {
+                        1.0
+                    } else {
+                        power_heuristic(ls.pdf, cos * FRAC_1_PI)
+                    };
+                    l += beta * f * ls.li * (cos * w / ls.pdf);
                 }
                 let wi = cosine_hemisphere(n, rng.uniform(), rng.uniform());
                 if ng.dot(wi) <= 0.0 {
@@ -467,14 +483,8 @@ fn whitted(
                 let ng = if front { sp.ng } else { -sp.ng };
                 let albedo = reflectance.eval(sp.p, sp.uv);
                 for _ in 0..scene.lights.len() {
-                    if let Some(ls) = scene.sample_light(sp.p, rng) {
-                        let cos = n.dot(ls.wi);
-                        if cos > 0.0
-                            && !meets_medium(scene, sp.p, ls.wi, ls.dist)
-                            && unoccluded(scene, sp.p, ng, ls.wi, ls.dist, st)
-                        {
-                            l += albedo * FRAC_1_PI * ls.li * (cos / ls.pdf) / scene.lights.len() as f32;
-                        }
+                    if let Some((ls, cos)) = light_seen(scene, sp.p, n, ng, rng, st) {
+                        l += albedo * FRAC_1_PI * ls.li * (cos / ls.pdf) / scene.lights.len() as f32;
                     }
                 }
                 // Ambient term from a constant environment (preview only).
