@@ -16,6 +16,11 @@
 //! Ties are broken by declaration order: of two solids with equal priority the
 //! one declared later in the scene file wins, as if its priority were higher by
 //! an infinitesimal (`Solid::rank`). This makes true/false a total order.
+//!
+//! Files: `list.rs` (the list, with ranks), `filter.rs` (the filter and the
+//! application of its records), `trace.rs` (the first true hit, every
+//! strategy), `boundary.rs` (the boundary event at a true hit: the one place
+//! that decides the indices, entering vs leaving and the list after).
 mod boundary;
 mod filter;
 mod list;
