@@ -173,7 +173,7 @@ mod tests {
     //! meets every true hit with [`boundary`]. Checked against brute force:
     //! which intervals contain the point just before and just after.
     use super::*;
-    use crate::dielectric::{apply_rejected, Rejected};
+    use crate::dielectric::{apply_rejected, Rejected, NEAR_CAPACITY};
     use glam::DVec3;
     use proptest::prelude::*;
 
@@ -332,6 +332,17 @@ mod tests {
         #![proptest_config(ProptestConfig::with_cases(2000))]
         #[test]
         fn boundary_events_match_point_classification((solids, spans, pick) in scenes()) {
+            // More than NEAR_CAPACITY surfaces at one point overflow the
+            // filter's records, and trace() re-does that query by re-casting
+            // (tested end to end in tests/nested.rs), which this line model
+            // does not cover: such scenes are rejected, counted by proptest.
+            let most_at_one_point = spans
+                .iter()
+                .flat_map(|&(a, b)| [a, b])
+                .map(|x| spans.iter().filter(|&&(a, b)| a == x || b == x).count())
+                .max()
+                .unwrap_or(0);
+            prop_assume!(most_at_one_point <= NEAR_CAPACITY);
             prop_assert_eq!(walk(&solids, &spans, pick, true), Ok(()));
         }
     }
