@@ -12,7 +12,7 @@ use crate::ray::{front_facing, offset_origin, offset_size, spawn_transmitted, Ra
 use crate::sampling::{cosine_hemisphere, power_heuristic, Rng};
 use crate::scene::IntegratorKind;
 use crate::scene::{Material, RenderScene};
-use glam::Vec3A as V3;
+use glam::{DVec3, Vec3A as V3};
 use std::f32::consts::FRAC_1_PI;
 
 /// What every path of a render shares: the scene, and how nested
@@ -33,6 +33,56 @@ impl<'a> Tracer<'a> {
             strategy: NestedStrategy::Filter,
         }
     }
+
+    /// The boundary event at a true hit (`dielectric::boundary` with this
+    /// tracer's scene and strategy).
+    fn boundary(
+        self,
+        material: &Material,
+        front: bool,
+        coincident: &dielectric::Coincident,
+        list: &mut InteriorList,
+    ) -> Option<dielectric::Boundary> {
+        let nesting = dielectric::Nesting::of(self.scene);
+        dielectric::boundary(nesting, self.strategy, material, front, coincident, list)
+    }
+
+    /// Absorption of the medium a ray inside `list` travels through.
+    fn medium(self, list: &InteriorList) -> Option<V3> {
+        dielectric::medium_of(dielectric::Nesting::of(self.scene), list)
+    }
+}
+
+/// The mirror direction of unit-ish `d` about the shading normal `n`; when
+/// the shading normal pushes it below the surface (`incident_side` is the
+/// geometric normal on the side `d` came from), about the geometric normal.
+fn reflected(d: DVec3, n: DVec3, incident_side: V3) -> V3 {
+    let wi = optics::reflect(d, n).normalize().as_vec3a();
+    if wi.dot(incident_side) > 0.0 {
+        wi
+    } else {
+        optics::reflect(d, incident_side.as_dvec3())
+            .normalize()
+            .as_vec3a()
+    }
+}
+
+/// The refracted direction of `d` through the shading normal `n` from index
+/// `n1` to `n2` (`None`: total internal reflection); when the shading
+/// normal leaves it on the incident side, through the geometric normal.
+fn refracted(d: DVec3, n: DVec3, incident_side: V3, n1: f32, n2: f32) -> Option<V3> {
+    let t = optics::refract(d, n, n1 as f64, n2 as f64)?
+        .normalize()
+        .as_vec3a();
+    if t.dot(incident_side) < 0.0 {
+        return Some(t);
+    }
+    Some(
+        optics::refract(d, incident_side.as_dvec3(), n1 as f64, n2 as f64)
+            .unwrap_or(d)
+            .normalize()
+            .as_vec3a(),
+    )
 }
 
 /// The rays a render asks Embree for, recorded for `snell bench render`'s
@@ -280,7 +330,7 @@ fn path(
     let mut depth = 1u32; // segment index of `ray`
     loop {
         st.segments += 1;
-        let sigma = dielectric::medium_of(dielectric::Nesting::of(scene), &list);
+        let sigma = tr.medium(&list);
         let seg = cast(tr, &ray, &mut list, st)?;
         if seg.failed {
             st.grin_failures += 1;
@@ -361,44 +411,23 @@ fn path(
                 ray = Ray::new(offset_origin(sp.p, side), wi);
             }
             m @ (Material::Interface { .. } | Material::Solid(_)) => {
-                let Some(c) = dielectric::boundary(
-                    dielectric::Nesting::of(scene),
-                    tr.strategy,
-                    m,
-                    front,
-                    &coincident,
-                    &mut list,
-                ) else {
+                let Some(c) = tr.boundary(m, front, &coincident, &mut list) else {
                     break;
                 };
                 let d = ray.dir.as_dvec3();
                 let n = sp.ns.as_dvec3();
-                let cos_i = d.dot(n).abs();
-                let fr = optics::fresnel_dielectric(cos_i, c.n1 as f64, c.n2 as f64);
-                let refr = optics::refract(d, n, c.n1 as f64, c.n2 as f64);
+                let fr = optics::fresnel_dielectric(d.dot(n).abs(), c.n1 as f64, c.n2 as f64);
+                // The geometric side the incident ray came from.
+                let incident_side = if front { sp.ng } else { -sp.ng };
+                let refr = refracted(d, n, incident_side, c.n1, c.n2);
                 if refr.is_none() {
                     st.tir += 1;
                 }
                 let choose_reflect = refr.is_none() || (rng.uniform() as f64) < fr;
-                // The geometric side the incident ray came from.
-                let incident_side = if front { sp.ng } else { -sp.ng };
                 if choose_reflect {
-                    let r = optics::reflect(d, n).normalize();
-                    let mut wi = r.as_vec3a();
-                    if wi.dot(incident_side) <= 0.0 {
-                        // Shading normal pushed the reflection below the surface.
-                        wi = (optics::reflect(d, incident_side.as_dvec3()).normalize()).as_vec3a();
-                    }
-                    ray = Ray::new(offset_origin(sp.p, incident_side), wi);
+                    ray = Ray::new(offset_origin(sp.p, incident_side), reflected(d, n, incident_side));
                 } else {
-                    let t = refr.expect("checked above").normalize();
-                    let mut wi = t.as_vec3a();
-                    if wi.dot(incident_side) >= 0.0 {
-                        wi = (optics::refract(d, incident_side.as_dvec3(), c.n1 as f64, c.n2 as f64)
-                            .unwrap_or(d)
-                            .normalize())
-                        .as_vec3a();
-                    }
+                    let wi = refr.expect("checked above");
                     let k = c.n1 / c.n2;
                     beta *= k * k;
                     eta_scale /= k * k;
@@ -446,7 +475,7 @@ fn whitted(
     let scene = tr.scene;
     st.segments += 1;
     let ray = Ray::new(org, dir);
-    let sigma = dielectric::medium_of(dielectric::Nesting::of(scene), &list);
+    let sigma = tr.medium(&list);
     // The same (curved through a medium) cast as the path tracer.
     let seg = cast(tr, &ray, &mut list, st)?;
     if seg.failed {
@@ -500,21 +529,14 @@ fn whitted(
             l += *reflectance * whitted(tr, offset_origin(sp.p, side), wi, list, rng, st, depth + 1)?;
         }
         m @ (Material::Interface { .. } | Material::Solid(_)) => {
-            let Some(c) = dielectric::boundary(
-                dielectric::Nesting::of(scene),
-                tr.strategy,
-                m,
-                front,
-                &coincident,
-                &mut list,
-            ) else {
+            let Some(c) = tr.boundary(m, front, &coincident, &mut list) else {
                 return Ok(att * l);
             };
             let d = dir.as_dvec3();
             let n = sp.ns.as_dvec3();
             let fr = optics::fresnel_dielectric(d.dot(n).abs(), c.n1 as f64, c.n2 as f64) as f32;
             let side = if front { sp.ng } else { -sp.ng };
-            let wr = (optics::reflect(d, n).normalize()).as_vec3a();
+            let wr = optics::reflect(d, n).normalize().as_vec3a();
             l += fr
                 * whitted(
                     tr,
@@ -525,12 +547,13 @@ fn whitted(
                     st,
                     depth + 1,
                 )?;
-            if let Some(t) = optics::refract(d, n, c.n1 as f64, c.n2 as f64) {
+            if let Some(t) = optics::refract(d, n, c.n1 as f64, c.n2 as f64).map(|t| t.normalize().as_vec3a())
+            {
                 let k = c.n1 / c.n2;
                 let (n1, n2) = (c.n1, c.n2);
                 let mut nl = list;
                 c.transmit(&mut nl);
-                let (org, wt) = spawn_transmitted(sp.p, -side, dir, (t.normalize()).as_vec3a(), n1, n2);
+                let (org, wt) = spawn_transmitted(sp.p, -side, dir, t, n1, n2);
                 l += (1.0 - fr) * k * k * whitted(tr, org, wt, nl, rng, st, depth + 1)?;
             } else {
                 st.tir += 1;
@@ -605,14 +628,7 @@ pub fn refraction_path(
                 escaped: false,
             });
         }
-        let Some(c) = dielectric::boundary(
-            dielectric::Nesting::of(scene),
-            tr.strategy,
-            m,
-            front,
-            &coincident,
-            &mut list,
-        ) else {
+        let Some(c) = tr.boundary(m, front, &coincident, &mut list) else {
             unreachable!("a dielectric material, checked above");
         };
         let d = ray.dir.as_dvec3();
