@@ -536,7 +536,7 @@ fn whitted(
             let n = sp.ns.as_dvec3();
             let fr = optics::fresnel_dielectric(d.dot(n).abs(), c.n1 as f64, c.n2 as f64) as f32;
             let side = if front { sp.ng } else { -sp.ng };
-            let wr = optics::reflect(d, n).normalize().as_vec3a();
+            let wr = reflected(d, n, side);
             l += fr
                 * whitted(
                     tr,
@@ -547,8 +547,7 @@ fn whitted(
                     st,
                     depth + 1,
                 )?;
-            if let Some(t) = optics::refract(d, n, c.n1 as f64, c.n2 as f64).map(|t| t.normalize().as_vec3a())
-            {
+            if let Some(t) = refracted(d, n, side, c.n1, c.n2) {
                 let k = c.n1 / c.n2;
                 let (n1, n2) = (c.n1, c.n2);
                 let mut nl = list;
