@@ -4,8 +4,9 @@ pub use crate::accum::{mean_of, to_fixed, Accum, PartSpec, Region, FIXED_BITS};
 use crate::camera::Camera;
 use crate::counters::Counters;
 use crate::dielectric::{InteriorList, NestedStrategy};
+use crate::embree::warp_ffi::Packet8;
 use crate::error::{Error, Result};
-use crate::integrator::{radiance, Tracer};
+use crate::integrator::{packets_answer_camera_rays, radiance_from, FirstHit, Tracer};
 use crate::sampling::Rng;
 use crate::scene::RenderScene;
 use glam::Vec3A as V3;
@@ -310,6 +311,8 @@ impl TileJob<'_> {
             strategy: self.settings.strategy,
         };
         let start_list = InteriorList::from_solids(&scene.solids, &scene.camera_interior);
+        let packets = packets_answer_camera_rays(tracer);
+        let mut packet = Packet8::new();
         for j in 0..h {
             for i in 0..w {
                 let (x, y) = (x0 + i, y0 + j);
@@ -326,25 +329,50 @@ impl TileJob<'_> {
                 let mut sumsq = V3::ZERO;
                 let taken = self.count - held;
                 let inv = 1.0 / taken.max(1) as f32;
-                for s in self.start + held..self.start + self.count {
-                    let mut rng = Rng::for_sample(self.settings.seed, pixel, s as u64);
-                    let fx = x as f32 + rng.uniform();
-                    let fy = y as f32 + rng.uniform();
-                    let lens = (rng.uniform(), rng.uniform());
-                    let (o, d) = self.camera.ray(fx, fy, lens);
-                    let mut st = Counters::default();
-                    let l = radiance(tracer, o, d, start_list.clone(), &mut rng, &mut st)?;
-                    for (a, v) in acc.iter_mut().zip(l.to_array()) {
-                        *a = a.wrapping_add(to_fixed(v));
+                // The pixel's samples in groups of up to eight: their camera
+                // rays (jittered within one pixel, nearly parallel) go to
+                // Embree as one packet where a plain query answers them.
+                let mut s = self.start + held;
+                while s < self.start + self.count {
+                    let lanes = (self.start + self.count - s).min(8) as usize;
+                    let mut rngs: [Rng; 8] = std::array::from_fn(|i| {
+                        Rng::for_sample(self.settings.seed, pixel, s as u64 + i as u64)
+                    });
+                    let mut rays = [(V3::ZERO, V3::ZERO); 8];
+                    for (rng, ray) in rngs.iter_mut().zip(&mut rays).take(lanes) {
+                        let fx = x as f32 + rng.uniform();
+                        let fy = y as f32 + rng.uniform();
+                        let lens = (rng.uniform(), rng.uniform());
+                        *ray = self.camera.ray(fx, fy, lens);
                     }
-                    sum += l;
-                    sumsq += l * l;
-                    stats += st;
-                    if let Some(a) = &mut aov {
-                        for (layer, kind) in a.layers.iter_mut().zip(Aov::ALL) {
-                            kind.add_sample(&mut layer[k], &st, inv);
+                    if packets {
+                        packet.clear();
+                        for (i, &(o, d)) in rays.iter().take(lanes).enumerate() {
+                            packet.set(i, o, d, f32::INFINITY);
+                        }
+                        scene.embree.intersect8(&mut packet);
+                    }
+                    for (i, (rng, &(o, d))) in rngs.iter_mut().zip(&rays).take(lanes).enumerate() {
+                        let first = if packets {
+                            FirstHit::Known(packet.hit(i))
+                        } else {
+                            FirstHit::Trace
+                        };
+                        let mut st = Counters::default();
+                        let l = radiance_from(tracer, o, d, start_list.clone(), first, rng, &mut st)?;
+                        for (a, v) in acc.iter_mut().zip(l.to_array()) {
+                            *a = a.wrapping_add(to_fixed(v));
+                        }
+                        sum += l;
+                        sumsq += l * l;
+                        stats += st;
+                        if let Some(a) = &mut aov {
+                            for (layer, kind) in a.layers.iter_mut().zip(Aov::ALL) {
+                                kind.add_sample(&mut layer[k], &st, inv);
+                            }
                         }
                     }
+                    s += lanes as u32;
                 }
                 stats.samples += taken as u64;
                 sums[k] = acc;

@@ -274,6 +274,23 @@ impl Packet8 {
         self.valid[i] = if ok { -1 } else { 0 };
     }
 
+    /// Set lane `i` (0..8) to `ray` (its tnear and tfar kept); an invalid ray
+    /// ([`Ray::is_valid`](crate::ray::Ray::is_valid)) leaves the lane inactive.
+    #[inline]
+    pub fn set_ray(&mut self, i: usize, ray: &crate::ray::Ray) {
+        self.set(i, ray.org, ray.dir, ray.tfar);
+        self.rh.ray.tnear[i] = ray.tnear;
+        if !ray.is_valid() {
+            self.valid[i] = 0;
+        }
+    }
+
+    /// Was lane `i` occluded by the last [`Scene::occluded8`]?
+    #[inline]
+    pub fn occluded(&self, i: usize) -> bool {
+        self.valid[i] != 0 && self.rh.ray.tfar[i] == f32::NEG_INFINITY
+    }
+
     /// Lane `i`'s hit after a query (its `tfar` becomes the hit distance).
     #[inline]
     pub fn hit(&self, i: usize) -> Option<Hit> {
@@ -309,6 +326,32 @@ impl Scene {
     /// Trace a packet of up to eight rays (coherent primary rays).
     pub fn intersect8(&self, p: &mut Packet8) {
         intersect8_raw(self.raw, p);
+    }
+
+    /// Occlusion of a packet of up to eight rays: afterwards
+    /// [`Packet8::occluded`] tells which lanes hit something.
+    pub fn occluded8(&self, p: &mut Packet8, coherent: bool) {
+        if !p.any_active() {
+            return;
+        }
+        let mut ctx = init_context(None);
+        if coherent {
+            ctx.flags = sys::RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+        }
+        // SAFETY: committed scene; `valid` has 8 entries; the ray part of the
+        // 32-byte aligned RTCRayHit8 is an RTCRay8 whose active lanes hold
+        // valid rays (checked in `set`/`set_ray`).
+        unsafe { sys::rtcOccluded8(p.valid.as_ptr(), self.raw, &mut ctx, &mut p.rh.ray) };
+    }
+
+    /// [`intersect8`](Self::intersect8) with the incoherent flag (secondary rays).
+    pub fn intersect8_incoherent(&self, p: &mut Packet8) {
+        if !p.any_active() {
+            return;
+        }
+        let mut ctx = init_context(None);
+        // SAFETY: as in `intersect8_raw`.
+        unsafe { sys::rtcIntersect8(p.valid.as_ptr(), self.raw, &mut ctx, &mut p.rh) };
     }
 }
 

@@ -188,6 +188,41 @@ struct Segment {
     entered_medium: bool,
 }
 
+impl Segment {
+    /// A straight segment (no medium) along `ray` ending at `hit`.
+    fn straight(ray: &Ray, hit: Option<dielectric::TrueHit>) -> Segment {
+        Segment {
+            length: hit.map(|h| h.hit.t).unwrap_or(f32::INFINITY),
+            hit,
+            chord: *ray,
+            dir: ray.dir,
+            failed: false,
+            entered_medium: false,
+        }
+    }
+}
+
+/// The camera ray's hit, when the caller has already found it (camera rays
+/// traced in packets, see [`packets_answer_camera_rays`]).
+#[derive(Debug, Clone, Copy)]
+pub enum FirstHit {
+    /// Trace the camera ray here.
+    Trace,
+    /// The nearest hit of a plain query of the camera ray (`None`: a miss).
+    Known(Option<crate::ray::Hit>),
+}
+
+/// Can a plain packet query stand in for `cast` of the camera rays of a
+/// render of `tr` starting inside `list`? Only where `cast` itself would make
+/// one plain query: the path tracer, no gradient-index medium, and no hit
+/// that could be false (no overlapping solids, or nesting off).
+pub fn packets_answer_camera_rays(tr: Tracer<'_>) -> bool {
+    let s = tr.scene;
+    s.integrator == IntegratorKind::Path
+        && s.medium.is_none()
+        && (!s.has_overlap || tr.strategy == NestedStrategy::Off)
+}
+
 /// Chords one curved segment may take before the path is ended (and counted
 /// as an integrator failure).
 pub const MAX_CHORDS_PER_SEGMENT: u32 = 200_000;
@@ -211,14 +246,7 @@ fn cast(tr: Tracer<'_>, ray: &Ray, list: &mut InteriorList, st: &mut Counters) -
     let Some(med) = &scene.medium else {
         ray_log::record(|| ray_log::Logged::Nearest(*ray));
         let hit = dielectric::trace(scene, tr.strategy, ray, list, st)?;
-        return Ok(Segment {
-            length: hit.map(|h| h.hit.t).unwrap_or(f32::INFINITY),
-            hit,
-            chord: *ray,
-            dir: ray.dir,
-            failed: false,
-            entered_medium: false,
-        });
+        return Ok(Segment::straight(ray, hit));
     };
     let mut curved = med.start_ray(ray.org.as_dvec3(), ray.dir.as_dvec3());
     let mut travelled = 0.0f64;
@@ -305,8 +333,23 @@ pub fn radiance(
     rng: &mut Rng,
     st: &mut Counters,
 ) -> Result<V3> {
+    radiance_from(tr, org, dir, list, FirstHit::Trace, rng, st)
+}
+
+/// [`radiance`] with the camera ray's hit possibly found already
+/// (`FirstHit::Known` only where [`packets_answer_camera_rays`] holds; the
+/// Whitted preview always traces).
+pub fn radiance_from(
+    tr: Tracer<'_>,
+    org: V3,
+    dir: V3,
+    list: InteriorList,
+    first: FirstHit,
+    rng: &mut Rng,
+    st: &mut Counters,
+) -> Result<V3> {
     match tr.scene.integrator {
-        IntegratorKind::Path => path(tr, org, dir, list, rng, st),
+        IntegratorKind::Path => path(tr, org, dir, list, first, rng, st),
         IntegratorKind::Whitted => whitted(tr, org, dir, list, rng, st, 1),
     }
 }
@@ -316,6 +359,7 @@ fn path(
     org: V3,
     dir: V3,
     mut list: InteriorList,
+    mut first: FirstHit,
     rng: &mut Rng,
     st: &mut Counters,
 ) -> Result<V3> {
@@ -331,7 +375,21 @@ fn path(
     loop {
         st.segments += 1;
         let sigma = tr.medium(&list);
-        let seg = cast(tr, &ray, &mut list, st)?;
+        let seg = match std::mem::replace(&mut first, FirstHit::Trace) {
+            FirstHit::Trace => cast(tr, &ray, &mut list, st)?,
+            FirstHit::Known(hit) => {
+                // What `cast` would have done and counted for a plain query.
+                ray_log::record(|| ray_log::Logged::Nearest(ray));
+                st.queries += 1;
+                Segment::straight(
+                    &ray,
+                    hit.map(|hit| dielectric::TrueHit {
+                        hit,
+                        coincident: Default::default(),
+                    }),
+                )
+            }
+        };
         if seg.failed {
             st.grin_failures += 1;
             break;
