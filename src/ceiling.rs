@@ -9,8 +9,11 @@
 //!
 //! 1 would mean all the render's time is Embree's; the rest is snell's own
 //! work (shading, sampling, the nested rule's bookkeeping, re-casts).
+//! The same rays are also replayed in packets of eight (`rtcIntersect8` /
+//! `rtcOccluded8`, incoherent): how much packets alone could buy.
 //! Renders and replays are interleaved and each ratio is the median over
 //! repetitions, with its range.
+use crate::embree::warp_ffi::Packet8;
 use crate::error::Result;
 use crate::integrator::ray_log::{self, Logged};
 use crate::render::{render, RenderOptions, RenderSettings};
@@ -49,6 +52,9 @@ pub struct CeilingRun {
     pub rays_per_sample: f64,
     /// Bare-Embree replay rays per second (median).
     pub replay_rays_per_s: f64,
+    /// The same rays replayed in incoherent packets of eight (median): what
+    /// packets alone could buy.
+    pub packet_replay_rays_per_s: f64,
     /// samples/s × rays per sample ÷ replay rays/s, per repetition: median, min, max.
     pub share: [f64; 3],
 }
@@ -67,12 +73,19 @@ fn median_min_max(mut v: Vec<f64>) -> [f64; 3] {
     [med, v[0], v[n - 1]]
 }
 
-/// Replay `rays` through bare Embree on `pool`; returns the wall time (s).
-fn replay(scene: &RenderScene, rays: &[Logged], pool: &rayon::ThreadPool) -> f64 {
+/// Replay `rays` through bare Embree on `pool`, one query per ray
+/// (`rtcIntersect1` / `rtcOccluded1`, what the renderer does) or (`packets`)
+/// in packets of eight consecutive rays of one kind (`rtcIntersect8` /
+/// `rtcOccluded8`, incoherent: the log's order interleaves paths); returns
+/// the wall time (s).
+fn replay(scene: &RenderScene, rays: &[Logged], pool: &rayon::ThreadPool, packets: bool) -> f64 {
     let t = Instant::now();
     let hits: u64 = pool.install(|| {
         rays.par_chunks(4096)
             .map(|chunk| {
+                if packets {
+                    return replay_packets(scene, chunk);
+                }
                 let mut n = 0u64;
                 for q in chunk {
                     n += match q {
@@ -86,6 +99,49 @@ fn replay(scene: &RenderScene, rays: &[Logged], pool: &rayon::ThreadPool) -> f64
     });
     std::hint::black_box(hits);
     t.elapsed().as_secs_f64()
+}
+
+/// The packet replay of one chunk: nearest and shadow rays gathered into two
+/// packets of eight, each sent when full (and at the end).
+fn replay_packets(scene: &RenderScene, chunk: &[Logged]) -> u64 {
+    let (mut near, mut shadow) = (Packet8::new(), Packet8::new());
+    let (mut nn, mut ns, mut hits) = (0usize, 0usize, 0u64);
+    let mut flush = |p: &mut Packet8, k: &mut usize, occlusion: bool| {
+        if occlusion {
+            scene.embree.occluded8(p, false);
+            hits += (0..*k).filter(|&i| p.occluded(i)).count() as u64;
+        } else {
+            scene.embree.intersect8_incoherent(p);
+            hits += (0..*k).filter(|&i| p.hit(i).is_some()).count() as u64;
+        }
+        p.clear();
+        *k = 0;
+    };
+    for q in chunk {
+        match q {
+            Logged::Nearest(r) => {
+                near.set_ray(nn, r);
+                nn += 1;
+                if nn == 8 {
+                    flush(&mut near, &mut nn, false);
+                }
+            }
+            Logged::Shadow(r) => {
+                shadow.set_ray(ns, r);
+                ns += 1;
+                if ns == 8 {
+                    flush(&mut shadow, &mut ns, true);
+                }
+            }
+        }
+    }
+    if nn > 0 {
+        flush(&mut near, &mut nn, false);
+    }
+    if ns > 0 {
+        flush(&mut shadow, &mut ns, true);
+    }
+    hits
 }
 
 /// Measure every scene of `opts`; `progress` gets a line per step.
@@ -124,11 +180,13 @@ pub fn ceiling(opts: &CeilingOptions, mut progress: impl FnMut(&str)) -> Result<
             rays.len()
         ));
         let (mut sps, mut qps, mut rps, mut share) = (vec![], vec![], vec![], vec![]);
+        let mut pps = vec![];
         for _ in 0..opts.reps.max(1) {
             let r = render(&scene, &settings, &ropts)?;
             let wall = r.stats.wall_s.max(1e-9);
             let s = r.stats.counters.samples as f64 / wall;
-            let replay_s = replay(&scene, &rays, &pool).max(1e-9);
+            let replay_s = replay(&scene, &rays, &pool, false).max(1e-9);
+            pps.push(rays.len() as f64 / replay(&scene, &rays, &pool, true).max(1e-9));
             let rr = rays.len() as f64 / replay_s;
             sps.push(s);
             qps.push(r.stats.counters.rays() as f64 / wall);
@@ -141,6 +199,7 @@ pub fn ceiling(opts: &CeilingOptions, mut progress: impl FnMut(&str)) -> Result<
             render_queries_per_s: median_min_max(qps)[0],
             rays_per_sample,
             replay_rays_per_s: median_min_max(rps)[0],
+            packet_replay_rays_per_s: median_min_max(pps)[0],
             share: median_min_max(share),
         };
         progress(&format!("{name}: share of the ceiling {:.2}", run.share[0]));
@@ -156,10 +215,10 @@ pub fn table(runs: &[CeilingRun], opts: &CeilingOptions) -> String {
         "render vs the Embree ceiling of its own rays ({w}x{h}, {spp} spp, {} threads, {} reps; rays recorded at {} spp; share = samples/s x rays per sample / bare-Embree replay rays/s, median (min-max))\n",
         opts.threads, opts.reps, opts.record_spp
     );
-    s.push_str("| scene | samples/s | Embree queries/s (render) | rays/sample | replay rays/s | share of ceiling |\n|---|---|---|---|---|---|\n");
+    s.push_str("| scene | samples/s | Embree queries/s (render) | rays/sample | replay rays/s | share of ceiling | 8-packet replay rays/s |\n|---|---|---|---|---|---|---|\n");
     for r in runs {
         s.push_str(&format!(
-            "| {} | {:.3e} | {:.3e} | {:.2} | {:.3e} | {:.2} ({:.2}-{:.2}) |\n",
+            "| {} | {:.3e} | {:.3e} | {:.2} | {:.3e} | {:.2} ({:.2}-{:.2}) | {:.3e} ({:.2}x) |\n",
             r.scene,
             r.samples_per_s,
             r.render_queries_per_s,
@@ -167,7 +226,9 @@ pub fn table(runs: &[CeilingRun], opts: &CeilingOptions) -> String {
             r.replay_rays_per_s,
             r.share[0],
             r.share[1],
-            r.share[2]
+            r.share[2],
+            r.packet_replay_rays_per_s,
+            r.packet_replay_rays_per_s / r.replay_rays_per_s
         ));
     }
     s
