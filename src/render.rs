@@ -4,9 +4,8 @@ pub use crate::accum::{mean_of, to_fixed, Accum, PartSpec, Region, FIXED_BITS};
 use crate::camera::Camera;
 use crate::counters::Counters;
 use crate::dielectric::{InteriorList, NestedStrategy};
-use crate::embree::warp_ffi::Packet8;
 use crate::error::{Error, Result};
-use crate::integrator::{packets_answer_camera_rays, radiance_from, FirstHit, Tracer};
+use crate::integrator::{packets_answer_camera_rays, path_lanes, radiance, Tracer};
 use crate::sampling::Rng;
 use crate::scene::RenderScene;
 use glam::Vec3A as V3;
@@ -312,7 +311,6 @@ impl TileJob<'_> {
         };
         let start_list = InteriorList::from_solids(&scene.solids, &scene.camera_interior);
         let packets = packets_answer_camera_rays(tracer);
-        let mut packet = Packet8::new();
         for j in 0..h {
             for i in 0..w {
                 let (x, y) = (x0 + i, y0 + j);
@@ -329,9 +327,10 @@ impl TileJob<'_> {
                 let mut sumsq = V3::ZERO;
                 let taken = self.count - held;
                 let inv = 1.0 / taken.max(1) as f32;
-                // The pixel's samples in groups of up to eight: their camera
-                // rays (jittered within one pixel, nearly parallel) go to
-                // Embree as one packet where a plain query answers them.
+                // The pixel's samples in groups of up to eight, traced side by
+                // side where every segment is a plain query: their camera rays
+                // (jittered within one pixel, nearly parallel) go to Embree as
+                // one packet, and so do their later segments and shadow rays.
                 let mut s = self.start + held;
                 while s < self.start + self.count {
                     let lanes = (self.start + self.count - s).min(8) as usize;
@@ -345,30 +344,27 @@ impl TileJob<'_> {
                         let lens = (rng.uniform(), rng.uniform());
                         *ray = self.camera.ray(fx, fy, lens);
                     }
-                    if packets {
-                        packet.clear();
-                        for (i, &(o, d)) in rays.iter().take(lanes).enumerate() {
-                            packet.set(i, o, d, f32::INFINITY);
+                    let mut sts = [Counters::default(); 8];
+                    let ls = if packets {
+                        path_lanes(tracer, &rays[..lanes], &start_list, &mut rngs, &mut sts)?
+                    } else {
+                        let mut ls = [V3::ZERO; 8];
+                        for i in 0..lanes {
+                            let (o, d) = rays[i];
+                            ls[i] = radiance(tracer, o, d, start_list.clone(), &mut rngs[i], &mut sts[i])?;
                         }
-                        scene.embree.intersect8(&mut packet);
-                    }
-                    for (i, (rng, &(o, d))) in rngs.iter_mut().zip(&rays).take(lanes).enumerate() {
-                        let first = if packets {
-                            FirstHit::Known(packet.hit(i))
-                        } else {
-                            FirstHit::Trace
-                        };
-                        let mut st = Counters::default();
-                        let l = radiance_from(tracer, o, d, start_list.clone(), first, rng, &mut st)?;
+                        ls
+                    };
+                    for (&l, st) in ls.iter().zip(&sts).take(lanes) {
                         for (a, v) in acc.iter_mut().zip(l.to_array()) {
                             *a = a.wrapping_add(to_fixed(v));
                         }
                         sum += l;
                         sumsq += l * l;
-                        stats += st;
+                        stats += *st;
                         if let Some(a) = &mut aov {
                             for (layer, kind) in a.layers.iter_mut().zip(Aov::ALL) {
-                                kind.add_sample(&mut layer[k], &st, inv);
+                                kind.add_sample(&mut layer[k], st, inv);
                             }
                         }
                     }

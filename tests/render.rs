@@ -415,3 +415,71 @@ material = { type = "diffuse", reflectance = [0.5, 0.5, 0.5] }
         "{err}"
     );
 }
+
+/// The path tracer's 8-lane packets (`path_lanes`, what renders use where
+/// every segment is a plain query) give every path the radiance and counters
+/// of the scalar path (`radiance`) with the same random numbers, bit for bit,
+/// on the three reference scenes; the comparison has power: the same lanes
+/// with each path's sample index shifted by one give different radiance.
+#[test]
+fn packet_lanes_trace_the_same_paths_as_single_rays() {
+    use snell::counters::Counters;
+    use snell::dielectric::InteriorList;
+    use snell::integrator::{packets_answer_camera_rays, path_lanes, radiance, Tracer};
+    use snell::render::RenderSettings;
+    use snell::sampling::Rng;
+    for name in ["three_spheres", "glass_of_water", "cylinder_refraction"] {
+        let scene = load_scene(
+            Path::new(&format!("scenes/{name}.toml")),
+            &BuildOptions::default(),
+        )
+        .unwrap();
+        let tr = Tracer::new(&scene);
+        assert!(
+            packets_answer_camera_rays(tr),
+            "{name}: the reference scenes take the packet path"
+        );
+        let settings = RenderSettings::from_scene(&scene)
+            .with_resolution(64, 48)
+            .unwrap();
+        let cam = settings.camera(&scene);
+        let list = InteriorList::from_solids(&scene.solids, &scene.camera_interior);
+        let (mut lit, mut shifted_differs) = (0, 0);
+        for pixel in (0..64 * 48).step_by(37) {
+            let (x, y) = ((pixel % 64) as f32, (pixel / 64) as f32);
+            let rngs_at = |first: u64| -> [Rng; 8] {
+                std::array::from_fn(|i| Rng::for_sample(3, pixel, first + i as u64))
+            };
+            let mut rngs = rngs_at(0);
+            let cams: Vec<_> = rngs
+                .iter_mut()
+                .map(|r| cam.ray(x + r.uniform(), y + r.uniform(), (r.uniform(), r.uniform())))
+                .collect();
+            let mut scalar_rngs = rngs.clone();
+            let mut sts = [Counters::default(); 8];
+            let lanes = path_lanes(tr, &cams, &list, &mut rngs, &mut sts).unwrap();
+            for i in 0..8 {
+                let mut st = Counters::default();
+                let (o, d) = cams[i];
+                let l = radiance(tr, o, d, list.clone(), &mut scalar_rngs[i], &mut st).unwrap();
+                assert_eq!(
+                    l.to_array().map(f32::to_bits),
+                    lanes[i].to_array().map(f32::to_bits),
+                    "{name} pixel {pixel} lane {i}"
+                );
+                assert_eq!(st, sts[i], "{name} pixel {pixel} lane {i}: counters");
+                lit += (l.max_element() > 0.0) as u32;
+            }
+            // Power: other random numbers give other paths.
+            let mut other = rngs_at(1);
+            let mut sts2 = [Counters::default(); 8];
+            let shifted = path_lanes(tr, &cams, &list, &mut other, &mut sts2).unwrap();
+            shifted_differs += (shifted != lanes) as u32;
+        }
+        assert!(lit > 100, "{name}: {lit} lit paths, too few to compare");
+        assert!(
+            shifted_differs > 40,
+            "{name}: shifted random numbers changed only {shifted_differs} groups"
+        );
+    }
+}

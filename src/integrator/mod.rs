@@ -6,6 +6,7 @@
 //! camera ray (1 = directly visible emitters only, 2 = direct lighting).
 use crate::counters::Counters;
 use crate::dielectric::{self, InteriorList, NestedStrategy};
+use crate::embree::warp_ffi::Packet8;
 use crate::error::Result;
 use crate::optics;
 use crate::ray::{front_facing, offset_origin, offset_size, spawn_transmitted, Ray};
@@ -132,26 +133,46 @@ pub mod ray_log {
     }
 }
 
-fn unoccluded(scene: &RenderScene, from: V3, side: V3, wi: V3, dist: f32, st: &mut Counters) -> bool {
+/// The shadow ray from `from` (offset to the side `side`) along `wi` for
+/// `dist`, counted and logged; `None` when the connection is too short to
+/// hold anything (then it is unoccluded without a query).
+fn shadow_ray(from: V3, side: V3, wi: V3, dist: f32, st: &mut Counters) -> Option<Ray> {
     st.shadow_rays += 1;
     let o = offset_origin(from, side);
     let mut r = Ray::new(o, wi);
     if dist.is_finite() {
         r.tfar = dist * (1.0 - 1e-4) - 2.0 * offset_size(from);
         if r.tfar <= 0.0 {
-            return true;
+            return None;
         }
     }
     ray_log::record(|| ray_log::Logged::Shadow(r));
-    !scene.embree.occluded(&r)
+    Some(r)
 }
 
-/// A light sample seen from the diffuse point `p` (shading normal `n`,
-/// geometric normal `ng`, both on the side the light must be on) and its
-/// cosine at `p`: `None` unless the light is above both normals (a shading
-/// normal can lean past the surface), its straight connection avoids the
-/// gradient-index medium, and nothing occludes it. The one light-sampling
-/// test of both integrators: Whitted's copy had lost the `ng` check.
+fn unoccluded(scene: &RenderScene, from: V3, side: V3, wi: V3, dist: f32, st: &mut Counters) -> bool {
+    shadow_ray(from, side, wi, dist, st).is_none_or(|r| !scene.embree.occluded(&r))
+}
+
+/// A light sample from the diffuse point `p` before its shadow ray: `None`
+/// unless the light is above both normals (`n` shading, `ng` geometric, both
+/// on the light's side; a shading normal can lean past the surface) and its
+/// straight connection avoids the gradient-index medium. With its cosine at `p`.
+fn light_candidate(
+    scene: &RenderScene,
+    p: V3,
+    n: V3,
+    ng: V3,
+    rng: &mut Rng,
+) -> Option<(crate::scene::LightSample, f32)> {
+    let ls = scene.sample_light(p, rng)?;
+    let cos = n.dot(ls.wi);
+    (cos > 0.0 && ng.dot(ls.wi) > 0.0 && !meets_medium(scene, p, ls.wi, ls.dist)).then_some((ls, cos))
+}
+
+/// A light sample seen from the diffuse point `p` ([`light_candidate`]) and
+/// not occluded. The one light-sampling test of both integrators: Whitted's
+/// copy had lost the `ng` check.
 fn light_seen(
     scene: &RenderScene,
     p: V3,
@@ -160,13 +181,7 @@ fn light_seen(
     rng: &mut Rng,
     st: &mut Counters,
 ) -> Option<(crate::scene::LightSample, f32)> {
-    let ls = scene.sample_light(p, rng)?;
-    let cos = n.dot(ls.wi);
-    (cos > 0.0
-        && ng.dot(ls.wi) > 0.0
-        && !meets_medium(scene, p, ls.wi, ls.dist)
-        && unoccluded(scene, p, ng, ls.wi, ls.dist, st))
-    .then_some((ls, cos))
+    light_candidate(scene, p, n, ng, rng).filter(|(ls, _)| unoccluded(scene, p, ng, ls.wi, ls.dist, st))
 }
 
 /// One path segment: the first true hit (if any) and the straight chord it
@@ -202,20 +217,10 @@ impl Segment {
     }
 }
 
-/// The camera ray's hit, when the caller has already found it (camera rays
-/// traced in packets, see [`packets_answer_camera_rays`]).
-#[derive(Debug, Clone, Copy)]
-pub enum FirstHit {
-    /// Trace the camera ray here.
-    Trace,
-    /// The nearest hit of a plain query of the camera ray (`None`: a miss).
-    Known(Option<crate::ray::Hit>),
-}
-
-/// Can a plain packet query stand in for `cast` of the camera rays of a
-/// render of `tr` starting inside `list`? Only where `cast` itself would make
-/// one plain query: the path tracer, no gradient-index medium, and no hit
-/// that could be false (no overlapping solids, or nesting off).
+/// Can [`path_lanes`] trace the paths of a render of `tr` (packets standing in
+/// for `cast`)? Only where `cast` itself makes one plain query per segment:
+/// the path tracer, no gradient-index medium, and no hit that could be false
+/// (no overlapping solids, or nesting off).
 pub fn packets_answer_camera_rays(tr: Tracer<'_>) -> bool {
     let s = tr.scene;
     s.integrator == IntegratorKind::Path
@@ -333,81 +338,83 @@ pub fn radiance(
     rng: &mut Rng,
     st: &mut Counters,
 ) -> Result<V3> {
-    radiance_from(tr, org, dir, list, FirstHit::Trace, rng, st)
-}
-
-/// [`radiance`] with the camera ray's hit possibly found already
-/// (`FirstHit::Known` only where [`packets_answer_camera_rays`] holds; the
-/// Whitted preview always traces).
-pub fn radiance_from(
-    tr: Tracer<'_>,
-    org: V3,
-    dir: V3,
-    list: InteriorList,
-    first: FirstHit,
-    rng: &mut Rng,
-    st: &mut Counters,
-) -> Result<V3> {
     match tr.scene.integrator {
-        IntegratorKind::Path => path(tr, org, dir, list, first, rng, st),
+        IntegratorKind::Path => path(tr, org, dir, list, rng, st),
         IntegratorKind::Whitted => whitted(tr, org, dir, list, rng, st, 1),
     }
 }
 
-fn path(
-    tr: Tracer<'_>,
-    org: V3,
-    dir: V3,
-    mut list: InteriorList,
-    mut first: FirstHit,
-    rng: &mut Rng,
-    st: &mut Counters,
-) -> Result<V3> {
-    let scene = tr.scene;
-    let mut l = V3::ZERO;
-    let mut beta = V3::ONE;
-    let mut eta_scale = 1.0f32;
-    let mut ray = Ray::new(org, dir);
-    let mut specular = true;
-    let mut prev_p = org;
-    let mut prev_pdf = 0.0f32;
-    let mut depth = 1u32; // segment index of `ray`
-    loop {
-        st.segments += 1;
-        let sigma = tr.medium(&list);
-        let seg = match std::mem::replace(&mut first, FirstHit::Trace) {
-            FirstHit::Trace => cast(tr, &ray, &mut list, st)?,
-            FirstHit::Known(hit) => {
-                // What `cast` would have done and counted for a plain query.
-                ray_log::record(|| ray_log::Logged::Nearest(ray));
-                st.queries += 1;
-                Segment::straight(
-                    &ray,
-                    hit.map(|hit| dielectric::TrueHit {
-                        hit,
-                        coincident: Default::default(),
-                    }),
-                )
-            }
-        };
+/// A path tracer's path between two segments: the loop state of [`path`]
+/// and of [`path_lanes`], which both advance it with [`PathState::advance`].
+struct PathState {
+    l: V3,
+    beta: V3,
+    eta_scale: f32,
+    /// The next segment's ray.
+    ray: Ray,
+    specular: bool,
+    prev_p: V3,
+    prev_pdf: f32,
+    /// Segment index of `ray`.
+    depth: u32,
+    list: InteriorList,
+}
+
+/// A next-event connection waiting for its shadow ray: `contrib` is added to
+/// the path's radiance if `ray` is unoccluded.
+struct PendingShadow {
+    ray: Ray,
+    contrib: V3,
+}
+
+impl PathState {
+    fn new(org: V3, dir: V3, list: InteriorList) -> Self {
+        PathState {
+            l: V3::ZERO,
+            beta: V3::ONE,
+            eta_scale: 1.0,
+            ray: Ray::new(org, dir),
+            specular: true,
+            prev_p: org,
+            prev_pdf: 0.0,
+            depth: 1,
+            list,
+        }
+    }
+
+    /// Shade the segment `seg` just cast along `self.ray` (`sigma`: the
+    /// medium's absorption before the cast): emission, the next-event
+    /// connection (returned as a shadow ray to resolve before the next
+    /// segment, in order), the next ray and Russian roulette. `false`: the
+    /// path has ended.
+    fn advance(
+        &mut self,
+        tr: Tracer<'_>,
+        sigma: Option<V3>,
+        seg: Segment,
+        rng: &mut Rng,
+        st: &mut Counters,
+    ) -> (Option<PendingShadow>, bool) {
+        let scene = tr.scene;
+        let mut shadow = None;
         if seg.failed {
             st.grin_failures += 1;
-            break;
+            return (None, false);
         }
         let Some(dielectric::TrueHit { hit, coincident }) = seg.hit else {
             if sigma.is_none() {
-                l += beta * scene.environment.eval(seg.dir);
+                self.l += self.beta * scene.environment.eval(seg.dir);
             }
-            break;
+            return (None, false);
         };
         if let Some(s) = sigma {
-            beta *= (-s * seg.length).exp();
+            self.beta *= (-s * seg.length).exp();
         }
         let sp = scene.surface_point(&seg.chord, &hit);
         // Shade with the direction the (possibly curved) ray arrives with.
-        ray.dir = seg.dir;
+        self.ray.dir = seg.dir;
         let rec = &scene.geoms[hit.geom_id as usize];
-        let front = front_facing(sp.ng, ray.dir);
+        let front = front_facing(sp.ng, self.ray.dir);
 
         if let Some(em) = &rec.emission {
             if front {
@@ -415,64 +422,68 @@ fn path(
                 let w = match rec.light {
                     // A path through the medium cannot come from NEE (which
                     // only connects straight segments that avoid it): weight 1.
-                    Some(li) if !specular && !seg.entered_medium => {
-                        let lp = scene.light_pdf(li, prev_p, sp.p, ray.dir);
-                        power_heuristic(prev_pdf, lp)
+                    Some(li) if !self.specular && !seg.entered_medium => {
+                        let lp = scene.light_pdf(li, self.prev_p, sp.p, self.ray.dir);
+                        power_heuristic(self.prev_pdf, lp)
                     }
                     _ => 1.0,
                 };
-                l += beta * le * w;
+                self.l += self.beta * le * w;
             }
         }
-        if depth >= scene.max_depth {
-            break;
+        if self.depth >= scene.max_depth {
+            return (None, false);
         }
         match &rec.material {
-            Material::Black => break,
+            Material::Black => return (None, false),
             Material::Diffuse {
                 reflectance,
                 two_sided,
             } => {
                 if !front && !two_sided {
-                    break; // one-sided: black from behind
+                    return (None, false); // one-sided: black from behind
                 }
                 let n = if front { sp.ns } else { -sp.ns };
                 let ng = if front { sp.ng } else { -sp.ng };
                 let albedo = reflectance.eval(sp.p, sp.uv);
                 // Next-event estimation.
-                if let Some((ls, cos)) = light_seen(scene, sp.p, n, ng, rng, st) {
+                if let Some((ls, cos)) = light_candidate(scene, sp.p, n, ng, rng) {
                     let f = albedo * FRAC_1_PI;
                     let w = if ls.delta {
                         1.0
                     } else {
                         power_heuristic(ls.pdf, cos * FRAC_1_PI)
                     };
-                    l += beta * f * ls.li * (cos * w / ls.pdf);
+                    let contrib = self.beta * f * ls.li * (cos * w / ls.pdf);
+                    match shadow_ray(sp.p, ng, ls.wi, ls.dist, st) {
+                        None => self.l += contrib,
+                        Some(ray) => shadow = Some(PendingShadow { ray, contrib }),
+                    }
                 }
                 let wi = cosine_hemisphere(n, rng.uniform(), rng.uniform());
                 if ng.dot(wi) <= 0.0 {
-                    break;
+                    return (shadow, false);
                 }
-                beta *= albedo;
-                prev_pdf = n.dot(wi) * FRAC_1_PI;
-                specular = false;
-                prev_p = sp.p;
-                ray = Ray::new(offset_origin(sp.p, ng), wi);
+                self.beta *= albedo;
+                self.prev_pdf = n.dot(wi) * FRAC_1_PI;
+                self.specular = false;
+                self.prev_p = sp.p;
+                self.ray = Ray::new(offset_origin(sp.p, ng), wi);
             }
             Material::Mirror { reflectance } => {
                 let n = if front { sp.ns } else { -sp.ns };
-                let wi = (optics::reflect(ray.dir.as_dvec3(), n.as_dvec3()).normalize()).as_vec3a();
-                beta *= *reflectance;
-                specular = true;
-                prev_p = sp.p;
+                let wi = (optics::reflect(self.ray.dir.as_dvec3(), n.as_dvec3()).normalize()).as_vec3a();
+                self.beta *= *reflectance;
+                self.specular = true;
+                self.prev_p = sp.p;
                 let side = if front { sp.ng } else { -sp.ng };
-                ray = Ray::new(offset_origin(sp.p, side), wi);
+                self.ray = Ray::new(offset_origin(sp.p, side), wi);
             }
             m @ (Material::Interface { .. } | Material::Solid(_)) => {
-                let Some(c) = tr.boundary(m, front, &coincident, &mut list) else {
-                    break;
+                let Some(c) = tr.boundary(m, front, &coincident, &mut self.list) else {
+                    return (None, false);
                 };
-                let d = ray.dir.as_dvec3();
+                let d = self.ray.dir.as_dvec3();
                 let n = sp.ns.as_dvec3();
                 let fr = optics::fresnel_dielectric(d.dot(n).abs(), c.n1 as f64, c.n2 as f64);
                 // The geometric side the incident ray came from.
@@ -483,40 +494,163 @@ fn path(
                 }
                 let choose_reflect = refr.is_none() || (rng.uniform() as f64) < fr;
                 if choose_reflect {
-                    ray = Ray::new(offset_origin(sp.p, incident_side), reflected(d, n, incident_side));
+                    self.ray = Ray::new(offset_origin(sp.p, incident_side), reflected(d, n, incident_side));
                 } else {
                     let wi = refr.expect("checked above");
                     let k = c.n1 / c.n2;
-                    beta *= k * k;
-                    eta_scale /= k * k;
-                    let (org, wt) = spawn_transmitted(sp.p, -incident_side, ray.dir, wi, c.n1, c.n2);
-                    c.transmit(&mut list);
-                    ray = Ray::new(org, wt);
+                    self.beta *= k * k;
+                    self.eta_scale /= k * k;
+                    let (org, wt) = spawn_transmitted(sp.p, -incident_side, self.ray.dir, wi, c.n1, c.n2);
+                    c.transmit(&mut self.list);
+                    self.ray = Ray::new(org, wt);
                 }
-                specular = true;
-                prev_p = sp.p;
+                self.specular = true;
+                self.prev_p = sp.p;
             }
         }
-        depth += 1;
+        self.depth += 1;
         // A path with zero throughput (a black reflectance: cylinder_refraction's
         // emitting plane) can add nothing more; the rest of it was 22% of that
         // scene's rays. Same image: every later term would be multiplied by 0.
-        if beta.max_element() <= 0.0 {
+        if self.beta.max_element() <= 0.0 {
+            return (shadow, false);
+        }
+        if self.depth > scene.rr_depth {
+            let q = (self.beta.max_element() * self.eta_scale).min(0.95);
+            if rng.uniform() >= q {
+                return (shadow, false);
+            }
+            self.beta /= q;
+        }
+        (shadow, true)
+    }
+
+    /// The path's radiance (0, counted, when it is not finite).
+    fn radiance(&self, st: &mut Counters) -> V3 {
+        if self.l.is_finite() {
+            self.l
+        } else {
+            st.nan += 1;
+            V3::ZERO
+        }
+    }
+}
+
+fn path(
+    tr: Tracer<'_>,
+    org: V3,
+    dir: V3,
+    list: InteriorList,
+    rng: &mut Rng,
+    st: &mut Counters,
+) -> Result<V3> {
+    let mut p = PathState::new(org, dir, list);
+    loop {
+        st.segments += 1;
+        let sigma = tr.medium(&p.list);
+        let seg = cast(tr, &p.ray, &mut p.list, st)?;
+        let (shadow, go) = p.advance(tr, sigma, seg, rng, st);
+        if let Some(sh) = shadow {
+            if !tr.scene.embree.occluded(&sh.ray) {
+                p.l += sh.contrib;
+            }
+        }
+        if !go {
             break;
         }
-        if depth > scene.rr_depth {
-            let q = (beta.max_element() * eta_scale).min(0.95);
-            if rng.uniform() >= q {
-                break;
+    }
+    Ok(p.radiance(st))
+}
+
+/// The segment of `ray` whose plain query answered `hit`, counted and logged
+/// as `cast` would have.
+fn known_segment(ray: &Ray, hit: Option<crate::ray::Hit>, st: &mut Counters) -> Segment {
+    ray_log::record(|| ray_log::Logged::Nearest(*ray));
+    st.queries += 1;
+    Segment::straight(
+        ray,
+        hit.map(|hit| dielectric::TrueHit {
+            hit,
+            coincident: Default::default(),
+        }),
+    )
+}
+
+/// Up to eight paths of the path tracer traced side by side: every segment
+/// of the live paths goes to Embree as one packet of eight (the camera rays
+/// as a coherent one), and so does every batch of shadow rays. Each path
+/// gives the same radiance, bit for bit, as [`radiance`] with its own `rng`:
+/// the shading is [`PathState::advance`] in both, and each path's random
+/// numbers are its own. Only where [`packets_answer_camera_rays`] holds (every
+/// segment is then a plain query); `cams`, `rngs` and `sts` have one entry
+/// per path (at most eight).
+///
+/// # Errors
+/// As [`radiance`].
+pub fn path_lanes(
+    tr: Tracer<'_>,
+    cams: &[(V3, V3)],
+    list: &InteriorList,
+    rngs: &mut [Rng],
+    sts: &mut [Counters],
+) -> Result<[V3; 8]> {
+    let n = cams.len().min(8);
+    debug_assert!(packets_answer_camera_rays(tr) && rngs.len() >= n && sts.len() >= n);
+    let scene = tr.scene;
+    let mut paths: [Option<PathState>; 8] = Default::default();
+    for (slot, &(o, d)) in paths.iter_mut().zip(cams) {
+        *slot = Some(PathState::new(o, d, list.clone()));
+    }
+    let mut out = [V3::ZERO; 8];
+    let (mut near, mut shadow) = (Packet8::new(), Packet8::new());
+    let mut coherent = true;
+    while paths.iter().any(Option::is_some) {
+        near.clear();
+        for (i, p) in paths.iter().enumerate() {
+            if let Some(p) = p {
+                near.set_ray(i, &p.ray);
             }
-            beta /= q;
+        }
+        if coherent {
+            scene.embree.intersect8(&mut near);
+            coherent = false;
+        } else {
+            scene.embree.intersect8_incoherent(&mut near);
+        }
+        shadow.clear();
+        let mut pending: [Option<V3>; 8] = [None; 8];
+        let mut ended = [false; 8];
+        for i in 0..n {
+            let Some(p) = &mut paths[i] else { continue };
+            let st = &mut sts[i];
+            st.segments += 1;
+            let sigma = tr.medium(&p.list);
+            let seg = known_segment(&p.ray, near.hit(i), st);
+            let (sh, go) = p.advance(tr, sigma, seg, &mut rngs[i], st);
+            if let Some(sh) = sh {
+                shadow.set_ray(i, &sh.ray);
+                pending[i] = Some(sh.contrib);
+            }
+            ended[i] = !go;
+        }
+        if pending.iter().any(Option::is_some) {
+            scene.embree.occluded8(&mut shadow, false);
+        }
+        // In each path's order: its shadow ray before its next segment.
+        for i in 0..n {
+            let Some(p) = &mut paths[i] else { continue };
+            if let Some(c) = pending[i] {
+                if !shadow.occluded(i) {
+                    p.l += c;
+                }
+            }
+            if ended[i] {
+                out[i] = p.radiance(&mut sts[i]);
+                paths[i] = None;
+            }
         }
     }
-    if !l.is_finite() {
-        st.nan += 1;
-        return Ok(V3::ZERO);
-    }
-    Ok(l)
+    Ok(out)
 }
 
 /// Whitted: direct light at diffuse surfaces (one sample per light), perfect
