@@ -200,6 +200,17 @@ pub struct Coincident {
 }
 
 impl Coincident {
+    /// No coincident crossings (what a plain query reports). A constant, so a
+    /// plain query's hit is copied whole rather than zeroed field by field
+    /// (whose small stores stalled the wide loads of the copies after them:
+    /// perf, 2.5% of three_spheres).
+    pub const NONE: Coincident = Coincident {
+        items: [(0, 0, false); NEAR_CAPACITY],
+        len: 0,
+        touched: [0; NEAR_CAPACITY],
+        touched_len: 0,
+    };
+
     /// The crossings: (solid, rank, entering).
     pub fn as_slice(&self) -> &[(u32, u32, bool)] {
         &self.items[..self.len]

@@ -391,7 +391,7 @@ impl PathState {
         &mut self,
         tr: Tracer<'_>,
         sigma: Option<V3>,
-        seg: Segment,
+        seg: &Segment,
         rng: &mut Rng,
         st: &mut Counters,
     ) -> (Option<PendingShadow>, bool) {
@@ -401,7 +401,7 @@ impl PathState {
             st.grin_failures += 1;
             return (None, false);
         }
-        let Some(dielectric::TrueHit { hit, coincident }) = seg.hit else {
+        let Some(dielectric::TrueHit { hit, coincident }) = &seg.hit else {
             if sigma.is_none() {
                 self.l += self.beta * scene.environment.eval(seg.dir);
             }
@@ -410,7 +410,7 @@ impl PathState {
         if let Some(s) = sigma {
             self.beta *= (-s * seg.length).exp();
         }
-        let sp = scene.surface_point(&seg.chord, &hit);
+        let sp = scene.surface_point(&seg.chord, hit);
         // Shade with the direction the (possibly curved) ray arrives with.
         self.ray.dir = seg.dir;
         let rec = &scene.geoms[hit.geom_id as usize];
@@ -549,7 +549,7 @@ fn path(
         st.segments += 1;
         let sigma = tr.medium(&p.list);
         let seg = cast(tr, &p.ray, &mut p.list, st)?;
-        let (shadow, go) = p.advance(tr, sigma, seg, rng, st);
+        let (shadow, go) = p.advance(tr, sigma, &seg, rng, st);
         if let Some(sh) = shadow {
             if !tr.scene.embree.occluded(&sh.ray) {
                 p.l += sh.contrib;
@@ -571,7 +571,7 @@ fn known_segment(ray: &Ray, hit: Option<crate::ray::Hit>, st: &mut Counters) -> 
         ray,
         hit.map(|hit| dielectric::TrueHit {
             hit,
-            coincident: Default::default(),
+            coincident: dielectric::Coincident::NONE,
         }),
     )
 }
@@ -626,7 +626,7 @@ pub fn path_lanes(
             st.segments += 1;
             let sigma = tr.medium(&p.list);
             let seg = known_segment(&p.ray, near.hit(i), st);
-            let (sh, go) = p.advance(tr, sigma, seg, &mut rngs[i], st);
+            let (sh, go) = p.advance(tr, sigma, &seg, &mut rngs[i], st);
             if let Some(sh) = sh {
                 shadow.set_ray(i, &sh.ray);
                 pending[i] = Some(sh.contrib);
