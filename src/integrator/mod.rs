@@ -480,7 +480,7 @@ impl PathState {
                 self.ray = Ray::new(offset_origin(sp.p, side), wi);
             }
             m @ (Material::Interface { .. } | Material::Solid(_)) => {
-                let Some(c) = tr.boundary(m, front, &coincident, &mut self.list) else {
+                let Some(c) = tr.boundary(m, front, coincident, &mut self.list) else {
                     return (None, false);
                 };
                 let d = self.ray.dir.as_dvec3();
