@@ -9,6 +9,7 @@ use crate::embree::{Bounds, Candidate, Candidates, UserShape};
 use glam::{DVec3, Vec3A as V3};
 
 /// Ray–sphere crossings in f64 (the f32 quadratic loses too much at grazing).
+#[inline]
 fn sphere_ts(c: DVec3, r: f64, o: DVec3, d: DVec3) -> Option<(f64, f64)> {
     let oc = o - c;
     let a = d.length_squared();
@@ -34,6 +35,7 @@ fn sphere_ts(c: DVec3, r: f64, o: DVec3, d: DVec3) -> Option<(f64, f64)> {
 /// other, so reporting only one would leave the solid in the interior list.
 /// (The earlier fixed 1e-6 + 4e-7·t left a gap below the window: grazing rays
 /// through the circle where two spheres meet kept the second sphere.)
+#[inline]
 fn is_touch(t0: f64, t1: f64, o: DVec3, d: DVec3) -> bool {
     let win = crate::ray::crossing_window_f64(o, d, t0.abs().max(t1.abs()));
     (t1 - t0).abs() <= 1e-6 + t0.abs() * 4e-7 || (t1 - t0).abs() <= win
@@ -94,6 +96,7 @@ pub enum Analytic {
 
 impl Analytic {
     /// Crossings of the ray with the infinite cylinder around (p0, axis), clipped to [0, h].
+    #[inline(always)]
     fn cyl(p0: DVec3, axis: DVec3, h: f64, r: f64, o: DVec3, d: DVec3) -> [Option<(f64, DVec3)>; 2] {
         let mut out = [None; 2];
         let op = o - p0;
@@ -128,6 +131,7 @@ impl Analytic {
         out
     }
 
+    #[inline]
     fn disk(center: DVec3, n: DVec3, r: f64, inner: f64, o: DVec3, d: DVec3) -> Option<f64> {
         let dn = d.dot(n);
         if dn == 0.0 {
@@ -207,6 +211,7 @@ impl Analytic {
     }
 
     /// Unit outward (per convention) normal at a point `p` on primitive `prim`.
+    #[inline]
     pub fn normal(&self, prim: u32, p: DVec3) -> DVec3 {
         match *self {
             Analytic::Sphere { center, .. } => (p - center).normalize_or(DVec3::Y),
@@ -238,6 +243,7 @@ impl Analytic {
     }
 
     /// Snap a point near primitive `prim` onto it exactly (f64).
+    #[inline]
     pub fn project(&self, prim: u32, p: DVec3) -> DVec3 {
         let radial = |p0: DVec3, axis: DVec3, r: f64| {
             let q = p - p0;
