@@ -5,7 +5,7 @@ use crate::camera::Camera;
 use crate::counters::Counters;
 use crate::dielectric::{InteriorList, NestedStrategy};
 use crate::error::{Error, Result};
-use crate::integrator::{packets_answer_camera_rays, path_lanes, radiance, Tracer};
+use crate::integrator::{path_lanes, path_lanes_apply, radiance, Tracer};
 use crate::sampling::Rng;
 use crate::scene::RenderScene;
 use glam::Vec3A as V3;
@@ -310,7 +310,7 @@ impl TileJob<'_> {
             strategy: self.settings.strategy,
         };
         let start_list = InteriorList::from_solids(&scene.solids, &scene.camera_interior);
-        let packets = packets_answer_camera_rays(tracer);
+        let packets = path_lanes_apply(tracer);
         for j in 0..h {
             for i in 0..w {
                 let (x, y) = (x0 + i, y0 + j);
@@ -328,9 +328,9 @@ impl TileJob<'_> {
                 let taken = self.count - held;
                 let inv = 1.0 / taken.max(1) as f32;
                 // The pixel's samples in groups of up to eight, traced side by
-                // side where every segment is a plain query: their camera rays
-                // (jittered within one pixel, nearly parallel) go to Embree as
-                // one packet, and so do their later segments and shadow rays.
+                // side (without a medium): their camera rays (jittered within
+                // one pixel, nearly parallel) go to Embree as one packet, and so
+                // do their later plain-query segments and shadow rays.
                 let mut s = self.start + held;
                 while s < self.start + self.count {
                     let lanes = (self.start + self.count - s).min(8) as usize;

@@ -126,7 +126,7 @@ pub fn trace(
     let plain = |h: Option<Hit>| {
         h.map(|hit| TrueHit {
             hit,
-            coincident: Coincident::default(),
+            coincident: Coincident::NONE,
         })
     };
     // Model only what the scene needs: without overlapping solids no hit can
@@ -220,6 +220,32 @@ pub fn trace(
         NestedStrategy::Toggle => Ok(plain(recast(scene, ray, list, c, true)?)),
         NestedStrategy::Off => unreachable!("handled above"),
     }
+}
+
+/// Can one plain query of a ray inside `list` stand in for [`trace`]?
+/// `Some(check)` when it can: without overlapping solids (or with nesting
+/// off) its hit is the true hit; outside every solid (`list` empty) too,
+/// unless the hit only touches a mesh solid at an edge or vertex, which
+/// `check` tells ([`plain_hit_is_true`]). `None`: only `trace` will do.
+pub fn plain_query_suffices(
+    scene: &RenderScene,
+    strategy: NestedStrategy,
+    list: &InteriorList,
+) -> Option<bool> {
+    if !scene.has_overlap || strategy == NestedStrategy::Off {
+        Some(false)
+    } else if list.is_empty() {
+        Some(true)
+    } else {
+        None
+    }
+}
+
+/// Is the answer `hit` of a plain query of `ray`, by a ray outside every
+/// solid, the hit [`trace`] returns? Not when it only touches a mesh solid at
+/// an edge or vertex (`trace` then continues past it).
+pub fn plain_hit_is_true(scene: &RenderScene, ray: &Ray, hit: Option<&Hit>) -> bool {
+    hit.is_none_or(|h| !is_touch(scene, ray, h))
 }
 
 fn recast(

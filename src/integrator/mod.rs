@@ -217,15 +217,13 @@ impl Segment {
     }
 }
 
-/// Can [`path_lanes`] trace the paths of a render of `tr` (packets standing in
-/// for `cast`)? Only where `cast` itself makes one plain query per segment:
-/// the path tracer, no gradient-index medium, and no hit that could be false
-/// (no overlapping solids, or nesting off).
-pub fn packets_answer_camera_rays(tr: Tracer<'_>) -> bool {
-    let s = tr.scene;
-    s.integrator == IntegratorKind::Path
-        && s.medium.is_none()
-        && (!s.has_overlap || tr.strategy == NestedStrategy::Off)
+/// Can [`path_lanes`] trace the paths of a render of `tr`? The path tracer
+/// without a gradient-index medium (whose curved segments are chains of
+/// queries). Segments that a plain query answers go to Embree in packets
+/// (every segment without overlapping solids; outside every solid with them),
+/// the others through [`dielectric::trace`] one by one.
+pub fn path_lanes_apply(tr: Tracer<'_>) -> bool {
+    tr.scene.integrator == IntegratorKind::Path && tr.scene.medium.is_none()
 }
 
 /// Chords one curved segment may take before the path is ended (and counted
@@ -576,14 +574,15 @@ fn known_segment(ray: &Ray, hit: Option<crate::ray::Hit>, st: &mut Counters) -> 
     )
 }
 
-/// Up to eight paths of the path tracer traced side by side: every segment
-/// of the live paths goes to Embree as one packet of eight (the camera rays
-/// as a coherent one), and so does every batch of shadow rays. Each path
+/// Up to eight paths of the path tracer traced side by side: the segments of
+/// the live paths that a plain query answers
+/// ([`dielectric::plain_query_suffices`]) go to Embree as one packet of eight
+/// (the camera rays as a coherent one), the others through
+/// [`dielectric::trace`]; every batch of shadow rays is one packet. Each path
 /// gives the same radiance, bit for bit, as [`radiance`] with its own `rng`:
 /// the shading is [`PathState::advance`] in both, and each path's random
-/// numbers are its own. Only where [`packets_answer_camera_rays`] holds (every
-/// segment is then a plain query); `cams`, `rngs` and `sts` have one entry
-/// per path (at most eight).
+/// numbers are its own. Only where [`path_lanes_apply`] holds; `cams`, `rngs`
+/// and `sts` have one entry per path (at most eight).
 ///
 /// # Errors
 /// As [`radiance`].
@@ -595,7 +594,7 @@ pub fn path_lanes(
     sts: &mut [Counters],
 ) -> Result<[V3; 8]> {
     let n = cams.len().min(8);
-    debug_assert!(packets_answer_camera_rays(tr) && rngs.len() >= n && sts.len() >= n);
+    debug_assert!(path_lanes_apply(tr) && rngs.len() >= n && sts.len() >= n);
     let scene = tr.scene;
     let mut paths: [Option<PathState>; 8] = Default::default();
     for (slot, &(o, d)) in paths.iter_mut().zip(cams) {
@@ -606,9 +605,13 @@ pub fn path_lanes(
     let mut coherent = true;
     while paths.iter().any(Option::is_some) {
         near.clear();
+        let mut plain: [Option<bool>; 8] = [None; 8];
         for (i, p) in paths.iter().enumerate() {
             if let Some(p) = p {
-                near.set_ray(i, &p.ray);
+                plain[i] = dielectric::plain_query_suffices(scene, tr.strategy, &p.list);
+                if plain[i].is_some() {
+                    near.set_ray(i, &p.ray);
+                }
             }
         }
         if coherent {
@@ -625,7 +628,20 @@ pub fn path_lanes(
             let st = &mut sts[i];
             st.segments += 1;
             let sigma = tr.medium(&p.list);
-            let seg = known_segment(&p.ray, near.hit(i), st);
+            let seg = match plain[i] {
+                Some(check) => {
+                    let hit = near.hit(i);
+                    if check && !dielectric::plain_hit_is_true(scene, &p.ray, hit.as_ref()) {
+                        // A touch at a mesh edge: the packet's query was
+                        // made (counted); `trace` continues past the touch.
+                        st.queries += 1;
+                        cast(tr, &p.ray, &mut p.list, st)?
+                    } else {
+                        known_segment(&p.ray, hit, st)
+                    }
+                }
+                None => cast(tr, &p.ray, &mut p.list, st)?,
+            };
             let (sh, go) = p.advance(tr, sigma, &seg, &mut rngs[i], st);
             if let Some(sh) = sh {
                 shadow.set_ray(i, &sh.ray);
