@@ -13,7 +13,7 @@
 //! `rtcOccluded8`, incoherent): how much packets alone could buy.
 //! Renders and replays are interleaved and each ratio is the median over
 //! repetitions, with its range.
-use crate::embree::warp_ffi::Packet8;
+use crate::embree::warp_ffi::{Packet8, RayPacket};
 use crate::error::Result;
 use crate::integrator::ray_log::{self, Logged};
 use crate::render::{render, RenderOptions, RenderSettings};
@@ -108,10 +108,10 @@ fn replay_packets(scene: &RenderScene, chunk: &[Logged]) -> u64 {
     let (mut nn, mut ns, mut hits) = (0usize, 0usize, 0u64);
     let mut flush = |p: &mut Packet8, k: &mut usize, occlusion: bool| {
         if occlusion {
-            scene.embree.occluded8(p, false);
+            p.occlude(&scene.embree, false);
             hits += (0..*k).filter(|&i| p.occluded(i)).count() as u64;
         } else {
-            scene.embree.intersect8_incoherent(p);
+            p.intersect(&scene.embree, false);
             hits += (0..*k).filter(|&i| p.hit(i).is_some()).count() as u64;
         }
         p.clear();

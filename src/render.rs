@@ -255,6 +255,11 @@ pub static INTERRUPT: AtomicBool = AtomicBool::new(false);
 /// managers running Open Job Description read, and a human line) at every 10%.
 pub static PROGRESS_LINES: AtomicBool = AtomicBool::new(false);
 
+/// Paths traced side by side ([`path_lanes`]): a pixel's samples in groups of
+/// this many, and the Embree packet type they share.
+const LANES: usize = 16;
+type LanePacket = crate::embree::warp_ffi::Packet16;
+
 struct TileOut {
     x0: u32,
     y0: u32,
@@ -333,22 +338,28 @@ impl TileJob<'_> {
                 // do their later plain-query segments and shadow rays.
                 let mut s = self.start + held;
                 while s < self.start + self.count {
-                    let lanes = (self.start + self.count - s).min(8) as usize;
-                    let mut rngs: [Rng; 8] = std::array::from_fn(|i| {
+                    let lanes = (self.start + self.count - s).min(LANES as u32) as usize;
+                    let mut rngs: [Rng; LANES] = std::array::from_fn(|i| {
                         Rng::for_sample(self.settings.seed, pixel, s as u64 + i as u64)
                     });
-                    let mut rays = [(V3::ZERO, V3::ZERO); 8];
+                    let mut rays = [(V3::ZERO, V3::ZERO); LANES];
                     for (rng, ray) in rngs.iter_mut().zip(&mut rays).take(lanes) {
                         let fx = x as f32 + rng.uniform();
                         let fy = y as f32 + rng.uniform();
                         let lens = (rng.uniform(), rng.uniform());
                         *ray = self.camera.ray(fx, fy, lens);
                     }
-                    let mut sts = [Counters::default(); 8];
+                    let mut sts = [Counters::default(); LANES];
                     let ls = if packets {
-                        path_lanes(tracer, &rays[..lanes], &start_list, &mut rngs, &mut sts)?
+                        path_lanes::<LANES, LanePacket>(
+                            tracer,
+                            &rays[..lanes],
+                            &start_list,
+                            &mut rngs,
+                            &mut sts,
+                        )?
                     } else {
-                        let mut ls = [V3::ZERO; 8];
+                        let mut ls = [V3::ZERO; LANES];
                         for i in 0..lanes {
                             let (o, d) = rays[i];
                             ls[i] = radiance(tracer, o, d, start_list.clone(), &mut rngs[i], &mut sts[i])?;

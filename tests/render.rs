@@ -416,7 +416,7 @@ material = { type = "diffuse", reflectance = [0.5, 0.5, 0.5] }
     );
 }
 
-/// The path tracer's 8-lane packets (`path_lanes`, what renders use without
+/// The path tracer's packets of 16 and 8 lanes (`path_lanes`, what renders use without
 /// a gradient-index medium) give every path the radiance and counters of the
 /// scalar path (`radiance`) with the same random numbers, bit for bit, on the
 /// three reference scenes (every segment a packet query) and on two nested
@@ -427,6 +427,7 @@ material = { type = "diffuse", reflectance = [0.5, 0.5, 0.5] }
 fn packet_lanes_trace_the_same_paths_as_single_rays() {
     use snell::counters::Counters;
     use snell::dielectric::{InteriorList, NestedStrategy};
+    use snell::embree::warp_ffi::{Packet16, Packet8};
     use snell::integrator::{path_lanes, path_lanes_apply, radiance, Tracer};
     use snell::render::RenderSettings;
     use snell::sampling::Rng;
@@ -457,7 +458,7 @@ fn packet_lanes_trace_the_same_paths_as_single_rays() {
         let (mut lit, mut shifted_differs) = (0, 0);
         for pixel in (0..64 * 48).step_by(37) {
             let (x, y) = ((pixel % 64) as f32, (pixel / 64) as f32);
-            let rngs_at = |first: u64| -> [Rng; 8] {
+            let rngs_at = |first: u64| -> [Rng; 16] {
                 std::array::from_fn(|i| Rng::for_sample(3, pixel, first + i as u64))
             };
             let mut rngs = rngs_at(0);
@@ -466,9 +467,15 @@ fn packet_lanes_trace_the_same_paths_as_single_rays() {
                 .map(|r| cam.ray(x + r.uniform(), y + r.uniform(), (r.uniform(), r.uniform())))
                 .collect();
             let mut scalar_rngs = rngs.clone();
-            let mut sts = [Counters::default(); 8];
-            let lanes = path_lanes(tr, &cams, &list, &mut rngs, &mut sts).unwrap();
-            for i in 0..8 {
+            // The renderer's width (16) on all of them, and 8 on the first half.
+            let mut rngs8 = rngs.clone();
+            let mut sts8 = [Counters::default(); 8];
+            let lanes8 = path_lanes::<8, Packet8>(tr, &cams[..8], &list, &mut rngs8, &mut sts8).unwrap();
+            let mut sts = [Counters::default(); 16];
+            let lanes = path_lanes::<16, Packet16>(tr, &cams, &list, &mut rngs, &mut sts).unwrap();
+            assert_eq!(lanes8[..], lanes[..8], "{name}: 8 and 16 lanes");
+            assert_eq!(sts8[..], sts[..8], "{name}: 8 and 16 lanes, counters");
+            for i in 0..16 {
                 let mut st = Counters::default();
                 let (o, d) = cams[i];
                 let l = radiance(tr, o, d, list.clone(), &mut scalar_rngs[i], &mut st).unwrap();
@@ -493,8 +500,8 @@ fn packet_lanes_trace_the_same_paths_as_single_rays() {
             }
             // Power: other random numbers give other paths.
             let mut other = rngs_at(1);
-            let mut sts2 = [Counters::default(); 8];
-            let shifted = path_lanes(tr, &cams, &list, &mut other, &mut sts2).unwrap();
+            let mut sts2 = [Counters::default(); 16];
+            let shifted = path_lanes::<16, Packet16>(tr, &cams, &list, &mut other, &mut sts2).unwrap();
             shifted_differs += (shifted != lanes) as u32;
         }
         assert!(lit > 100, "{name}: {lit} lit paths, too few to compare");

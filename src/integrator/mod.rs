@@ -6,7 +6,7 @@
 //! camera ray (1 = directly visible emitters only, 2 = direct lighting).
 use crate::counters::Counters;
 use crate::dielectric::{self, InteriorList, NestedStrategy};
-use crate::embree::warp_ffi::Packet8;
+use crate::embree::warp_ffi::RayPacket;
 use crate::error::Result;
 use crate::optics;
 use crate::ray::{front_facing, offset_origin, offset_size, spawn_transmitted, Ray};
@@ -582,30 +582,31 @@ fn known_segment(ray: &Ray, hit: Option<crate::ray::Hit>, st: &mut Counters) -> 
 /// gives the same radiance, bit for bit, as [`radiance`] with its own `rng`:
 /// the shading is [`PathState::advance`] in both, and each path's random
 /// numbers are its own. Only where [`path_lanes_apply`] holds; `cams`, `rngs`
-/// and `sts` have one entry per path (at most eight).
+/// and `sts` have one entry per path (at most `N`, the width of the packet
+/// type `P`).
 ///
 /// # Errors
 /// As [`radiance`].
-pub fn path_lanes(
+pub fn path_lanes<const N: usize, P: RayPacket<N>>(
     tr: Tracer<'_>,
     cams: &[(V3, V3)],
     list: &InteriorList,
     rngs: &mut [Rng],
     sts: &mut [Counters],
-) -> Result<[V3; 8]> {
-    let n = cams.len().min(8);
+) -> Result<[V3; N]> {
+    let n = cams.len().min(N);
     debug_assert!(path_lanes_apply(tr) && rngs.len() >= n && sts.len() >= n);
     let scene = tr.scene;
-    let mut paths: [Option<PathState>; 8] = Default::default();
+    let mut paths: [Option<PathState>; N] = std::array::from_fn(|_| None);
     for (slot, &(o, d)) in paths.iter_mut().zip(cams) {
         *slot = Some(PathState::new(o, d, list.clone()));
     }
-    let mut out = [V3::ZERO; 8];
-    let (mut near, mut shadow) = (Packet8::new(), Packet8::new());
+    let mut out = [V3::ZERO; N];
+    let (mut near, mut shadow) = (P::default(), P::default());
     let mut coherent = true;
     while paths.iter().any(Option::is_some) {
         near.clear();
-        let mut plain: [Option<bool>; 8] = [None; 8];
+        let mut plain: [Option<bool>; N] = [None; N];
         for (i, p) in paths.iter().enumerate() {
             if let Some(p) = p {
                 plain[i] = dielectric::plain_query_suffices(scene, tr.strategy, &p.list);
@@ -614,15 +615,11 @@ pub fn path_lanes(
                 }
             }
         }
-        if coherent {
-            scene.embree.intersect8(&mut near);
-            coherent = false;
-        } else {
-            scene.embree.intersect8_incoherent(&mut near);
-        }
+        near.intersect(&scene.embree, coherent);
+        coherent = false;
         shadow.clear();
-        let mut pending: [Option<V3>; 8] = [None; 8];
-        let mut ended = [false; 8];
+        let mut pending: [Option<V3>; N] = [None; N];
+        let mut ended = [false; N];
         for i in 0..n {
             let Some(p) = &mut paths[i] else { continue };
             let st = &mut sts[i];
@@ -650,7 +647,7 @@ pub fn path_lanes(
             ended[i] = !go;
         }
         if pending.iter().any(Option::is_some) {
-            scene.embree.occluded8(&mut shadow, false);
+            shadow.occlude(&scene.embree, false);
         }
         // In each path's order: its shadow ray before its next segment.
         for i in 0..n {
