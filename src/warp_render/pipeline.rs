@@ -152,6 +152,8 @@ fn groups(glass: &WarpGlass, keys: &[CopyKey]) -> Vec<Vec<CopyKey>> {
 /// tube, as `classify_keys` computes it) instead of five, and no key
 /// look-ups. Same classes up to rounding at the family edges (tested
 /// through the same pixels as `render_warped`).
+// One value per frame, on the stack: the variants' sizes do not matter.
+#[allow(clippy::large_enum_variant)]
 enum Classifier {
     /// The plate's one copy (direct and warped, see `groups`): every ray
     /// looks at it.
