@@ -16,6 +16,7 @@
 //! - Vertex sweep (Tables 1, 2) and resolution sweep (Table 3).
 //!
 //! SNELL_BENCH_QUICK=1: a short run (smaller sizes, fewer repetitions).
+//! SNELL_BENCH_ONLY=solvers|cylinder|frames|pipeline:SCENE|rays:SCENE: one part.
 use glam::{DVec3, Vec3A};
 use rayon::prelude::*;
 use snell::camera::Camera;
@@ -46,6 +47,19 @@ fn reps() -> usize {
     }
 }
 
+/// CPU seconds of every thread of the process, to the nanosecond (the
+/// scheduler's run time per task in /proc; `farm::cpu_seconds` counts
+/// 10 ms ticks).
+fn cpu_ns() -> f64 {
+    let Ok(dir) = std::fs::read_dir("/proc/self/task") else {
+        return 0.0;
+    };
+    dir.filter_map(|e| std::fs::read_to_string(e.ok()?.path().join("schedstat")).ok())
+        .filter_map(|s| s.split_whitespace().next()?.parse::<f64>().ok())
+        .sum::<f64>()
+        * 1e-9
+}
+
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     v[v.len() / 2]
@@ -68,6 +82,7 @@ struct Summary {
     plate_gbs: f64,
     copy_gbs: f64,
     cyl_100k_ms: f64,
+    cyl_parity_100k_ms: f64,
     cyl_us_per_vertex: f64,
     cyl_images: f64,
     frames: Vec<serde_json::Value>,
@@ -218,7 +233,9 @@ fn cylinder_solver(sum: &mut Summary, eye: DVec3) {
             let b = d.y / d.length();
             (lo.min(b), hi.max(b))
         });
-    let (mut tt, mut tf) = (vec![], vec![]);
+    // The warp's call (`images_no_parity`: the renderer needs no parity),
+    // and `images` with the parity `warp-points` reports, interleaved.
+    let (mut tt, mut tf, mut tp) = (vec![], vec![], vec![]);
     let mut imgs = 0usize;
     for _ in 0..reps() {
         let t = Instant::now();
@@ -227,19 +244,26 @@ fn cylinder_solver(sum: &mut Summary, eye: DVec3) {
         let t = Instant::now();
         imgs = pts
             .par_iter()
-            .map(|p| w.images(*p).map(|v| v.len()).unwrap_or(0))
+            .map(|p| w.images_no_parity(*p).map(|v| v.len()).unwrap_or(0))
             .sum();
         tf.push(t.elapsed().as_secs_f64());
+        let t = Instant::now();
+        let _: usize = pts
+            .par_iter()
+            .map(|p| w.images(*p).map(|v| v.len()).unwrap_or(0))
+            .sum();
+        tp.push(t.elapsed().as_secs_f64());
     }
-    let (tables, fast) = (median(tt), median(tf));
+    let (tables, fast, with_parity) = (median(tt), median(tf), median(tp));
     if only().as_deref() == Some("cylinder") {
         // Profiling the fast solver alone.
         println!(
-            "cylinder fast: {:.3} s + tables {:.3} s per {} vertices, {:.2} images/vertex",
+            "cylinder fast: {:.3} s + tables {:.3} s per {} vertices, {:.2} images/vertex (with parity {:.3} s)",
             fast,
             tables,
             pts.len(),
-            imgs as f64 / pts.len() as f64
+            imgs as f64 / pts.len() as f64,
+            with_parity
         );
         return;
     }
@@ -252,10 +276,11 @@ fn cylinder_solver(sum: &mut Summary, eye: DVec3) {
         .collect();
     let robust = t.elapsed().as_secs_f64() / sample.len() as f64;
     sum.cyl_100k_ms = (fast + tables) * 1e5 / pts.len() as f64 * 1e3;
+    sum.cyl_parity_100k_ms = (with_parity + tables) * 1e5 / pts.len() as f64 * 1e3;
     sum.cyl_us_per_vertex = fast * 1e6 / pts.len() as f64;
     sum.cyl_images = imgs as f64 / pts.len() as f64;
     println!(
-        "cylinder exact (fast), 2 threads: {} vertices in {:.3} s + tables {:.3} s (beta {:.2}..{:.2}) = {:.2} us/vertex, {:.2} images/vertex; robust sampler {:.0} us/vertex ({:.0}x slower)\n  aim: 100k vertices in <= 20 ms on 2 cores; reached {:.0} ms per 100k",
+        "cylinder exact (fast), 2 threads: {} vertices in {:.3} s + tables {:.3} s (beta {:.2}..{:.2}) = {:.2} us/vertex, {:.2} images/vertex; robust sampler {:.0} us/vertex ({:.0}x slower)\n  aim: 100k vertices in <= 20 ms on 2 cores; reached {:.0} ms per 100k (images_no_parity, the warp's call; {:.0} ms with the parity warp-points reports)",
         pts.len(),
         fast,
         tables,
@@ -265,7 +290,8 @@ fn cylinder_solver(sum: &mut Summary, eye: DVec3) {
         sum.cyl_images,
         robust * 1e6,
         robust / (fast / pts.len() as f64),
-        sum.cyl_100k_ms
+        sum.cyl_100k_ms,
+        sum.cyl_parity_100k_ms
     );
     // Paper's approximation: time and angular error against exact, same family.
     let t = Instant::now();
@@ -563,13 +589,32 @@ fn main() -> snell::Result<()> {
     println!("{}", snell::bench_header());
     println!("threads: {}", rayon::current_num_threads());
     let mut sum = Summary::default();
+    if let Some(path) = only().as_deref().and_then(|o| o.strip_prefix("rays:")) {
+        // Profiling the warp frame's rays pass alone: `SNELL_BENCH_ONLY=rays:SCENE`
+        // (one warp, then 10 frames into one buffer; CPU seconds per frame).
+        let (scene, prep) = setup(path, 1600, 1200, 100_000)?;
+        let spec = scene.warp.clone().unwrap();
+        let mut pipe = Pipeline::new(&scene, &spec, &prep, false)?;
+        let mut fb = empty_frame();
+        pipe.warp(&scene)?;
+        pipe.render_into(&scene, &spec, &prep, &mut fb);
+        let mut t = vec![];
+        for _ in 0..10 {
+            let c0 = cpu_ns();
+            pipe.render_into(&scene, &spec, &prep, &mut fb);
+            t.push(cpu_ns() - c0);
+        }
+        t.sort_by(f64::total_cmp);
+        println!("rays: CPU s per frame min {:.4} median {:.4}", t[0], t[5]);
+        return Ok(());
+    }
     if let Some(path) = only().as_deref().and_then(|o| o.strip_prefix("pipeline:")) {
         // Profiling the warp frame alone: `SNELL_BENCH_ONLY=pipeline:SCENE`.
         let (scene, prep) = setup(path, 1600, 1200, 100_000)?;
         let spec = scene.warp.clone().unwrap();
         let mut pipe = Pipeline::new(&scene, &spec, &prep, false)?;
         let mut fb = empty_frame();
-        let cpu = || snell::farm::cpu_seconds().unwrap_or(0.0);
+        let cpu = cpu_ns;
         let (mut cw, mut cr, mut cf, mut ce) = (0.0, 0.0, 0.0, 0.0);
         let orig = build_originals(&scene, &prep)?;
         for _ in 0..reps() {
@@ -705,6 +750,7 @@ fn main() -> snell::Result<()> {
             "plate_batch_gb_per_s": sum.plate_gbs,
             "copy_gb_per_s": sum.copy_gbs,
             "cylinder_100k_ms": sum.cyl_100k_ms,
+            "cylinder_100k_ms_with_parity": sum.cyl_parity_100k_ms,
             "cylinder_us_per_vertex": sum.cyl_us_per_vertex,
             "cylinder_images_per_vertex": sum.cyl_images,
             "tube_1600_speedup": tube.exact_s / tube.frame_s,

@@ -701,8 +701,12 @@ mod random_tests {
     /// reached by eye rays whose impact parameter is within 1e-2..1e-9 of
     /// a family edge (|b| = r, the TIR edge r·m_g/m_a, the silhouette R) at a
     /// random slope, i.e. on the seams where images appear and vanish. Every
-    /// robust image is found by the fast solver; an image only the fast
-    /// solver finds must be real (its exact 3-D path passes the target).
+    /// robust image is found by the fast solver, and every fast image
+    /// (those only it finds included) is real: its exact 3-D path passes
+    /// the target within 1e-8 of the distance (the forward trace of a ray
+    /// grazing a circle is itself ill-conditioned; measured: 81 of the
+    /// 8,105 fast images miss by more than 1e-11 of the distance, the worst
+    /// by 4.7e-9).
     #[test]
     fn no_image_lost_on_random_targets() {
         let mut rng = Lcg(0x5eed);
@@ -717,6 +721,8 @@ mod random_tests {
             let (mut targets, mut robust_images, mut extra) = (0, 0, 0);
             let mut lost: Vec<String> = Vec::new();
             let mut seam_targets = 0;
+            let mut worst_miss: f64 = 0.0;
+            let mut loose = 0;
             for i in 0..2000 {
                 let target = if i % 2 == 0 {
                     DVec3::new(
@@ -762,29 +768,36 @@ mod random_tests {
                     }
                 }
                 for f in &fast {
+                    // Every fast image, re-traced in 3-D, reaches its target
+                    // (1e-8 of the distance: see above).
+                    let miss = glass
+                        .exact_path(eye, f.direction)
+                        .segments
+                        .iter()
+                        .map(|s| {
+                            let rel = target - s.origin;
+                            (rel - s.dir * rel.dot(s.dir).clamp(0.0, s.t_end)).length()
+                        })
+                        .fold(f64::INFINITY, f64::min);
+                    let dist = (target - eye).length();
+                    assert!(
+                        miss < 1e-8 * dist,
+                        "r={inner} {target}: image {f:?} misses by {miss}"
+                    );
+                    worst_miss = worst_miss.max(miss / dist);
+                    if miss > 1e-11 * dist {
+                        loose += 1;
+                    }
                     if !robust
                         .iter()
                         .any(|ir| ir.family == f.family && (f.direction - ir.direction).length() < 1e-8)
                     {
                         extra += 1;
-                        let miss = glass
-                            .exact_path(eye, f.direction)
-                            .segments
-                            .iter()
-                            .map(|s| {
-                                let rel = target - s.origin;
-                                (rel - s.dir * rel.dot(s.dir).clamp(0.0, s.t_end)).length()
-                            })
-                            .fold(f64::INFINITY, f64::min);
-                        assert!(
-                            miss < 1e-8,
-                            "r={inner} {target}: extra image {f:?} misses by {miss}"
-                        );
                     }
                 }
             }
             eprintln!(
-                "r={inner}: {targets} targets ({seam_targets} on seams), {robust_images} robust images, none lost; {extra} extra (real)"
+                "r={inner}: {targets} targets ({seam_targets} on seams), {robust_images} robust images, none lost; {extra} extra (real); re-traced, worst miss {worst_miss:.1e} of the distance, {loose} images beyond 1e-11"
             );
             assert!(lost.is_empty(), "{} lost:\n{}", lost.len(), lost.join("\n"));
             assert!(

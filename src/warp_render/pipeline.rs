@@ -6,16 +6,20 @@
 //! 1. Warp: every vertex gets its images. The plate runs the four-lane
 //!    closed form (`Plate::warp_batch`) straight into the copies' vertex
 //!    arrays; the tube runs the fast solver per vertex.
-//! 2. Copies: one `DynamicMesh` per copy key, its vertex array the images in
-//!    that copy (a vertex without one keeps its unwarped position, which no
-//!    kept triangle uses) and its triangles those whose three vertices have an
-//!    image there. When the triangles are the same as last frame the BVH is
-//!    refitted (`RTC_BUILD_QUALITY_REFIT`), otherwise rebuilt with Embree's
-//!    fast builder: the arrays are shared with Embree, not copied.
+//! 2. Copies: one `DynamicMesh` per group of copy keys (`groups`: the
+//!    plate's direct and warped copies together; each of the tube's keys
+//!    alone), its vertex array one slab per
+//!    key holding the images in that copy (a vertex without one keeps its
+//!    unwarped position, which no kept triangle uses) and its triangles
+//!    those whose three vertices have an image for the same key. When the
+//!    triangles are the same as last frame the BVH is refitted
+//!    (`RTC_BUILD_QUALITY_REFIT`), otherwise rebuilt with Embree's fast
+//!    builder: the arrays are shared with Embree, not copied.
 //! 3. Rays: pixels in spans of eight along a row, classified analytically;
-//!    one `rtcIntersect8` per copy that any lane of the span needs (the
-//!    direct copy up to the glass, then the lanes' copies beyond it); the
-//!    nearest hit wins and is shaded as in `render_warped`.
+//!    one `rtcIntersect8` per group that any lane of the span needs (the
+//!    tube's direct copy up to the glass, then the lanes' groups beyond
+//!    it, each lane culled at its nearest hit so far); the nearest hit wins
+//!    and is shaded as in `render_warped`.
 //!
 //! The images are the ones `warp_scene` + `render_warped` make (same
 //! solvers, same copies, same shading): tested pixel for pixel.
@@ -35,14 +39,28 @@ use glam::{DVec3, Vec3A as V3};
 use rayon::prelude::*;
 use std::time::Instant;
 
-/// One warped copy across frames.
+/// One BVH across frames, holding one or more copy keys (`groups`).
 struct Copy {
-    key: CopyKey,
+    /// Its keys, each with a slab of the vertex array (member m's images at
+    /// `m·nv..(m+1)·nv`) and a run of its triangles.
+    members: Vec<CopyKey>,
+    /// Per member: its bit in `Pipeline::masks` (index in `Pipeline::keys`).
+    member_bits: Vec<u8>,
+    /// Per member: the end of its triangles in `tri_ids`.
+    member_ends: Vec<usize>,
     mesh: DynamicMesh,
     /// Per triangle of the copy: its index in `Pipeline::tris`.
     tri_ids: Vec<u32>,
     /// Next frame's vertex array (swapped with the mesh's).
     next: Vec<[f32; 3]>,
+}
+
+impl Copy {
+    /// The key of the copy's triangle `prim`.
+    fn key_of(&self, prim: usize) -> CopyKey {
+        let m = self.member_ends.iter().position(|&end| prim < end).unwrap_or(0);
+        self.members[m]
+    }
 }
 
 /// Timings and counts of one frame's warp.
@@ -72,8 +90,10 @@ pub struct Pipeline {
     tris: Vec<[u32; 3]>,
     /// Per triangle: (object, triangle in its mesh).
     tri_src: Vec<(u32, u32)>,
+    /// Every copy key of the glass (at most 8).
+    keys: Vec<CopyKey>,
     copies: Vec<Copy>,
-    /// Per vertex: bit k set when the vertex has an image in copy k.
+    /// Per vertex: bit k set when the vertex has an image for `keys[k]`.
     masks: Vec<u8>,
     /// Scratch for the plate's batch.
     plate_class: Vec<std::result::Result<bool, PlateStatus>>,
@@ -86,6 +106,44 @@ pub struct Pipeline {
 
 const SPAN: usize = 8;
 
+/// The copy keys that share one BVH. A ray asks one BVH for the nearest
+/// hit among its members, which must be the nearest hit the ray would
+/// take from the members queried one by one.
+///
+/// The plate: its direct triangles (vertices in front of the near face,
+/// unmoved) lie wholly in front of the near face's plane, the warped ones
+/// wholly behind it (a warped vertex keeps a normal depth `a − L > 0`,
+/// since `a ≥ W > L`). Along an eye ray every direct hit comes before the
+/// plane (where the direct query stopped) and every warped hit after it,
+/// and a ray that does not cross the plane reaches no warped triangle. So
+/// one query per span instead of two, and no classification (−16 % CPU in
+/// the plate's ray pass).
+///
+/// The tube keeps one BVH per key: hollow2 + through4 (asked by the same
+/// rays) and tir2 − + (on the two sides of the plane through the eye and
+/// the axis, which a ray from the eye does not cross) could share one
+/// exactly, but that measured no faster (docs/warp.md). The direct copy
+/// must stay alone: its query stops at the tube, and a direct triangle
+/// across the tube's silhouette would otherwise show through it.
+fn groups(glass: &WarpGlass, keys: &[CopyKey]) -> Vec<Vec<CopyKey>> {
+    let group = |k: &CopyKey| match (glass, k.family) {
+        (WarpGlass::Plate(_), _) => 0,
+        (_, Family::Direct) => 0,
+        (_, Family::Through4) => 1,
+        (_, Family::Hollow2) => 2,
+        (_, Family::Tir2) => 3 + (k.side > 0) as usize,
+        (_, Family::Wall2) => 5 + (k.side > 0) as usize,
+    };
+    let mut out: Vec<Vec<CopyKey>> = Vec::new();
+    for g in 0..7 {
+        let members: Vec<CopyKey> = keys.iter().filter(|k| group(k) == g).copied().collect();
+        if !members.is_empty() {
+            out.push(members);
+        }
+    }
+    out
+}
+
 /// `WarpGlass::classify_keys` for one frame's eye, answering copy bit masks
 /// (bit k: copy k) instead of keys. What depends on the eye alone is
 /// computed once per frame, and the family tests compare squares
@@ -94,13 +152,12 @@ const SPAN: usize = 8;
 /// tube, as `classify_keys` computes it) instead of five, and no key
 /// look-ups. Same classes up to rounding at the family edges (tested
 /// through the same pixels as `render_warped`).
+// One value per frame, on the stack: the variants' sizes do not matter.
+#[allow(clippy::large_enum_variant)]
 enum Classifier {
-    Plate {
-        glass: WarpGlass,
-        eye: DVec3,
-        /// Bits of the direct and warped copies.
-        bits: [u8; 2],
-    },
+    /// The plate's one copy (direct and warped, see `groups`): every ray
+    /// looks at it.
+    Plate { bit: u8 },
     Tube {
         c: crate::warp::HollowCylinder,
         /// The frame's axes across (u, w) and along (a) the tube.
@@ -121,9 +178,7 @@ impl Classifier {
         let key = |family, side| CopyKey { family, side };
         match pipe.glass {
             WarpGlass::Plate(_) => Classifier::Plate {
-                glass: pipe.glass,
-                eye,
-                bits: [bit(CopyKey::DIRECT), bit(key(Family::Wall2, 0))],
+                bit: bit(CopyKey::DIRECT),
             },
             WarpGlass::Cylinder(c) => {
                 let (u, w, a) = c.frame_axes();
@@ -151,10 +206,7 @@ impl Classifier {
     #[inline]
     fn classify(&self, d: DVec3) -> (f64, u8) {
         match self {
-            Classifier::Plate { glass, eye, bits } => {
-                let (t, keys) = glass.classify_keys(*eye, d);
-                (t, if keys[0].is_some() { bits[1] } else { 0 })
-            }
+            Classifier::Plate { bit } => (f64::INFINITY, *bit),
             Classifier::Tube {
                 c,
                 u,
@@ -213,9 +265,14 @@ impl Pipeline {
             return Err(Error::Invalid(format!("{} warp copies: at most 8", keys.len())));
         }
         let mut copies = Vec::new();
-        for key in keys {
+        for members in groups(&spec.glass, &keys) {
             copies.push(Copy {
-                key,
+                member_bits: members
+                    .iter()
+                    .map(|m| keys.iter().position(|k| k == m).unwrap_or(0) as u8)
+                    .collect(),
+                member_ends: vec![0; members.len()],
+                members,
                 mesh: DynamicMesh::new(scene.embree.device(), refit)?,
                 tri_ids: Vec::new(),
                 next: Vec::new(),
@@ -231,12 +288,19 @@ impl Pipeline {
             positions,
             tris,
             tri_src,
+            keys,
             copies,
         })
     }
 
+    /// The copy holding `key`.
     fn key_index(&self, key: CopyKey) -> Option<usize> {
-        self.copies.iter().position(|c| c.key == key)
+        self.copies.iter().position(|c| c.members.contains(&key))
+    }
+
+    /// The bit of `key` in `masks`.
+    fn key_bit(&self, key: CopyKey) -> u8 {
+        self.keys.iter().position(|k| *k == key).map_or(0, |i| 1 << i)
     }
 
     /// Warp every vertex for the scene's current camera and update the copies.
@@ -245,23 +309,30 @@ impl Pipeline {
         let nv = self.positions.len();
         let t0 = Instant::now();
         for c in &mut self.copies {
-            c.next.resize(nv, [0.0; 3]);
+            // One slab of nv vertices per member key.
+            c.next.resize(c.members.len() * nv, [0.0; 3]);
         }
         let images;
         match (&self.glass, self.method) {
             (WarpGlass::Plate(plate), _) => {
-                // Two copies: direct (in front of the plate, unmoved) and the
-                // warped one; the batch writes the warped array in place.
-                let (di, wi) = (
-                    self.key_index(CopyKey::DIRECT).unwrap_or(0),
-                    self.key_index(CopyKey {
+                // One copy (see `groups`): its vertex array holds the
+                // unwarped positions (direct), then the warped ones, which the
+                // batch writes in place.
+                let (dbit, wbit) = (
+                    self.key_bit(CopyKey::DIRECT),
+                    self.key_bit(CopyKey {
                         family: Family::Wall2,
                         side: 0,
-                    })
-                    .unwrap_or(1),
+                    }),
                 );
                 self.plate_class.resize(nv, Ok(false));
-                let mut warped = std::mem::take(&mut self.copies[wi].next);
+                let c = &mut self.copies[0];
+                let mut next = std::mem::take(&mut c.next);
+                let (mut direct, mut warped) = next.split_at_mut(nv);
+                if c.members.first() != Some(&CopyKey::DIRECT) {
+                    std::mem::swap(&mut direct, &mut warped);
+                }
+                direct.copy_from_slice(&self.positions);
                 const CHUNK: usize = 4096;
                 warped
                     .par_chunks_mut(CHUNK)
@@ -272,14 +343,13 @@ impl Pipeline {
                         plate.warp_batch(eye, pts, out, class);
                         for (m, c) in masks.iter_mut().zip(class.iter()) {
                             *m = match c {
-                                Ok(true) => 1 << wi,
-                                Ok(false) => 1 << di,
+                                Ok(true) => wbit,
+                                Ok(false) => dbit,
                                 Err(_) => 0,
                             };
                         }
                     });
-                self.copies[wi].next = warped;
-                self.copies[di].next.copy_from_slice(&self.positions);
+                self.copies[0].next = next;
                 images = self.masks.iter().filter(|&&m| m != 0).count();
             }
             (glass, method) => {
@@ -292,7 +362,7 @@ impl Pipeline {
                     .with_min_len(256)
                     .for_each(|(out, p)| *out = solver.images(*p));
                 let imgs = &self.imgs;
-                let keys: Vec<CopyKey> = self.copies.iter().map(|c| c.key).collect();
+                let keys = &self.keys;
                 self.masks.par_iter_mut().zip(imgs).for_each(|(m, vi)| {
                     *m = keys
                         .iter()
@@ -302,12 +372,12 @@ impl Pipeline {
                 });
                 let positions = &self.positions;
                 self.copies.par_iter_mut().for_each(|c| {
-                    let key = c.key;
-                    c.next
-                        .par_iter_mut()
-                        .zip(imgs)
-                        .zip(positions)
-                        .for_each(|((out, vi), p)| *out = vi.get(key).unwrap_or(*p));
+                    for (slab, &key) in c.next.chunks_mut(nv.max(1)).zip(&c.members) {
+                        slab.par_iter_mut()
+                            .zip(imgs)
+                            .zip(positions)
+                            .for_each(|((out, vi), p)| *out = vi.get(key).unwrap_or(*p));
+                    }
                 });
                 images = imgs.iter().map(|v| v.len()).sum();
             }
@@ -319,28 +389,45 @@ impl Pipeline {
         let results: Vec<Result<Committed>> = self
             .copies
             .par_iter_mut()
-            .enumerate()
-            .map(|(k, c)| {
-                let bit = 1u8 << k;
-                let keep = |t: &[u32; 3]| t.iter().all(|&v| masks[v as usize] & bit != 0);
+            .map(|c| {
+                let ids_with = |bit: u8, out: &mut Vec<u32>| {
+                    let keep = |t: &[u32; 3]| t.iter().all(|&v| masks[v as usize] & bit != 0);
+                    out.extend(
+                        tris.iter()
+                            .enumerate()
+                            .filter(|(_, t)| keep(t))
+                            .map(|(i, _)| i as u32),
+                    );
+                };
+                // Member m's triangles, in order; their vertices index its
+                // slab (offset m·nv).
                 let mut ids: Vec<u32> = Vec::with_capacity(c.tri_ids.len().max(1024));
-                ids.extend(
-                    tris.iter()
-                        .enumerate()
-                        .filter(|(_, t)| keep(t))
-                        .map(|(i, _)| i as u32),
-                );
-                let same = ids == c.tri_ids;
+                let mut ends = Vec::with_capacity(c.members.len());
+                for &b in &c.member_bits {
+                    ids_with(1u8 << b, &mut ids);
+                    ends.push(ids.len());
+                }
+                let same = ids == c.tri_ids && ends == c.member_ends;
                 c.tri_ids = ids;
+                c.member_ends = ends;
                 let next = &mut c.next;
-                let ids = &c.tri_ids;
+                let (ids, ends) = (&c.tri_ids, &c.member_ends);
                 Ok(c.mesh.update(|vs, is| {
                     std::mem::swap(vs, next);
                     if same {
                         return false;
                     }
                     is.clear();
-                    is.extend(ids.iter().map(|&i| tris[i as usize]));
+                    let mut start = 0;
+                    for (m, &end) in ends.iter().enumerate() {
+                        let offset = (m * nv) as u32;
+                        is.extend(
+                            ids[start..end]
+                                .iter()
+                                .map(|&i| tris[i as usize].map(|v| v + offset)),
+                        );
+                        start = end;
+                    }
                     true
                 })?)
             })
@@ -370,11 +457,17 @@ impl Pipeline {
 
     /// Copies and their triangle counts (labels as in reports).
     pub fn copy_sizes(&self) -> Vec<(String, usize)> {
-        self.copies
-            .iter()
-            .filter(|c| !c.tri_ids.is_empty())
-            .map(|c| (c.key.label(), c.tri_ids.len()))
-            .collect()
+        let mut out = Vec::new();
+        for c in &self.copies {
+            let mut start = 0;
+            for (key, &end) in c.members.iter().zip(&c.member_ends) {
+                if end > start {
+                    out.push((key.label(), end - start));
+                }
+                start = end;
+            }
+        }
+        out
     }
 
     /// Render the current copies with straight primary rays in packets of eight.
@@ -403,7 +496,12 @@ impl Pipeline {
         frame.pixels.resize(w * h, V3::ZERO);
         frame.shown.resize(w * h, None);
         let (pixels, shown) = (&mut frame.pixels, &mut frame.shown);
-        let direct = self.key_index(CopyKey::DIRECT);
+        // The direct copy queried up to the glass (the plate's direct
+        // triangles share the one copy every ray asks).
+        let direct = self
+            .copies
+            .iter()
+            .position(|c| c.members[..] == [CopyKey::DIRECT]);
         let eye = DVec3::from(scene.camera.position.to_array().map(|x| x as f64));
         let classifier = Classifier::new(self, eye);
         pixels
@@ -424,7 +522,7 @@ impl Pipeline {
                     }
                     // Nearest hit per lane: (t, copy, prim, u, v).
                     let mut best: [Option<LaneHit>; SPAN] = [None; SPAN];
-                    if let Some(di) = direct {
+                    if let Some(di) = direct.filter(|&di| !self.copies[di].tri_ids.is_empty()) {
                         packet.clear();
                         for l in 0..n {
                             let tfar = class[l].0.min(f32::MAX as f64) as f32;
@@ -444,7 +542,10 @@ impl Pipeline {
                         packet.clear();
                         for l in 0..n {
                             if class[l].1 & (1 << ci) != 0 {
-                                packet.set(l, f3(rays[l].0), f3(rays[l].1), f32::INFINITY);
+                                // Only a nearer hit can change the lane's
+                                // answer: Embree culls beyond the best so far.
+                                let tfar = best[l].map_or(f32::INFINITY, |b| b.0);
+                                packet.set(l, f3(rays[l].0), f3(rays[l].1), tfar);
                             }
                         }
                         c.mesh.intersect8(&mut packet);
@@ -464,7 +565,7 @@ impl Pipeline {
                         };
                         let c = &self.copies[ci];
                         let (obj, tri) = self.tri_src[c.tri_ids[prim as usize] as usize];
-                        let weight = if spec.fresnel && c.key != CopyKey::DIRECT {
+                        let weight = if spec.fresnel && c.key_of(prim as usize) != CopyKey::DIRECT {
                             spec.glass.exact_path(rays[l].0, rays[l].1).transmittance
                         } else {
                             1.0
