@@ -187,7 +187,12 @@ fn light_seen(
 /// One path segment: the first true hit (if any) and the straight chord it
 /// lies on, the direction the ray arrives with and the distance travelled.
 struct Segment {
-    hit: Option<dielectric::TrueHit>,
+    /// The first true hit.
+    hit: Option<crate::ray::Hit>,
+    /// Solid surfaces coincident with the hit (none for a plain query). Kept
+    /// beside the hit rather than in an `Option<TrueHit>`, whose packed
+    /// layout made every copy of a segment stall on its odd-offset stores.
+    coincident: dielectric::Coincident,
     /// The straight ray (a chord inside a medium) the hit was found on.
     chord: Ray,
     /// Unit direction at the end (the tangent of the curved path at the hit,
@@ -205,10 +210,11 @@ struct Segment {
 
 impl Segment {
     /// A straight segment (no medium) along `ray` ending at `hit`.
-    fn straight(ray: &Ray, hit: Option<dielectric::TrueHit>) -> Segment {
+    fn straight(ray: &Ray, hit: Option<crate::ray::Hit>, coincident: dielectric::Coincident) -> Segment {
         Segment {
-            length: hit.map(|h| h.hit.t).unwrap_or(f32::INFINITY),
+            length: hit.map(|h| h.t).unwrap_or(f32::INFINITY),
             hit,
+            coincident,
             chord: *ray,
             dir: ray.dir,
             failed: false,
@@ -248,8 +254,10 @@ fn cast(tr: Tracer<'_>, ray: &Ray, list: &mut InteriorList, st: &mut Counters) -
     let scene = tr.scene;
     let Some(med) = &scene.medium else {
         ray_log::record(|| ray_log::Logged::Nearest(*ray));
-        let hit = dielectric::trace(scene, tr.strategy, ray, list, st)?;
-        return Ok(Segment::straight(ray, hit));
+        return Ok(match dielectric::trace(scene, tr.strategy, ray, list, st)? {
+            Some(th) => Segment::straight(ray, Some(th.hit), th.coincident),
+            None => Segment::straight(ray, None, dielectric::Coincident::NONE),
+        });
     };
     let mut curved = med.start_ray(ray.org.as_dvec3(), ray.dir.as_dvec3());
     let mut travelled = 0.0f64;
@@ -274,6 +282,7 @@ fn cast(tr: Tracer<'_>, ray: &Ray, list: &mut InteriorList, st: &mut Counters) -
         if curved.failure().is_some() || chord.length.is_nan() || chord.length < 0.0 {
             return Ok(Segment {
                 hit: None,
+                coincident: dielectric::Coincident::NONE,
                 chord: *ray,
                 dir: ray.dir,
                 length: travelled as f32,
@@ -297,7 +306,8 @@ fn cast(tr: Tracer<'_>, ray: &Ray, list: &mut InteriorList, st: &mut Counters) -
                 (th.hit.ng.normalize_or(V3::Y)).as_dvec3(),
             );
             return Ok(Segment {
-                hit: Some(th),
+                hit: Some(th.hit),
+                coincident: th.coincident,
                 chord: r,
                 dir: (tangent.normalize()).as_vec3a(),
                 length: (travelled + th.hit.t as f64) as f32,
@@ -308,6 +318,7 @@ fn cast(tr: Tracer<'_>, ray: &Ray, list: &mut InteriorList, st: &mut Counters) -
         if !chord.length.is_finite() {
             return Ok(Segment {
                 hit: None,
+                coincident: dielectric::Coincident::NONE,
                 chord: r,
                 dir: r.dir,
                 length: f32::INFINITY,
@@ -319,6 +330,7 @@ fn cast(tr: Tracer<'_>, ray: &Ray, list: &mut InteriorList, st: &mut Counters) -
     }
     Ok(Segment {
         hit: None,
+        coincident: dielectric::Coincident::NONE,
         chord: *ray,
         dir: ray.dir,
         length: travelled as f32,
@@ -399,7 +411,8 @@ impl PathState {
             st.grin_failures += 1;
             return (None, false);
         }
-        let Some(dielectric::TrueHit { hit, coincident }) = &seg.hit else {
+        let coincident = &seg.coincident;
+        let Some(hit) = &seg.hit else {
             if sigma.is_none() {
                 self.l += self.beta * scene.environment.eval(seg.dir);
             }
@@ -565,13 +578,7 @@ fn path(
 fn known_segment(ray: &Ray, hit: Option<crate::ray::Hit>, st: &mut Counters) -> Segment {
     ray_log::record(|| ray_log::Logged::Nearest(*ray));
     st.queries += 1;
-    Segment::straight(
-        ray,
-        hit.map(|hit| dielectric::TrueHit {
-            hit,
-            coincident: dielectric::Coincident::NONE,
-        }),
-    )
+    Segment::straight(ray, hit, dielectric::Coincident::NONE)
 }
 
 /// Up to eight paths of the path tracer traced side by side: the segments of
@@ -687,7 +694,8 @@ fn whitted(
         st.grin_failures += 1;
         return Ok(V3::ZERO);
     }
-    let Some(dielectric::TrueHit { hit, coincident }) = seg.hit else {
+    let coincident = seg.coincident;
+    let Some(hit) = seg.hit else {
         return Ok(if sigma.is_some() {
             V3::ZERO
         } else {
