@@ -5,7 +5,7 @@ use super::filter::{
 };
 use super::{InteriorList, NestedStrategy};
 use crate::counters::Counters;
-use crate::ray::{crossing_window, front_facing, Hit, Ray};
+use crate::ray::{crossing_window, front_facing, just_past, Hit, Ray};
 use crate::scene::RenderScene;
 
 #[inline]
@@ -13,39 +13,41 @@ fn window(r: &Ray, t: f32) -> f32 {
     crossing_window(r.org, r.dir, t)
 }
 
-/// Is the crossing of `solid` at distance `t` along `ray` a real crossing?
-/// Point-in-solid tests just before and after: `None` for a touch (no change),
-/// `Some(inside_after)` otherwise. Used only near mesh edges and vertices.
-fn verify_crossing(scene: &RenderScene, solid: u32, ray: &Ray, t: f32) -> Option<bool> {
+/// Is the point just past the crossing of `solid` at distance `t` along
+/// `ray` inside the solid? A point-in-solid test, used only near mesh edges
+/// and vertices, where the triangle Embree reports (and its normal) need not
+/// be the one the ray crosses.
+///
+/// Only the side *after* the hit is tested: the side before is what the
+/// interior list holds. (A test before the hit looked at a point behind the
+/// ray's start when the hit was nearer than the test distance: a ray
+/// reflected at the rim's inner edge of the glass saw its own exit through
+/// the inner wall, 5e-5 away, as a touch, and crossed the cavity as glass.)
+fn inside_after(scene: &RenderScene, solid: u32, ray: &Ray, t: f32) -> bool {
     let d = ray.dir.as_dvec3().normalize();
     let o = ray.org.as_dvec3();
     let len = (ray.dir.length() as f64) * t as f64;
     let p = o + d * len;
     let delta = 2e-5 * (1.0 + p.abs().max_element());
-    let before = scene.solid_contains(solid, p - d * delta);
-    let after = scene.solid_contains(solid, p + d * delta);
-    (before != after).then_some(after)
+    scene.solid_contains(solid, p + d * delta)
 }
 
-/// Replace near-edge events by their verified meaning (dropping touches).
+/// Give near-edge events their verified meaning: the ray is inside the solid
+/// after the event iff the point just past it is. A touch (inside as before)
+/// becomes an insert or remove that changes nothing; two reports of one
+/// crossing (a shared edge) agree.
 fn verify_rejected(scene: &RenderScene, ray: &Ray, rejected: &mut [Rejected]) -> usize {
-    let mut k = 0;
-    for i in 0..rejected.len() {
-        let mut r = rejected[i];
+    for r in rejected.iter_mut() {
         if r.near_edge && (r.solid as usize) < scene.solids.len() {
-            match verify_crossing(scene, r.solid, ray, r.t) {
-                None => continue,
-                Some(inside) => r.entering = inside,
-            }
+            r.entering = inside_after(scene, r.solid, ray, r.t);
         }
-        rejected[k] = r;
-        k += 1;
     }
-    k
+    rejected.len()
 }
 
-/// A true hit near a mesh edge that only touches its solid is no crossing.
-fn is_touch(scene: &RenderScene, ray: &Ray, h: &Hit) -> bool {
+/// A true hit near a mesh edge that does not change whether the ray is in
+/// its solid (as `list` says before the hit) is no crossing.
+fn is_touch(scene: &RenderScene, ray: &Ray, h: &Hit, list: &InteriorList) -> bool {
     match scene.solid_by_geom[h.geom_id as usize] {
         Some(s)
             if near_edge(h.u, h.v)
@@ -54,7 +56,7 @@ fn is_touch(scene: &RenderScene, ray: &Ray, h: &Hit) -> bool {
                     crate::scene::Shape::Mesh(_)
                 ) =>
         {
-            verify_crossing(scene, s, ray, h.t).is_none()
+            inside_after(scene, s, ray, h.t) == list.contains(s)
         }
         _ => false,
     }
@@ -143,7 +145,7 @@ pub fn trace(
             let mut r = *ray;
             loop {
                 match scene.embree.intersect(&r) {
-                    Some(h) if is_touch(scene, &r, &h) => {
+                    Some(h) if is_touch(scene, &r, &h, list) => {
                         r.tnear = recast_tnear(&r, h.t);
                         c.queries += 1;
                     }
@@ -163,7 +165,7 @@ pub fn trace(
                     break None;
                 }
                 match hit {
-                    Some(h) if is_touch(scene, &r, &h) => {
+                    Some(h) if is_touch(scene, &r, &h, list) => {
                         // Touching a mesh solid at an edge or vertex: not a crossing.
                         // Apply the false hits before it and continue past it.
                         let n = verify_rejected(scene, &r, &mut filter.rec.rejected[..filter.len]);
@@ -235,7 +237,7 @@ fn recast(
         let Some(h) = scene.embree.intersect(&r) else {
             return Ok(None);
         };
-        if is_touch(scene, &r, &h) {
+        if is_touch(scene, &r, &h, list) {
             r.tnear = recast_tnear(&r, h.t);
             c.queries += 1;
             continue;
@@ -252,7 +254,7 @@ fn recast(
         c.false_hits += 1;
         let s = scene.solid_by_geom[h.geom_id as usize].expect("ranked geometry is a solid");
         let entering = if near_edge(h.u, h.v) && !toggle {
-            verify_crossing(scene, s, &r, h.t).unwrap_or(front_facing(h.ng, r.dir))
+            inside_after(scene, s, &r, h.t)
         } else {
             front_facing(h.ng, r.dir)
         };
@@ -267,7 +269,16 @@ fn recast(
         if list.spilled() {
             c.list_spills += 1;
         }
-        r.tnear = recast_tnear(&r, h.t);
+        // Re-cast from just past the false hit, not past its crossing window:
+        // a surface within the window (the true hit's solid leaving where
+        // a lower solid's surface meets it) would be stepped over. A second
+        // report of the same crossing (a shared mesh edge) repeats the same
+        // insert or remove; the toggle would undo its first, so it keeps the window.
+        r.tnear = if toggle {
+            recast_tnear(&r, h.t)
+        } else {
+            just_past(h.t)
+        };
         c.queries += 1;
     }
     Err(crate::error::Error::Invalid(

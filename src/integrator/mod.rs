@@ -212,7 +212,8 @@ fn cast(tr: Tracer<'_>, ray: &Ray, list: &mut InteriorList, st: &mut Counters) -
         ray_log::record(|| ray_log::Logged::Nearest(*ray));
         let hit = dielectric::trace(scene, tr.strategy, ray, list, st)?;
         return Ok(Segment {
-            length: hit.map(|h| h.hit.t).unwrap_or(f32::INFINITY),
+            // From where the ray starts (tnear: a ray continued on its line).
+            length: hit.map(|h| h.hit.t - ray.tnear).unwrap_or(f32::INFINITY),
             hit,
             chord: *ray,
             dir: ray.dir,
@@ -431,9 +432,11 @@ fn path(
                     let k = c.n1 / c.n2;
                     beta *= k * k;
                     eta_scale /= k * k;
-                    let (org, wt) = spawn_transmitted(sp.p, -incident_side, ray.dir, wi, c.n1, c.n2);
+                    // Straight segments keep their line through index-matched boundaries.
+                    let line = (!seg.entered_medium && scene.medium.is_none()).then_some((&seg.chord, hit.t));
+                    let next = spawn_transmitted(sp.p, -incident_side, ray.dir, wi, (c.n1, c.n2), line);
                     c.transmit(&mut list);
-                    ray = Ray::new(org, wt);
+                    ray = next;
                 }
                 specular = true;
                 prev_p = sp.p;
@@ -552,8 +555,8 @@ fn whitted(
                 let (n1, n2) = (c.n1, c.n2);
                 let mut nl = list;
                 c.transmit(&mut nl);
-                let (org, wt) = spawn_transmitted(sp.p, -side, dir, t, n1, n2);
-                l += (1.0 - fr) * k * k * whitted(tr, org, wt, nl, rng, st, depth + 1)?;
+                let next = spawn_transmitted(sp.p, -side, dir, t, (n1, n2), None);
+                l += (1.0 - fr) * k * k * whitted(tr, next.org, next.dir, nl, rng, st, depth + 1)?;
             } else {
                 st.tir += 1;
             }
@@ -584,10 +587,15 @@ pub struct PathEvent {
     pub list_after: Vec<u32>,
     /// Total internal reflection: the ray was reflected.
     pub tir: bool,
-    /// The ray leaving this event (origin offset off the surface, unit direction).
+    /// Origin of the ray leaving this event (offset off the surface, or the
+    /// origin of the line it continues on: see `next_tnear`).
     pub next_org: V3,
     /// Unit direction of the ray leaving this event.
     pub next_dir: V3,
+    /// Where the ray leaving this event starts on its line (0, or just past
+    /// the hit for a ray continued on its own line through an index-matched
+    /// boundary: then `next_org` is that line's origin, not the hit).
+    pub next_tnear: f32,
 }
 
 /// Follow a ray through dielectrics, always refracting (reflecting only under
@@ -642,23 +650,31 @@ pub fn refraction_path(
             }
             None => ((optics::reflect(d, n).normalize()).as_vec3a(), true),
         };
-        let (next_org, wi) = if tir {
-            (offset_origin(sp.p, incident_side), wi)
+        let next = if tir {
+            Ray::new(offset_origin(sp.p, incident_side), wi)
         } else {
-            spawn_transmitted(sp.p, -incident_side, ray.dir, wi, c.n1, c.n2)
+            spawn_transmitted(
+                sp.p,
+                -incident_side,
+                ray.dir,
+                wi,
+                (c.n1, c.n2),
+                Some((&ray, hit.t)),
+            )
         };
         events.push(PathEvent {
             geom: hit.geom_id,
             point: sp.p,
-            t: hit.t,
+            t: hit.t - ray.tnear,
             n1: c.n1,
             n2: c.n2,
             list_after: list.sorted(),
             tir,
-            next_org,
-            next_dir: wi,
+            next_org: next.org,
+            next_dir: next.dir,
+            next_tnear: next.tnear,
         });
-        ray = Ray::new(next_org, wi);
+        ray = next;
     }
     Ok(RefractionPath {
         events,
