@@ -62,6 +62,64 @@ fn is_touch(scene: &RenderScene, ray: &Ray, h: &Hit, list: &InteriorList) -> boo
     }
 }
 
+/// The mesh solid a ray outside every solid was already in when it hit `h`:
+/// Embree leaked that solid's entry. Robust mode closes edge leaks, not
+/// vertex ones, and a ray aimed through a mesh vertex (the glass's rim, seen
+/// from above) can cross no triangle at all, so there is no hit to verify;
+/// the next hit then lies inside the solid. Tested here, by point-in-solid
+/// just before the hit, for the first hit on a solid of a ray whose list is
+/// empty: the only place such a ray meets a vertex exactly (every later
+/// segment starts at a refraction). Analytic solids do not leak.
+fn leaked_entry(scene: &RenderScene, r: &Ray, h: &Hit) -> Option<(u32, u32)> {
+    let hit_solid = scene.solid_by_geom[h.geom_id as usize]?;
+    let d = r.dir.as_dvec3();
+    let dl = d.length();
+    let p = r.org.as_dvec3() + d * h.t as f64;
+    // A point on the segment the ray travelled, just before the hit.
+    let back = (2e-5 * (1.0 + p.abs().max_element())).min(0.5 * (h.t - r.tnear) as f64 * dl);
+    let q = p - d * (back / dl);
+    scene
+        .solids
+        .iter()
+        .enumerate()
+        .find(|&(i, s)| {
+            i as u32 != hit_solid
+                && matches!(scene.geoms[s.geom as usize].shape, crate::scene::Shape::Mesh(_))
+                && q.cmpge(s.aabb.0).all()
+                && q.cmple(s.aabb.1).all()
+                && scene.solid_contains(i as u32, q)
+        })
+        .map(|(i, s)| (i as u32, s.rank))
+}
+
+/// After a leaked entry of `leaked` (solid, rank) found at the hit `h`: the
+/// list holds the solid. Is the hit still true? If not (its solid ranks
+/// below the leaked one), its crossing is applied as the false hit it is.
+fn repair_leak(scene: &RenderScene, r: &Ray, h: &Hit, leaked: (u32, u32), list: &mut InteriorList) -> bool {
+    list.insert(leaked.0, leaked.1);
+    let rank = scene.rank_by_geom[h.geom_id as usize];
+    if rank > leaked.1 {
+        return true;
+    }
+    if let Some(w) = scene.solid_by_geom[h.geom_id as usize] {
+        let entering = if near_edge(h.u, h.v)
+            && matches!(
+                scene.geoms[h.geom_id as usize].shape,
+                crate::scene::Shape::Mesh(_)
+            ) {
+            inside_after(scene, w, r, h.t)
+        } else {
+            front_facing(h.ng, r.dir)
+        };
+        if entering {
+            list.insert(w, rank);
+        } else {
+            list.remove(w);
+        }
+    }
+    false
+}
+
 /// Offset for re-casting past a false hit (recast strategies).
 #[inline]
 fn recast_tnear(r: &Ray, t: f32) -> f32 {
@@ -149,7 +207,19 @@ pub fn trace(
                         r.tnear = recast_tnear(&r, h.t);
                         c.queries += 1;
                     }
-                    h => return Ok(plain(h)),
+                    Some(h) => {
+                        let Some(leaked) = leaked_entry(scene, &r, &h) else {
+                            return Ok(plain(Some(h)));
+                        };
+                        if repair_leak(scene, &r, &h, leaked, list) {
+                            return Ok(plain(Some(h)));
+                        }
+                        // A false hit: trace on from it with the list the ray had.
+                        c.false_hits += 1;
+                        r.tnear = just_past(h.t);
+                        return trace(scene, strategy, &r, list, c);
+                    }
+                    None => return Ok(None),
                 }
             }
         }
@@ -243,7 +313,18 @@ fn recast(
             continue;
         }
         if list.is_empty() {
-            return Ok(Some(h));
+            match leaked_entry(scene, &r, &h).filter(|_| !toggle) {
+                None => return Ok(Some(h)),
+                Some(leaked) => {
+                    if repair_leak(scene, &r, &h, leaked, list) {
+                        return Ok(Some(h));
+                    }
+                    c.false_hits += 1;
+                    r.tnear = just_past(h.t);
+                    c.queries += 1;
+                    continue;
+                }
+            }
         }
         let rank = scene.rank_by_geom[h.geom_id as usize];
         let p0 = list.top_rank();
