@@ -433,7 +433,8 @@ fn path(
                     beta *= k * k;
                     eta_scale /= k * k;
                     // Straight segments keep their line through index-matched boundaries.
-                    let line = (!seg.entered_medium && scene.medium.is_none()).then_some((&seg.chord, hit.t));
+                    let line = (c.n1 == c.n2 && !seg.entered_medium && dielectric::keeps_line(scene))
+                        .then_some((&seg.chord, hit.t));
                     let next = spawn_transmitted(sp.p, -incident_side, ray.dir, wi, (c.n1, c.n2), line);
                     c.transmit(&mut list);
                     ray = next;
@@ -653,14 +654,8 @@ pub fn refraction_path(
         let next = if tir {
             Ray::new(offset_origin(sp.p, incident_side), wi)
         } else {
-            spawn_transmitted(
-                sp.p,
-                -incident_side,
-                ray.dir,
-                wi,
-                (c.n1, c.n2),
-                Some((&ray, hit.t)),
-            )
+            let line = (c.n1 == c.n2 && dielectric::keeps_line(scene)).then_some((&ray, hit.t));
+            spawn_transmitted(sp.p, -incident_side, ray.dir, wi, (c.n1, c.n2), line)
         };
         events.push(PathEvent {
             geom: hit.geom_id,
