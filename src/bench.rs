@@ -255,7 +255,10 @@ pub fn path_rays(scene: &RenderScene, w: u32, h: u32) -> Result<Vec<ListedRay>> 
             let p = refraction_path(tr, o, d, &scene.camera_interior, 24, &mut c)?;
             for e in &p.events {
                 out.push(ListedRay {
-                    ray: Ray::new(e.next_org, e.next_dir),
+                    ray: Ray {
+                        tnear: e.next_tnear,
+                        ..Ray::new(e.next_org, e.next_dir)
+                    },
                     list: e.list_after.clone(),
                 });
             }

@@ -1,6 +1,6 @@
 //! Rays and hits, the bottom layer every other module stands on: [`Ray`] and
 //! [`Hit`] (what Embree is asked and answers), spawning a child ray off a
-//! surface ([`offset_origin`], [`spawn_transmitted`], their constant
+//! surface ([`offset_origin`], [`spawn_transmitted`], [`just_past`], their constant
 //! [`OFFSET_ULPS`]) and the [`crossing_window`] within which two surface
 //! reports are one crossing.
 //!
@@ -95,32 +95,61 @@ pub fn offset_origin(p: V3, side: V3) -> V3 {
     p + side * offset_size(p)
 }
 
+/// The smallest ray parameter beyond `t`: where a ray that continues on its
+/// own line after a crossing at `t` starts (`tnear`), so that the crossing
+/// itself (the same root of the same line, bit for bit) is not reported
+/// again while every surface beyond it is.
+#[inline]
+pub fn just_past(t: f32) -> f32 {
+    let t = t.max(0.0);
+    f32::from_bits(t.to_bits() + 1)
+}
+
 /// The ray transmitted at `p` into the side `exit_side` (a unit normal),
 /// arriving along `dir_in` and refracted to `refracted`, between indices
-/// `n1` and `n2`: (origin, unit direction). The one place every integrator
-/// spawns a transmitted ray.
+/// `n1` and `n2`. The one place every integrator spawns a transmitted ray.
 ///
-/// Through an index-matched boundary (n1 = n2) the ray keeps its direction
-/// and is moved *along* itself by the distance that clears the surface by
-/// `offset_origin`'s margin, so it stays on its line: a normal offset moves
-/// the line sideways, and next to a solid the line only grazes (the paper's
-/// Fig. 1 spheres where they meet) that sideways step can take the ray out of
-/// a solid whose entry was recorded, leaving it in the interior list after
-/// the ray left it. The step along the ray, err/cos, must stay inside the
-/// crossing window (2·err) or a surface just past the hit would be stepped
-/// over unseen (a ray through the circle where two spheres meet missed the
-/// second one's entry at cos < 1/2): exits with cos < 0.6 keep the normal
-/// offset.
-pub fn spawn_transmitted(p: V3, exit_side: V3, dir_in: V3, refracted: V3, n1: f32, n2: f32) -> (V3, V3) {
+/// Through an index-matched boundary (n1 = n2) the ray does not bend, and
+/// when it travels straight (`line`: the straight ray it arrived on and the
+/// hit's t on it) it continues on that very line: same origin, same
+/// direction, `tnear` [`just_past`] the hit. No spawn offset, so nothing is
+/// stepped over: a surface a hair beyond the hit (the next sphere's entry
+/// where the paper's Fig. 1 spheres meet, which Embree never presents to the
+/// filter once the nearer hit has shortened the ray) is found by the next
+/// query, and the next query computes every analytic root from the same
+/// origin, so a crossing and a tangent touch are judged the same way on both
+/// sides of the hit. (A spawned origin, along the ray or along the normal,
+/// moved the line: a grazing exit stepped sideways out of a solid whose entry
+/// was recorded, and a step along the ray passed entries within the step.)
+///
+/// Otherwise (a refraction, or a curved ray with no straight line to keep)
+/// the ray starts off the surface: `offset_origin` along the normal, or for
+/// n1 = n2 with cos ≥ 0.6 moved along itself by the same margin.
+pub fn spawn_transmitted(
+    p: V3,
+    exit_side: V3,
+    dir_in: V3,
+    refracted: V3,
+    (n1, n2): (f32, f32),
+    line: Option<(&Ray, f32)>,
+) -> Ray {
     if n1 != n2 {
-        return (offset_origin(p, exit_side), refracted);
+        return Ray::new(offset_origin(p, exit_side), refracted);
+    }
+    if let Some((r, t)) = line {
+        return Ray {
+            org: r.org,
+            dir: r.dir,
+            tnear: just_past(t),
+            tfar: f32::INFINITY,
+        };
     }
     let d = dir_in.normalize_or_zero();
     let cos = exit_side.normalize_or_zero().dot(d);
     if cos >= 0.6 {
-        (p + d * (offset_size(p) / cos), d)
+        Ray::new(p + d * (offset_size(p) / cos), d)
     } else {
-        (offset_origin(p, exit_side), d)
+        Ray::new(offset_origin(p, exit_side), d)
     }
 }
 
@@ -165,18 +194,24 @@ mod tests {
     }
 
     #[test]
-    fn matched_spawn_stays_on_the_line_and_inside_the_window() {
+    fn matched_spawn_stays_on_the_line() {
         let p = V3::new(1.0, 2.0, 3.0);
         let d = V3::new(0.0, 0.0, 1.0);
-        let (o, wt) = spawn_transmitted(p, V3::Z, d, V3::X, 1.5, 1.5);
-        assert_eq!(wt, d, "index-matched: the direction is kept");
-        assert_eq!((o - p).normalize(), d, "moved along the ray");
-        assert!((o - p).length() <= crossing_window(p, d, 0.0));
+        let chord = Ray::new(V3::new(1.0, 2.0, 1.0), d);
+        // Straight: the same line, starting just past the hit.
+        let r = spawn_transmitted(p, V3::Z, d, V3::X, (1.5, 1.5), Some((&chord, 2.0)));
+        assert_eq!((r.org, r.dir), (chord.org, chord.dir));
+        assert!(r.tnear > 2.0 && r.tnear - 2.0 <= f32::EPSILON * 2.0);
+        // No line to keep (a curved ray): moved along the ray, inside the window.
+        let r = spawn_transmitted(p, V3::Z, d, V3::X, (1.5, 1.5), None);
+        assert_eq!(r.dir, d, "index-matched: the direction is kept");
+        assert_eq!((r.org - p).normalize(), d, "moved along the ray");
+        assert!((r.org - p).length() <= crossing_window(p, d, 0.0));
         // Grazing exit: the normal offset, not a long step along the ray.
-        let (o2, _) = spawn_transmitted(p, V3::Z, V3::new(1.0, 0.0, 0.1), V3::X, 1.5, 1.5);
-        assert_eq!(o2, offset_origin(p, V3::Z));
+        let r2 = spawn_transmitted(p, V3::Z, V3::new(1.0, 0.0, 0.1), V3::X, (1.5, 1.5), None);
+        assert_eq!(r2.org, offset_origin(p, V3::Z));
         // Different indices: the refracted direction, the normal offset.
-        let (o3, w3) = spawn_transmitted(p, V3::Z, d, V3::X, 1.0, 1.5);
-        assert_eq!((o3, w3), (offset_origin(p, V3::Z), V3::X));
+        let r3 = spawn_transmitted(p, V3::Z, d, V3::X, (1.0, 1.5), Some((&chord, 2.0)));
+        assert_eq!((r3.org, r3.dir), (offset_origin(p, V3::Z), V3::X));
     }
 }

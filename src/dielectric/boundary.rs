@@ -76,6 +76,22 @@ pub fn medium_of(nesting: Nesting<'_>, list: &InteriorList) -> Option<V3> {
     (sigma.max_element() > 0.0).then_some(sigma)
 }
 
+/// May a straight ray continue on its own line through an index-matched
+/// boundary of `scene` (`ray::spawn_transmitted`)? Not when the scene has
+/// mesh solids: a line keeps the aim of the ray it continues, and a ray aimed
+/// exactly at a mesh vertex meets no triangle there (Embree's robust mode
+/// closes edge leaks, not vertex ones), so a line kept from the eye leaked
+/// into a solid far along it where a ray spawned from the last hit did not.
+/// Analytic solids do not leak, and their roots are only consistent from one
+/// origin (the reason for keeping the line).
+pub fn keeps_line(scene: &RenderScene) -> bool {
+    scene.medium.is_none()
+        && !scene
+            .solids
+            .iter()
+            .any(|s| matches!(scene.geoms[s.geom as usize].shape, crate::scene::Shape::Mesh(_)))
+}
+
 /// The boundary event at a true hit with material `material`, met from the
 /// side of its geometric normal when `front` (`ray::front_facing`), with the
 /// solid surfaces `coincident` with the hit, for a ray inside `list`.

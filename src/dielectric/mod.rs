@@ -26,7 +26,7 @@ mod filter;
 mod list;
 mod trace;
 
-pub use boundary::{boundary, medium_of, Boundary, Nesting};
+pub use boundary::{boundary, keeps_line, medium_of, Boundary, Nesting};
 pub use filter::{
     apply_rejected, Coincident, FalseHitFilter, FilterRecords, Rejected, TrueHit, EDGE_EPS, NEAR_CAPACITY,
     REJECT_CAPACITY,

@@ -5,7 +5,7 @@ use super::filter::{
 };
 use super::{InteriorList, NestedStrategy};
 use crate::counters::Counters;
-use crate::ray::{crossing_window, front_facing, Hit, Ray};
+use crate::ray::{crossing_window, front_facing, just_past, Hit, Ray};
 use crate::scene::RenderScene;
 
 #[inline]
@@ -13,39 +13,41 @@ fn window(r: &Ray, t: f32) -> f32 {
     crossing_window(r.org, r.dir, t)
 }
 
-/// Is the crossing of `solid` at distance `t` along `ray` a real crossing?
-/// Point-in-solid tests just before and after: `None` for a touch (no change),
-/// `Some(inside_after)` otherwise. Used only near mesh edges and vertices.
-fn verify_crossing(scene: &RenderScene, solid: u32, ray: &Ray, t: f32) -> Option<bool> {
+/// Is the point just past the crossing of `solid` at distance `t` along
+/// `ray` inside the solid? A point-in-solid test, used only near mesh edges
+/// and vertices, where the triangle Embree reports (and its normal) need not
+/// be the one the ray crosses.
+///
+/// Only the side *after* the hit is tested: the side before is what the
+/// interior list holds. (A test before the hit looked at a point behind the
+/// ray's start when the hit was nearer than the test distance: a ray
+/// reflected at the rim's inner edge of the glass saw its own exit through
+/// the inner wall, 5e-5 away, as a touch, and crossed the cavity as glass.)
+fn inside_after(scene: &RenderScene, solid: u32, ray: &Ray, t: f32) -> bool {
     let d = ray.dir.as_dvec3().normalize();
     let o = ray.org.as_dvec3();
     let len = (ray.dir.length() as f64) * t as f64;
     let p = o + d * len;
     let delta = 2e-5 * (1.0 + p.abs().max_element());
-    let before = scene.solid_contains(solid, p - d * delta);
-    let after = scene.solid_contains(solid, p + d * delta);
-    (before != after).then_some(after)
+    scene.solid_contains(solid, p + d * delta)
 }
 
-/// Replace near-edge events by their verified meaning (dropping touches).
+/// Give near-edge events their verified meaning: the ray is inside the solid
+/// after the event iff the point just past it is. A touch (inside as before)
+/// becomes an insert or remove that changes nothing; two reports of one
+/// crossing (a shared edge) agree.
 fn verify_rejected(scene: &RenderScene, ray: &Ray, rejected: &mut [Rejected]) -> usize {
-    let mut k = 0;
-    for i in 0..rejected.len() {
-        let mut r = rejected[i];
+    for r in rejected.iter_mut() {
         if r.near_edge && (r.solid as usize) < scene.solids.len() {
-            match verify_crossing(scene, r.solid, ray, r.t) {
-                None => continue,
-                Some(inside) => r.entering = inside,
-            }
+            r.entering = inside_after(scene, r.solid, ray, r.t);
         }
-        rejected[k] = r;
-        k += 1;
     }
-    k
+    rejected.len()
 }
 
-/// A true hit near a mesh edge that only touches its solid is no crossing.
-fn is_touch(scene: &RenderScene, ray: &Ray, h: &Hit) -> bool {
+/// A true hit near a mesh edge that does not change whether the ray is in
+/// its solid (as `list` says before the hit) is no crossing.
+fn is_touch(scene: &RenderScene, ray: &Ray, h: &Hit, list: &InteriorList) -> bool {
     match scene.solid_by_geom[h.geom_id as usize] {
         Some(s)
             if near_edge(h.u, h.v)
@@ -54,10 +56,68 @@ fn is_touch(scene: &RenderScene, ray: &Ray, h: &Hit) -> bool {
                     crate::scene::Shape::Mesh(_)
                 ) =>
         {
-            verify_crossing(scene, s, ray, h.t).is_none()
+            inside_after(scene, s, ray, h.t) == list.contains(s)
         }
         _ => false,
     }
+}
+
+/// The mesh solid a ray outside every solid was already in when it hit `h`:
+/// Embree leaked that solid's entry. Robust mode closes edge leaks, not
+/// vertex ones, and a ray aimed through a mesh vertex (the glass's rim, seen
+/// from above) can cross no triangle at all, so there is no hit to verify;
+/// the next hit then lies inside the solid. Tested here, by point-in-solid
+/// just before the hit, for the first hit on a solid of a ray whose list is
+/// empty: the only place such a ray meets a vertex exactly (every later
+/// segment starts at a refraction). Analytic solids do not leak.
+fn leaked_entry(scene: &RenderScene, r: &Ray, h: &Hit) -> Option<(u32, u32)> {
+    let hit_solid = scene.solid_by_geom[h.geom_id as usize]?;
+    let d = r.dir.as_dvec3();
+    let dl = d.length();
+    let p = r.org.as_dvec3() + d * h.t as f64;
+    // A point on the segment the ray travelled, just before the hit.
+    let back = (2e-5 * (1.0 + p.abs().max_element())).min(0.5 * (h.t - r.tnear) as f64 * dl);
+    let q = p - d * (back / dl);
+    scene
+        .solids
+        .iter()
+        .enumerate()
+        .find(|&(i, s)| {
+            i as u32 != hit_solid
+                && matches!(scene.geoms[s.geom as usize].shape, crate::scene::Shape::Mesh(_))
+                && q.cmpge(s.aabb.0).all()
+                && q.cmple(s.aabb.1).all()
+                && scene.solid_contains(i as u32, q)
+        })
+        .map(|(i, s)| (i as u32, s.rank))
+}
+
+/// After a leaked entry of `leaked` (solid, rank) found at the hit `h`: the
+/// list holds the solid. Is the hit still true? If not (its solid ranks
+/// below the leaked one), its crossing is applied as the false hit it is.
+fn repair_leak(scene: &RenderScene, r: &Ray, h: &Hit, leaked: (u32, u32), list: &mut InteriorList) -> bool {
+    list.insert(leaked.0, leaked.1);
+    let rank = scene.rank_by_geom[h.geom_id as usize];
+    if rank > leaked.1 {
+        return true;
+    }
+    if let Some(w) = scene.solid_by_geom[h.geom_id as usize] {
+        let entering = if near_edge(h.u, h.v)
+            && matches!(
+                scene.geoms[h.geom_id as usize].shape,
+                crate::scene::Shape::Mesh(_)
+            ) {
+            inside_after(scene, w, r, h.t)
+        } else {
+            front_facing(h.ng, r.dir)
+        };
+        if entering {
+            list.insert(w, rank);
+        } else {
+            list.remove(w);
+        }
+    }
+    false
 }
 
 /// Offset for re-casting past a false hit (recast strategies).
@@ -143,11 +203,23 @@ pub fn trace(
             let mut r = *ray;
             loop {
                 match scene.embree.intersect(&r) {
-                    Some(h) if is_touch(scene, &r, &h) => {
+                    Some(h) if is_touch(scene, &r, &h, list) => {
                         r.tnear = recast_tnear(&r, h.t);
                         c.queries += 1;
                     }
-                    h => return Ok(plain(h)),
+                    Some(h) => {
+                        let Some(leaked) = leaked_entry(scene, &r, &h) else {
+                            return Ok(plain(Some(h)));
+                        };
+                        if repair_leak(scene, &r, &h, leaked, list) {
+                            return Ok(plain(Some(h)));
+                        }
+                        // A false hit: trace on from it with the list the ray had.
+                        c.false_hits += 1;
+                        r.tnear = just_past(h.t);
+                        return trace(scene, strategy, &r, list, c);
+                    }
+                    None => return Ok(None),
                 }
             }
         }
@@ -163,7 +235,7 @@ pub fn trace(
                     break None;
                 }
                 match hit {
-                    Some(h) if is_touch(scene, &r, &h) => {
+                    Some(h) if is_touch(scene, &r, &h, list) => {
                         // Touching a mesh solid at an edge or vertex: not a crossing.
                         // Apply the false hits before it and continue past it.
                         let n = verify_rejected(scene, &r, &mut filter.rec.rejected[..filter.len]);
@@ -225,8 +297,8 @@ pub fn trace(
 /// Can one plain query of a ray inside `list` stand in for [`trace`]?
 /// `Some(check)` when it can: without overlapping solids (or with nesting
 /// off) its hit is the true hit; outside every solid (`list` empty) too,
-/// unless the hit only touches a mesh solid at an edge or vertex, which
-/// `check` tells ([`plain_hit_is_true`]). `None`: only `trace` will do.
+/// unless [`plain_hit_is_true`] says otherwise (`check`). `None`: only
+/// `trace` will do.
 pub fn plain_query_suffices(
     scene: &RenderScene,
     strategy: NestedStrategy,
@@ -242,10 +314,21 @@ pub fn plain_query_suffices(
 }
 
 /// Is the answer `hit` of a plain query of `ray`, by a ray outside every
-/// solid, the hit [`trace`] returns? Not when it only touches a mesh solid at
-/// an edge or vertex (`trace` then continues past it).
-pub fn plain_hit_is_true(scene: &RenderScene, ray: &Ray, hit: Option<&Hit>) -> bool {
-    hit.is_none_or(|h| !is_touch(scene, ray, h))
+/// solid (`list` empty), the hit [`trace`] returns with `strategy`? Not when
+/// it only touches a mesh solid at an edge or vertex, nor (except for the
+/// toggle, which does not test it) when the point just before it lies in a
+/// mesh solid whose entry Embree leaked: `trace` continues past those.
+pub fn plain_hit_is_true(
+    scene: &RenderScene,
+    strategy: NestedStrategy,
+    ray: &Ray,
+    hit: Option<&Hit>,
+    list: &InteriorList,
+) -> bool {
+    hit.is_none_or(|h| {
+        !is_touch(scene, ray, h, list)
+            && (strategy == NestedStrategy::Toggle || leaked_entry(scene, ray, h).is_none())
+    })
 }
 
 fn recast(
@@ -261,13 +344,24 @@ fn recast(
         let Some(h) = scene.embree.intersect(&r) else {
             return Ok(None);
         };
-        if is_touch(scene, &r, &h) {
+        if is_touch(scene, &r, &h, list) {
             r.tnear = recast_tnear(&r, h.t);
             c.queries += 1;
             continue;
         }
         if list.is_empty() {
-            return Ok(Some(h));
+            match leaked_entry(scene, &r, &h).filter(|_| !toggle) {
+                None => return Ok(Some(h)),
+                Some(leaked) => {
+                    if repair_leak(scene, &r, &h, leaked, list) {
+                        return Ok(Some(h));
+                    }
+                    c.false_hits += 1;
+                    r.tnear = just_past(h.t);
+                    c.queries += 1;
+                    continue;
+                }
+            }
         }
         let rank = scene.rank_by_geom[h.geom_id as usize];
         let p0 = list.top_rank();
@@ -278,7 +372,7 @@ fn recast(
         c.false_hits += 1;
         let s = scene.solid_by_geom[h.geom_id as usize].expect("ranked geometry is a solid");
         let entering = if near_edge(h.u, h.v) && !toggle {
-            verify_crossing(scene, s, &r, h.t).unwrap_or(front_facing(h.ng, r.dir))
+            inside_after(scene, s, &r, h.t)
         } else {
             front_facing(h.ng, r.dir)
         };
@@ -293,7 +387,16 @@ fn recast(
         if list.spilled() {
             c.list_spills += 1;
         }
-        r.tnear = recast_tnear(&r, h.t);
+        // Re-cast from just past the false hit, not past its crossing window:
+        // a surface within the window (the true hit's solid leaving where
+        // a lower solid's surface meets it) would be stepped over. A second
+        // report of the same crossing (a shared mesh edge) repeats the same
+        // insert or remove; the toggle would undo its first, so it keeps the window.
+        r.tnear = if toggle {
+            recast_tnear(&r, h.t)
+        } else {
+            just_past(h.t)
+        };
         c.queries += 1;
     }
     Err(crate::error::Error::Invalid(

@@ -212,7 +212,8 @@ impl Segment {
     /// A straight segment (no medium) along `ray` ending at `hit`.
     fn straight(ray: &Ray, hit: Option<crate::ray::Hit>, coincident: dielectric::Coincident) -> Segment {
         Segment {
-            length: hit.map(|h| h.t).unwrap_or(f32::INFINITY),
+            // From where the ray starts (tnear: a ray continued on its line).
+            length: hit.map(|h| h.t - ray.tnear).unwrap_or(f32::INFINITY),
             hit,
             coincident,
             chord: *ray,
@@ -511,9 +512,12 @@ impl PathState {
                     let k = c.n1 / c.n2;
                     self.beta *= k * k;
                     self.eta_scale /= k * k;
-                    let (org, wt) = spawn_transmitted(sp.p, -incident_side, self.ray.dir, wi, c.n1, c.n2);
+                    // Straight segments keep their line through index-matched boundaries.
+                    let line = (c.n1 == c.n2 && !seg.entered_medium && dielectric::keeps_line(scene))
+                        .then_some((&seg.chord, hit.t));
+                    let next = spawn_transmitted(sp.p, -incident_side, self.ray.dir, wi, (c.n1, c.n2), line);
                     c.transmit(&mut self.list);
-                    self.ray = Ray::new(org, wt);
+                    self.ray = next;
                 }
                 self.specular = true;
                 self.prev_p = sp.p;
@@ -635,9 +639,12 @@ pub fn path_lanes<const N: usize, P: RayPacket<N>>(
             let seg = match plain[i] {
                 Some(check) => {
                     let hit = near.hit(i);
-                    if check && !dielectric::plain_hit_is_true(scene, &p.ray, hit.as_ref()) {
-                        // A touch at a mesh edge: the packet's query was
-                        // made (counted); `trace` continues past the touch.
+                    if check
+                        && !dielectric::plain_hit_is_true(scene, tr.strategy, &p.ray, hit.as_ref(), &p.list)
+                    {
+                        // A touch at a mesh edge or a leaked entry: the
+                        // packet's query was made (counted); `trace` redoes
+                        // it and continues past.
                         st.queries += 1;
                         cast(tr, &p.ray, &mut p.list, st)?
                     } else {
@@ -765,8 +772,8 @@ fn whitted(
                 let (n1, n2) = (c.n1, c.n2);
                 let mut nl = list;
                 c.transmit(&mut nl);
-                let (org, wt) = spawn_transmitted(sp.p, -side, dir, t, n1, n2);
-                l += (1.0 - fr) * k * k * whitted(tr, org, wt, nl, rng, st, depth + 1)?;
+                let next = spawn_transmitted(sp.p, -side, dir, t, (n1, n2), None);
+                l += (1.0 - fr) * k * k * whitted(tr, next.org, next.dir, nl, rng, st, depth + 1)?;
             } else {
                 st.tir += 1;
             }
@@ -797,10 +804,15 @@ pub struct PathEvent {
     pub list_after: Vec<u32>,
     /// Total internal reflection: the ray was reflected.
     pub tir: bool,
-    /// The ray leaving this event (origin offset off the surface, unit direction).
+    /// Origin of the ray leaving this event (offset off the surface, or the
+    /// origin of the line it continues on: see `next_tnear`).
     pub next_org: V3,
     /// Unit direction of the ray leaving this event.
     pub next_dir: V3,
+    /// Where the ray leaving this event starts on its line (0, or just past
+    /// the hit for a ray continued on its own line through an index-matched
+    /// boundary: then `next_org` is that line's origin, not the hit).
+    pub next_tnear: f32,
 }
 
 /// Follow a ray through dielectrics, always refracting (reflecting only under
@@ -855,23 +867,25 @@ pub fn refraction_path(
             }
             None => ((optics::reflect(d, n).normalize()).as_vec3a(), true),
         };
-        let (next_org, wi) = if tir {
-            (offset_origin(sp.p, incident_side), wi)
+        let next = if tir {
+            Ray::new(offset_origin(sp.p, incident_side), wi)
         } else {
-            spawn_transmitted(sp.p, -incident_side, ray.dir, wi, c.n1, c.n2)
+            let line = (c.n1 == c.n2 && dielectric::keeps_line(scene)).then_some((&ray, hit.t));
+            spawn_transmitted(sp.p, -incident_side, ray.dir, wi, (c.n1, c.n2), line)
         };
         events.push(PathEvent {
             geom: hit.geom_id,
             point: sp.p,
-            t: hit.t,
+            t: hit.t - ray.tnear,
             n1: c.n1,
             n2: c.n2,
             list_after: list.sorted(),
             tir,
-            next_org,
-            next_dir: wi,
+            next_org: next.org,
+            next_dir: next.dir,
+            next_tnear: next.tnear,
         });
-        ray = Ray::new(next_org, wi);
+        ray = next;
     }
     Ok(RefractionPath {
         events,
