@@ -477,7 +477,11 @@ pub struct Mesh {
 
 impl Mesh {
     /// Shading normal and uv at barycentrics (u, v) of triangle `prim`
-    /// (Embree's convention: p = (1−u−v)·v0 + u·v1 + v·v2).
+    /// (Embree's convention: p = (1−u−v)·v0 + u·v1 + v·v2). Forced inline:
+    /// the crate builds in 16 codegen units without LTO, so whether a call
+    /// was inlined depended on how unrelated edits partitioned the crate (one
+    /// build that did not inline it spent 19 % of the warp's ray pass in it).
+    #[inline(always)]
     pub fn shading(&self, prim: u32, u: f32, v: f32) -> (Option<V3>, [f32; 2]) {
         let tri = self.indices[prim as usize];
         let w = 1.0 - u - v;

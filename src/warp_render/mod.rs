@@ -472,7 +472,7 @@ pub(crate) fn shade(
     let [a, b, c] = o.mesh.indices[tri as usize].map(|i| d3(o.mesh.positions[i as usize]));
     let (u64_, v64) = (u.clamp(0.0, 1.0) as f64, v.clamp(0.0, 1.0) as f64);
     let p = a * (1.0 - u64_ - v64).max(0.0) + b * u64_ + c * v64;
-    let (sn, uv) = mesh_shading(&o.mesh, tri, u, v);
+    let (sn, uv) = o.mesh.shading(tri, u, v);
     let n = sn.unwrap_or_else(|| {
         let ng = (b - a).cross(c - a).normalize_or_zero();
         V3::new(ng.x as f32, ng.y as f32, ng.z as f32)
@@ -502,30 +502,6 @@ pub(crate) fn shade(
         col += rho * e;
     }
     (col * weight as f32, p)
-}
-
-/// `Mesh::shading` (the same arithmetic), forced inline: the crate builds
-/// in 16 codegen units without LTO, so whether the call from `shade` was
-/// inlined depended on how unrelated edits partitioned the crate (one
-/// build of this round did not inline it and spent 19 % of the warp's ray
-/// pass in it; the exact trace shades with the same function).
-#[inline(always)]
-fn mesh_shading(m: &Mesh, prim: u32, u: f32, v: f32) -> (Option<V3>, [f32; 2]) {
-    let tri = m.indices[prim as usize];
-    let w = 1.0 - u - v;
-    let n = m.normals.as_ref().map(|ns| {
-        let [a, b, c] = tri.map(|i| V3::from(ns[i as usize]));
-        (a * w + b * u + c * v).normalize_or_zero()
-    });
-    let uv = m
-        .uvs
-        .as_ref()
-        .map(|t| {
-            let [a, b, c] = tri.map(|i| t[i as usize]);
-            [a[0] * w + b[0] * u + c[0] * v, a[1] * w + b[1] * u + c[1] * v]
-        })
-        .unwrap_or([u, v]);
-    (n.filter(|n| n.length_squared() > 0.5), uv)
 }
 
 // Inlined: returned through memory from a call, the ray's 48 bytes were
