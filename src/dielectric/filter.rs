@@ -120,6 +120,14 @@ impl<'a> FalseHitFilter<'a> {
     }
 }
 
+impl FalseHitFilter<'_> {
+    /// `crossing_window` of this query's ray at `t` (the same arithmetic).
+    #[inline]
+    pub fn window(&self, t: f32) -> f32 {
+        self.win_a + self.win_b * if t.is_finite() { t.abs() } else { 0.0 }
+    }
+}
+
 impl HitFilter for FalseHitFilter<'_> {
     #[inline]
     fn accept(&mut self, h: &FilterHit) -> bool {
@@ -255,6 +263,9 @@ pub struct TrueHit {
 /// tangent touch or a silhouette-edge double report), duplicates of one
 /// direction count once. Returns the number of distinct false crossings.
 pub fn apply_rejected(list: &mut InteriorList, rejected: &mut [Rejected], t_hit: f32, win: f32) -> u32 {
+    if rejected.is_empty() {
+        return 0; // most queries: no false hit
+    }
     rejected.sort_unstable_by(|a, b| a.solid.cmp(&b.solid).then(a.t.total_cmp(&b.t)));
     let mut crossings = 0;
     let mut i = 0;

@@ -270,7 +270,8 @@ pub fn trace(
             let t_hit = hit.map(|h| h.t).unwrap_or(f32::INFINITY);
             let n = verify_rejected(scene, &r, &mut filter.rec.rejected[..filter.len]);
             // False crossings up to and including those coincident with the true hit.
-            let win = window(&r, if t_hit.is_finite() { t_hit } else { 0.0 });
+            // The filter's coefficients: the same window without a square root.
+            let win = filter.window(if t_hit.is_finite() { t_hit } else { 0.0 });
             let limit = t_hit + win;
             c.false_hits += apply_rejected(list, &mut filter.rec.rejected[..n], limit, win) as u64;
             c.max_list_depth = c.max_list_depth.max(list.len() as u64);
@@ -278,7 +279,7 @@ pub fn trace(
                 c.list_spills += 1;
             }
             Ok(hit.map(|hit| {
-                let mut coincident = Coincident::default();
+                let mut coincident = Coincident::NONE;
                 let own = scene.solid_by_geom[hit.geom_id as usize];
                 for r in &filter.rec.near[..filter.near_len] {
                     if Some(r.solid) != own && (r.t - hit.t).abs() <= win {
