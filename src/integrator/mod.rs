@@ -585,13 +585,13 @@ fn known_segment(ray: &Ray, hit: Option<crate::ray::Hit>, st: &mut Counters) -> 
     Segment::straight(ray, hit, dielectric::Coincident::NONE)
 }
 
-/// Up to eight paths of the path tracer traced side by side: the segments of
-/// the live paths that a plain query answers
-/// ([`dielectric::plain_query_suffices`]) go to Embree as one packet of eight
-/// (the camera rays as a coherent one), the others through
+/// Up to `N` paths of the path tracer traced side by side (renders use 16):
+/// the segments of the live paths that a plain query answers
+/// ([`dielectric::plain_query_suffices`]) go to Embree as one packet of `N`
+/// rays (the camera rays as a coherent one), the others through
 /// [`dielectric::trace`]; every batch of shadow rays is one packet. Each path
 /// gives the same radiance, bit for bit, as [`radiance`] with its own `rng`:
-/// the shading is [`PathState::advance`] in both, and each path's random
+/// the shading is `PathState::advance` in both, and each path's random
 /// numbers are its own. Only where [`path_lanes_apply`] holds; `cams`, `rngs`
 /// and `sts` have one entry per path (at most `N`, the width of the packet
 /// type `P`).
