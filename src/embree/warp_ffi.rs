@@ -234,9 +234,9 @@ pub trait RayPacket<const N: usize>: Default {
     /// Set lane `i` (< N) to `ray` (tnear and tfar kept); an invalid ray
     /// ([`Ray::is_valid`](crate::ray::Ray::is_valid)) leaves the lane inactive.
     fn set_ray(&mut self, i: usize, ray: &crate::ray::Ray);
-    /// Lane `i`'s hit after [`Scene::intersect_packet`].
+    /// Lane `i`'s hit after [`intersect`](Self::intersect).
     fn hit(&self, i: usize) -> Option<Hit>;
-    /// Was lane `i` occluded by the last [`Scene::occluded_packet`]?
+    /// Was lane `i` occluded by the last [`occlude`](Self::occlude)?
     fn occluded(&self, i: usize) -> bool;
     /// Nearest hits of the active lanes (`coherent`: rays of nearly one origin
     /// and direction, e.g. a pixel's camera rays).
@@ -387,16 +387,6 @@ impl Scene {
     /// Trace a packet of up to eight rays (coherent primary rays).
     pub fn intersect8(&self, p: &mut Packet8) {
         p.query(self.raw, true, false);
-    }
-
-    /// Nearest hits of a packet's active lanes ([`RayPacket::hit`]).
-    pub fn intersect_packet<const N: usize, P: RayPacket<N>>(&self, p: &mut P, coherent: bool) {
-        p.intersect(self, coherent);
-    }
-
-    /// Occlusion of a packet's active lanes ([`RayPacket::occluded`]).
-    pub fn occluded_packet<const N: usize, P: RayPacket<N>>(&self, p: &mut P, coherent: bool) {
-        p.occlude(self, coherent);
     }
 }
 

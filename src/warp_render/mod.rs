@@ -458,6 +458,25 @@ pub struct Frame {
     pub render_s: f64,
 }
 
+impl Frame {
+    /// The frame of `scene`'s film rendered into `pixels` and `shown`, timed
+    /// from `t0`.
+    pub(crate) fn finished(
+        scene: &RenderScene,
+        pixels: Vec<V3>,
+        shown: Vec<Option<Shown>>,
+        t0: Instant,
+    ) -> Frame {
+        Frame {
+            width: scene.width,
+            height: scene.height,
+            pixels,
+            shown,
+            render_s: t0.elapsed().as_secs_f64(),
+        }
+    }
+}
+
 pub(crate) fn shade(
     scene: &RenderScene,
     prep: &Prepared,
@@ -582,13 +601,7 @@ pub fn render_warped(scene: &RenderScene, spec: &WarpSpec, prep: &Prepared, warp
             }
         }
     });
-    Frame {
-        width: scene.width,
-        height: scene.height,
-        pixels,
-        shown,
-        render_s: t0.elapsed().as_secs_f64(),
-    }
+    Frame::finished(scene, pixels, shown, t0)
 }
 
 /// The unwarped meshes as one Embree scene (for the exact trace).
@@ -658,13 +671,7 @@ pub fn render_exact(scene: &RenderScene, spec: &WarpSpec, prep: &Prepared, orig:
         }
         (V3::ZERO, None)
     });
-    Frame {
-        width: scene.width,
-        height: scene.height,
-        pixels,
-        shown,
-        render_s: t0.elapsed().as_secs_f64(),
-    }
+    Frame::finished(scene, pixels, shown, t0)
 }
 
 /// Warp against exact, pixel by pixel.

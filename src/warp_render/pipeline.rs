@@ -660,11 +660,5 @@ pub fn render_exact_packets(
                 }
             }
         });
-    Frame {
-        width: scene.width,
-        height: scene.height,
-        pixels,
-        shown,
-        render_s: t0.elapsed().as_secs_f64(),
-    }
+    Frame::finished(scene, pixels, shown, t0)
 }

@@ -93,18 +93,11 @@ impl Builder<'_> {
                 if mesh.signed_volume() < 0.0 {
                     mesh.flip();
                 }
-                pending.push(Pending {
-                    name: "warp_glass_plate".into(),
-                    name_key: "warp.glass".into(),
-                    shape: Shape::Mesh(Arc::new(mesh)),
-                    material: Material::Interface {
-                        int_ior: *ior as f32,
-                        ext_ior: 1.0,
-                    },
-                    emission: None,
-                    light: None,
-                    solid: None,
-                });
+                pending.push(glass_pending(
+                    "warp_glass_plate",
+                    Shape::Mesh(Arc::new(mesh)),
+                    *ior,
+                ));
                 WarpGlass::Plate(plate)
             }
             WarpGlassDesc::HollowCylinder {
@@ -122,25 +115,15 @@ impl Builder<'_> {
                     ("warp_glass_outer", *outer_radius, false),
                     ("warp_glass_inner", *inner_radius, true),
                 ] {
-                    pending.push(Pending {
-                        name: name.into(),
-                        name_key: "warp.glass".into(),
-                        shape: Shape::Analytic(Analytic::Cylinder {
-                            p0: c - a * (extent * 0.5),
-                            axis: a,
-                            height: extent,
-                            radius,
-                            inward,
-                            caps: false,
-                        }),
-                        material: Material::Interface {
-                            int_ior: *ior as f32,
-                            ext_ior: 1.0,
-                        },
-                        emission: None,
-                        light: None,
-                        solid: None,
-                    });
+                    let side = Analytic::Cylinder {
+                        p0: c - a * (extent * 0.5),
+                        axis: a,
+                        height: extent,
+                        radius,
+                        inward,
+                        caps: false,
+                    };
+                    pending.push(glass_pending(name, Shape::Analytic(side), *ior));
                 }
                 WarpGlass::Cylinder(tube)
             }
@@ -152,5 +135,22 @@ impl Builder<'_> {
             fresnel: w.fresnel,
             method,
         })
+    }
+}
+
+/// The warp's glass as scene geometry for `snell render`: an interface of
+/// index `ior` in air, neither emitting nor a solid.
+fn glass_pending(name: &str, shape: Shape, ior: f64) -> Pending {
+    Pending {
+        name: name.into(),
+        name_key: "warp.glass".into(),
+        shape,
+        material: Material::Interface {
+            int_ior: ior as f32,
+            ext_ior: 1.0,
+        },
+        emission: None,
+        light: None,
+        solid: None,
     }
 }
