@@ -5,7 +5,7 @@ use crate::camera::Camera;
 use crate::counters::Counters;
 use crate::dielectric::{InteriorList, NestedStrategy};
 use crate::error::{Error, Result};
-use crate::integrator::{path_lanes, path_lanes_apply, radiance, Tracer};
+use crate::integrator::{path_lanes, path_lanes_apply, radiance, LanePackets, Tracer};
 use crate::sampling::Rng;
 use crate::scene::RenderScene;
 use glam::Vec3A as V3;
@@ -316,6 +316,7 @@ impl TileJob<'_> {
         };
         let start_list = InteriorList::from_solids(&scene.solids, &scene.camera_interior);
         let packets = path_lanes_apply(tracer);
+        let mut lane_packets = LanePackets::<LanePacket>::default();
         for j in 0..h {
             for i in 0..w {
                 let (x, y) = (x0 + i, y0 + j);
@@ -357,6 +358,7 @@ impl TileJob<'_> {
                             &start_list,
                             &mut rngs,
                             &mut sts,
+                            &mut lane_packets,
                         )?
                     } else {
                         let mut ls = [V3::ZERO; LANES];

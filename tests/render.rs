@@ -470,9 +470,19 @@ fn packet_lanes_trace_the_same_paths_as_single_rays() {
             // The renderer's width (16) on all of them, and 8 on the first half.
             let mut rngs8 = rngs.clone();
             let mut sts8 = [Counters::default(); 8];
-            let lanes8 = path_lanes::<8, Packet8>(tr, &cams[..8], &list, &mut rngs8, &mut sts8).unwrap();
+            let lanes8 = path_lanes::<8, Packet8>(
+                tr,
+                &cams[..8],
+                &list,
+                &mut rngs8,
+                &mut sts8,
+                &mut Default::default(),
+            )
+            .unwrap();
             let mut sts = [Counters::default(); 16];
-            let lanes = path_lanes::<16, Packet16>(tr, &cams, &list, &mut rngs, &mut sts).unwrap();
+            let lanes =
+                path_lanes::<16, Packet16>(tr, &cams, &list, &mut rngs, &mut sts, &mut Default::default())
+                    .unwrap();
             assert_eq!(lanes8[..], lanes[..8], "{name}: 8 and 16 lanes");
             assert_eq!(sts8[..], sts[..8], "{name}: 8 and 16 lanes, counters");
             for i in 0..16 {
@@ -501,7 +511,9 @@ fn packet_lanes_trace_the_same_paths_as_single_rays() {
             // Power: other random numbers give other paths.
             let mut other = rngs_at(1);
             let mut sts2 = [Counters::default(); 16];
-            let shifted = path_lanes::<16, Packet16>(tr, &cams, &list, &mut other, &mut sts2).unwrap();
+            let shifted =
+                path_lanes::<16, Packet16>(tr, &cams, &list, &mut other, &mut sts2, &mut Default::default())
+                    .unwrap();
             shifted_differs += (shifted != lanes) as u32;
         }
         assert!(lit > 100, "{name}: {lit} lit paths, too few to compare");

@@ -163,8 +163,8 @@ impl Texture {
             } => {
                 // Checker in world coordinates, evaluated in f64 so squares stay
                 // exact far from the origin.
-                let a = (p[axes[0]] as f64 * *inv_size as f64).floor() as i64;
-                let b = (p[axes[1]] as f64 * *inv_size as f64).floor() as i64;
+                let a = floor_i64(p[axes[0]] as f64 * *inv_size as f64);
+                let b = floor_i64(p[axes[1]] as f64 * *inv_size as f64);
                 // Parities separately: a and b saturate at ±i64::MAX far out.
                 if (a.rem_euclid(2) + b.rem_euclid(2)) % 2 == 0 {
                     *c0
@@ -186,9 +186,53 @@ impl Texture {
     }
 }
 
+/// `x.floor() as i64`, without the call: on the baseline x86-64 target (no
+/// SSE4.1 `roundsd`) `f64::floor` is a library function, 0.4% of a
+/// three_spheres render by callgrind. The truncation is exact for every f64
+/// in i64's range and saturates outside it, as `as i64` does; NaN gives 0.
+#[inline]
+fn floor_i64(x: f64) -> i64 {
+    let t = x as i64;
+    t.saturating_sub(((t as f64) > x) as i64)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn floor_i64_is_floor_then_cast() {
+        let xs = [
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1.0,
+            -1.0,
+            1.5,
+            -1.5,
+            2.999999999,
+            -2.000000001,
+            1e15 + 0.5,
+            -1e15 - 0.5,
+            4.5e15,
+            -4.5e15,
+            1e19,
+            -1e19,
+            1e300,
+            -1e300,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+            f64::MIN_POSITIVE,
+            -f64::MIN_POSITIVE,
+        ];
+        for x in xs {
+            assert_eq!(floor_i64(x), x.floor() as i64, "{x}");
+        }
+        // Power: truncation alone differs on negative non-integers.
+        assert_ne!(-1.5f64 as i64, (-1.5f64).floor() as i64);
+    }
 
     #[test]
     fn checker_follows_reference_definition() {
