@@ -10,6 +10,45 @@ use crate::scene::texture::{load_image, Texture};
 use glam::{DMat3, DMat4, DVec3, Vec3A as V3};
 use std::sync::Arc;
 
+/// An object's transform as its shape needs it: points and directions to
+/// world space, and whether it is a similarity (a uniform scale `scale`
+/// times a rotation, plus a translation), the only transforms an analytic
+/// shape stays analytic under.
+struct Placement {
+    xf: DMat4,
+    lin: DMat3,
+    scale: f64,
+    similarity: bool,
+}
+
+impl Placement {
+    fn new(xf: DMat4) -> Self {
+        let lin = DMat3::from_mat4(xf);
+        let scale = lin.x_axis.length();
+        let similarity = (lin.y_axis.length() - scale).abs() < 1e-9 * scale
+            && (lin.z_axis.length() - scale).abs() < 1e-9 * scale
+            && lin.x_axis.dot(lin.y_axis).abs() < 1e-9 * scale * scale
+            && lin.x_axis.dot(lin.z_axis).abs() < 1e-9 * scale * scale
+            && lin.y_axis.dot(lin.z_axis).abs() < 1e-9 * scale * scale;
+        Placement {
+            xf,
+            lin,
+            scale,
+            similarity,
+        }
+    }
+
+    /// A point to world space.
+    fn point(&self, p: DVec3) -> DVec3 {
+        self.xf.transform_point3(p)
+    }
+
+    /// A direction to world space, unit length.
+    fn dir(&self, d: DVec3) -> DVec3 {
+        self.lin.mul_vec3(d).normalize()
+    }
+}
+
 impl Builder<'_> {
     pub(super) fn object(&self, i: usize, o: &ObjectDesc, warnings: &mut Vec<String>) -> Result<Pending> {
         let k = format!("objects[{i}]");
@@ -32,200 +71,22 @@ impl Builder<'_> {
     }
 
     /// The shape of object `k` in world space (its transform applied), and
-    /// whether it is a closed mesh (checked further when used as a solid).
+    /// whether it is a closed mesh (checked further when used as a solid:
+    /// boxes and OBJ meshes are required to be, lathes are when both ends
+    /// of the profile lie on the axis).
     fn shape(&self, k: &str, o: &ObjectDesc) -> Result<(Shape, bool)> {
-        let xf = self.transform(&format!("{k}.transform"), &o.transform)?;
+        let pl = Placement::new(self.transform(&format!("{k}.transform"), &o.transform)?);
         let sk = format!("{k}.shape");
-        // Similarity check for analytic shapes: a uniform scale times a rotation.
-        let lin = DMat3::from_mat4(xf);
-        let scale = lin.x_axis.length();
-        let is_similarity = (lin.y_axis.length() - scale).abs() < 1e-9 * scale
-            && (lin.z_axis.length() - scale).abs() < 1e-9 * scale
-            && lin.x_axis.dot(lin.y_axis).abs() < 1e-9 * scale * scale
-            && lin.x_axis.dot(lin.z_axis).abs() < 1e-9 * scale * scale
-            && lin.y_axis.dot(lin.z_axis).abs() < 1e-9 * scale * scale;
-        let analytic = |a: Analytic| -> Result<Shape> {
-            if !is_similarity {
-                return Err(self.err(
-                    &format!("{k}.transform"),
-                    "analytic shapes take only translations, rotations and uniform scales; use a mesh for other transforms",
-                ));
-            }
-            Ok(Shape::Analytic(a))
-        };
-        let pt = |p: DVec3| xf.transform_point3(p);
-        let dir = |d: DVec3| lin.mul_vec3(d).normalize();
-        let mut closed_mesh = false;
-        let shape = match &o.shape {
-            ShapeDesc::Sphere(s) => analytic(Analytic::Sphere {
-                center: pt(self.finite3(&format!("{sk}.center"), s.center)?),
-                radius: self.positive(&format!("{sk}.radius"), s.radius)? * scale,
-            })?,
-            ShapeDesc::Rect(r) => {
-                let c = self.finite3(&format!("{sk}.center"), r.center)?;
-                let n = self.unit(&format!("{sk}.normal"), r.normal)?;
-                let u = self.unit(&format!("{sk}.u_axis"), r.u_axis)?;
-                if n.dot(u).abs() > 1e-6 {
-                    return Err(self.err(
-                        &format!("{sk}.u_axis"),
-                        "u_axis must be perpendicular to the normal",
-                    ));
-                }
-                let su = self.positive(&format!("{sk}.size[0]"), r.size[0])?;
-                let sv = self.positive(&format!("{sk}.size[1]"), r.size[1])?;
-                Shape::Mesh(Arc::new(self.xf_mesh(meshgen::rect(c, n, u, [su, sv]), &xf)))
-            }
-            ShapeDesc::Disk(dk) => {
-                let r = self.positive(&format!("{sk}.radius"), dk.radius)?;
-                if !(dk.inner_radius.is_finite() && dk.inner_radius >= 0.0 && dk.inner_radius < r) {
-                    return Err(self.err(
-                        &format!("{sk}.inner_radius"),
-                        "expected 0 <= inner_radius < radius",
-                    ));
-                }
-                analytic(Analytic::Disk {
-                    center: pt(self.finite3(&format!("{sk}.center"), dk.center)?),
-                    normal: dir(self.unit(&format!("{sk}.normal"), dk.normal)?),
-                    radius: r * scale,
-                    inner: dk.inner_radius * scale,
-                })?
-            }
-            ShapeDesc::Box(b) => {
-                let c = self.finite3(&format!("{sk}.center"), b.center)?;
-                let s = self.finite3(&format!("{sk}.size"), b.size)?;
-                if s.min_element() <= 0.0 {
-                    return Err(self.err(&format!("{sk}.size"), "expected three sizes > 0"));
-                }
-                closed_mesh = true;
-                Shape::Mesh(Arc::new(self.xf_mesh(meshgen::cuboid(c, s), &xf)))
-            }
-            ShapeDesc::Cylinder(cy) => {
-                let p0 = self.finite3(&format!("{sk}.p0"), cy.p0)?;
-                let p1 = self.finite3(&format!("{sk}.p1"), cy.p1)?;
-                let r = self.positive(&format!("{sk}.radius"), cy.radius)?;
-                let inward = match cy.normal.as_str() {
-                    "out" => false,
-                    "in" => true,
-                    o => {
-                        return Err(self.err(
-                            &format!("{sk}.normal"),
-                            format!("expected \"out\" or \"in\", got \"{o}\""),
-                        ))
-                    }
-                };
-                if cy.caps && inward {
-                    return Err(self.err(
-                        &format!("{sk}.caps"),
-                        "a capped (solid) cylinder needs normal = \"out\"",
-                    ));
-                }
-                let (a, b) = (pt(p0), pt(p1));
-                let h = (b - a).length();
-                if h <= 0.0 {
-                    return Err(self.err(&format!("{sk}.p1"), "p0 and p1 must differ"));
-                }
-                analytic(Analytic::Cylinder {
-                    p0: a,
-                    axis: (b - a) / h,
-                    height: h,
-                    radius: r * scale,
-                    inward,
-                    caps: cy.caps,
-                })?
-            }
-            ShapeDesc::Tube(t) => {
-                let p0 = self.finite3(&format!("{sk}.p0"), t.p0)?;
-                let p1 = self.finite3(&format!("{sk}.p1"), t.p1)?;
-                let ro = self.positive(&format!("{sk}.outer_radius"), t.outer_radius)?;
-                let ri = self.positive(&format!("{sk}.inner_radius"), t.inner_radius)?;
-                if ri >= ro {
-                    return Err(self.err(
-                        &format!("{sk}.inner_radius"),
-                        "expected inner_radius < outer_radius",
-                    ));
-                }
-                let (a, b) = (pt(p0), pt(p1));
-                let h = (b - a).length();
-                if h <= 0.0 {
-                    return Err(self.err(&format!("{sk}.p1"), "p0 and p1 must differ"));
-                }
-                analytic(Analytic::Tube {
-                    p0: a,
-                    axis: (b - a) / h,
-                    height: h,
-                    outer: ro * scale,
-                    inner: ri * scale,
-                })?
-            }
-            ShapeDesc::Lathe(l) => {
-                if l.profile.len() < 2 {
-                    return Err(self.err(
-                        &format!("{sk}.profile"),
-                        "expected at least two (radius, height) points",
-                    ));
-                }
-                for (j, p) in l.profile.iter().enumerate() {
-                    if !(p[0].is_finite() && p[1].is_finite() && p[0] >= 0.0) {
-                        return Err(self.err(
-                            &format!("{sk}.profile[{j}]"),
-                            "expected (radius >= 0, height), finite",
-                        ));
-                    }
-                }
-                if !(3..=1 << 16).contains(&l.segments) {
-                    return Err(self.err(&format!("{sk}.segments"), "expected 3..=65536 segments"));
-                }
-                let first = l.profile[0];
-                let last = l.profile[l.profile.len() - 1];
-                closed_mesh = first[0] == 0.0 && last[0] == 0.0;
-                if !(0.0..=180.0).contains(&l.crease_angle) {
-                    return Err(self.err(&format!("{sk}.crease_angle"), "expected degrees in 0..=180"));
-                }
-                let shading = if l.smooth {
-                    meshgen::LatheShading::Smooth {
-                        crease_deg: l.crease_angle,
-                    }
-                } else {
-                    meshgen::LatheShading::Flat
-                };
-                Shape::Mesh(Arc::new(
-                    self.xf_mesh(meshgen::lathe(&l.profile, l.segments, shading), &xf),
-                ))
-            }
-            ShapeDesc::Mesh(m) => {
-                let path = self.resolve(&m.file);
-                let mesh = meshgen::load_obj(&path, m.smooth)
-                    .map_err(|e| self.err(&format!("{sk}.file"), format!("{}: {e}", path.display())))?;
-                closed_mesh = true; // only checked (and required) when used as a solid
-                Shape::Mesh(Arc::new(self.xf_mesh(mesh, &xf)))
-            }
-            ShapeDesc::Heightfield(h) => {
-                if h.levels == 0 || h.levels > MAX_HEIGHTFIELD_LEVELS {
-                    // In f64: 2^levels overflows any integer for absurd levels.
-                    let n = 2f64.powi(h.levels.min(2000) as i32) + 1.0;
-                    return Err(self.err(
-                        &format!("{sk}.levels"),
-                        format!(
-                            "expected 1..={MAX_HEIGHTFIELD_LEVELS} levels; {} levels would be {:.2e} triangles (~{:.1e} bytes)",
-                            h.levels,
-                            2.0 * (n - 1.0) * (n - 1.0),
-                            n * n * 48.0
-                        ),
-                    ));
-                }
-                let sx = self.positive(&format!("{sk}.size[0]"), h.size[0])?;
-                let sz = self.positive(&format!("{sk}.size[1]"), h.size[1])?;
-                if !(h.height.is_finite() && h.height >= 0.0) {
-                    return Err(self.err(&format!("{sk}.height"), "expected a finite height >= 0"));
-                }
-                if !(h.roughness > 0.0 && h.roughness < 1.0) {
-                    return Err(self.err(&format!("{sk}.roughness"), "expected 0 < roughness < 1"));
-                }
-                Shape::Mesh(Arc::new(self.xf_mesh(
-                    meshgen::heightfield([sx, sz], h.levels, h.height, h.roughness, h.seed),
-                    &xf,
-                )))
-            }
+        let (shape, closed_mesh) = match &o.shape {
+            ShapeDesc::Sphere(s) => (self.sphere(k, &sk, s, &pl)?, false),
+            ShapeDesc::Rect(r) => (self.rect(&sk, r, &pl)?, false),
+            ShapeDesc::Disk(dk) => (self.disk(k, &sk, dk, &pl)?, false),
+            ShapeDesc::Box(b) => (self.cuboid(&sk, b, &pl)?, true),
+            ShapeDesc::Cylinder(cy) => (self.cylinder(k, &sk, cy, &pl)?, false),
+            ShapeDesc::Tube(t) => (self.tube(k, &sk, t, &pl)?, false),
+            ShapeDesc::Lathe(l) => self.lathe(&sk, l, &pl)?,
+            ShapeDesc::Mesh(m) => (self.obj_mesh(&sk, m, &pl)?, true),
+            ShapeDesc::Heightfield(h) => (self.heightfield(&sk, h, &pl)?, false),
         };
         // Embree works in f32: everything must stay finite (and sane) there.
         let (lo, hi) = match &shape {
@@ -245,6 +106,225 @@ impl Builder<'_> {
         }
 
         Ok((shape, closed_mesh))
+    }
+
+    /// `a`, if the object's transform keeps it analytic (a similarity).
+    fn analytic(&self, k: &str, pl: &Placement, a: Analytic) -> Result<Shape> {
+        if !pl.similarity {
+            return Err(self.err(
+                &format!("{k}.transform"),
+                "analytic shapes take only translations, rotations and uniform scales; use a mesh for other transforms",
+            ));
+        }
+        Ok(Shape::Analytic(a))
+    }
+
+    /// An analytic sphere.
+    fn sphere(&self, k: &str, sk: &str, s: &SphereDesc, pl: &Placement) -> Result<Shape> {
+        self.analytic(
+            k,
+            pl,
+            Analytic::Sphere {
+                center: pl.point(self.finite3(&format!("{sk}.center"), s.center)?),
+                radius: self.positive(&format!("{sk}.radius"), s.radius)? * pl.scale,
+            },
+        )
+    }
+
+    /// A rectangle (two triangles).
+    fn rect(&self, sk: &str, r: &RectDesc, pl: &Placement) -> Result<Shape> {
+        let c = self.finite3(&format!("{sk}.center"), r.center)?;
+        let n = self.unit(&format!("{sk}.normal"), r.normal)?;
+        let u = self.unit(&format!("{sk}.u_axis"), r.u_axis)?;
+        if n.dot(u).abs() > 1e-6 {
+            return Err(self.err(
+                &format!("{sk}.u_axis"),
+                "u_axis must be perpendicular to the normal",
+            ));
+        }
+        let su = self.positive(&format!("{sk}.size[0]"), r.size[0])?;
+        let sv = self.positive(&format!("{sk}.size[1]"), r.size[1])?;
+        Ok(Shape::Mesh(Arc::new(
+            self.xf_mesh(meshgen::rect(c, n, u, [su, sv]), &pl.xf),
+        )))
+    }
+
+    /// An analytic disk or annulus.
+    fn disk(&self, k: &str, sk: &str, dk: &DiskDesc, pl: &Placement) -> Result<Shape> {
+        let r = self.positive(&format!("{sk}.radius"), dk.radius)?;
+        if !(dk.inner_radius.is_finite() && dk.inner_radius >= 0.0 && dk.inner_radius < r) {
+            return Err(self.err(
+                &format!("{sk}.inner_radius"),
+                "expected 0 <= inner_radius < radius",
+            ));
+        }
+        self.analytic(
+            k,
+            pl,
+            Analytic::Disk {
+                center: pl.point(self.finite3(&format!("{sk}.center"), dk.center)?),
+                normal: pl.dir(self.unit(&format!("{sk}.normal"), dk.normal)?),
+                radius: r * pl.scale,
+                inner: dk.inner_radius * pl.scale,
+            },
+        )
+    }
+
+    /// A closed cuboid mesh.
+    fn cuboid(&self, sk: &str, b: &BoxDesc, pl: &Placement) -> Result<Shape> {
+        let c = self.finite3(&format!("{sk}.center"), b.center)?;
+        let s = self.finite3(&format!("{sk}.size"), b.size)?;
+        if s.min_element() <= 0.0 {
+            return Err(self.err(&format!("{sk}.size"), "expected three sizes > 0"));
+        }
+        Ok(Shape::Mesh(Arc::new(self.xf_mesh(meshgen::cuboid(c, s), &pl.xf))))
+    }
+
+    /// An analytic cylinder, open or capped.
+    fn cylinder(&self, k: &str, sk: &str, cy: &CylinderDesc, pl: &Placement) -> Result<Shape> {
+        let p0 = self.finite3(&format!("{sk}.p0"), cy.p0)?;
+        let p1 = self.finite3(&format!("{sk}.p1"), cy.p1)?;
+        let r = self.positive(&format!("{sk}.radius"), cy.radius)?;
+        let inward = match cy.normal.as_str() {
+            "out" => false,
+            "in" => true,
+            o => {
+                return Err(self.err(
+                    &format!("{sk}.normal"),
+                    format!("expected \"out\" or \"in\", got \"{o}\""),
+                ))
+            }
+        };
+        if cy.caps && inward {
+            return Err(self.err(
+                &format!("{sk}.caps"),
+                "a capped (solid) cylinder needs normal = \"out\"",
+            ));
+        }
+        let (a, b) = (pl.point(p0), pl.point(p1));
+        let h = (b - a).length();
+        if h <= 0.0 {
+            return Err(self.err(&format!("{sk}.p1"), "p0 and p1 must differ"));
+        }
+        self.analytic(
+            k,
+            pl,
+            Analytic::Cylinder {
+                p0: a,
+                axis: (b - a) / h,
+                height: h,
+                radius: r * pl.scale,
+                inward,
+                caps: cy.caps,
+            },
+        )
+    }
+
+    /// An analytic thick-walled tube.
+    fn tube(&self, k: &str, sk: &str, t: &TubeDesc, pl: &Placement) -> Result<Shape> {
+        let p0 = self.finite3(&format!("{sk}.p0"), t.p0)?;
+        let p1 = self.finite3(&format!("{sk}.p1"), t.p1)?;
+        let ro = self.positive(&format!("{sk}.outer_radius"), t.outer_radius)?;
+        let ri = self.positive(&format!("{sk}.inner_radius"), t.inner_radius)?;
+        if ri >= ro {
+            return Err(self.err(
+                &format!("{sk}.inner_radius"),
+                "expected inner_radius < outer_radius",
+            ));
+        }
+        let (a, b) = (pl.point(p0), pl.point(p1));
+        let h = (b - a).length();
+        if h <= 0.0 {
+            return Err(self.err(&format!("{sk}.p1"), "p0 and p1 must differ"));
+        }
+        self.analytic(
+            k,
+            pl,
+            Analytic::Tube {
+                p0: a,
+                axis: (b - a) / h,
+                height: h,
+                outer: ro * pl.scale,
+                inner: ri * pl.scale,
+            },
+        )
+    }
+
+    /// A revolved profile, and whether it is closed (both ends on the axis).
+    fn lathe(&self, sk: &str, l: &LatheDesc, pl: &Placement) -> Result<(Shape, bool)> {
+        if l.profile.len() < 2 {
+            return Err(self.err(
+                &format!("{sk}.profile"),
+                "expected at least two (radius, height) points",
+            ));
+        }
+        for (j, p) in l.profile.iter().enumerate() {
+            if !(p[0].is_finite() && p[1].is_finite() && p[0] >= 0.0) {
+                return Err(self.err(
+                    &format!("{sk}.profile[{j}]"),
+                    "expected (radius >= 0, height), finite",
+                ));
+            }
+        }
+        if !(3..=1 << 16).contains(&l.segments) {
+            return Err(self.err(&format!("{sk}.segments"), "expected 3..=65536 segments"));
+        }
+        let first = l.profile[0];
+        let last = l.profile[l.profile.len() - 1];
+        let closed = first[0] == 0.0 && last[0] == 0.0;
+        if !(0.0..=180.0).contains(&l.crease_angle) {
+            return Err(self.err(&format!("{sk}.crease_angle"), "expected degrees in 0..=180"));
+        }
+        let shading = if l.smooth {
+            meshgen::LatheShading::Smooth {
+                crease_deg: l.crease_angle,
+            }
+        } else {
+            meshgen::LatheShading::Flat
+        };
+        Ok((
+            Shape::Mesh(Arc::new(
+                self.xf_mesh(meshgen::lathe(&l.profile, l.segments, shading), &pl.xf),
+            )),
+            closed,
+        ))
+    }
+
+    /// Triangles from an OBJ file.
+    fn obj_mesh(&self, sk: &str, m: &MeshDesc, pl: &Placement) -> Result<Shape> {
+        let path = self.resolve(&m.file);
+        let mesh = meshgen::load_obj(&path, m.smooth)
+            .map_err(|e| self.err(&format!("{sk}.file"), format!("{}: {e}", path.display())))?;
+        Ok(Shape::Mesh(Arc::new(self.xf_mesh(mesh, &pl.xf))))
+    }
+
+    /// Diamond-square terrain.
+    fn heightfield(&self, sk: &str, h: &HeightfieldDesc, pl: &Placement) -> Result<Shape> {
+        if h.levels == 0 || h.levels > MAX_HEIGHTFIELD_LEVELS {
+            // In f64: 2^levels overflows any integer for absurd levels.
+            let n = 2f64.powi(h.levels.min(2000) as i32) + 1.0;
+            return Err(self.err(
+                &format!("{sk}.levels"),
+                format!(
+                    "expected 1..={MAX_HEIGHTFIELD_LEVELS} levels; {} levels would be {:.2e} triangles (~{:.1e} bytes)",
+                    h.levels,
+                    2.0 * (n - 1.0) * (n - 1.0),
+                    n * n * 48.0
+                ),
+            ));
+        }
+        let sx = self.positive(&format!("{sk}.size[0]"), h.size[0])?;
+        let sz = self.positive(&format!("{sk}.size[1]"), h.size[1])?;
+        if !(h.height.is_finite() && h.height >= 0.0) {
+            return Err(self.err(&format!("{sk}.height"), "expected a finite height >= 0"));
+        }
+        if !(h.roughness > 0.0 && h.roughness < 1.0) {
+            return Err(self.err(&format!("{sk}.roughness"), "expected 0 < roughness < 1"));
+        }
+        Ok(Shape::Mesh(Arc::new(self.xf_mesh(
+            meshgen::heightfield([sx, sz], h.levels, h.height, h.roughness, h.seed),
+            &pl.xf,
+        ))))
     }
 
     /// The material of object `k`; for a priority solid also its solid
