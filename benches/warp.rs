@@ -462,7 +462,7 @@ fn empty_frame() -> Frame {
 }
 
 fn header() {
-    println!("| vertices | film | warp s | copies s (refit s) | rays s (SAH copies) | frame s | fps | one-shot s | exact s | vs exact | exact / rays | exact 8-packets s | vs exact packets | render 1spp s | px mean | px p95 | mismatch |");
+    println!("| vertices | film | warp s | copies s (refit s) | rays s (SAH copies) | frame s | fps | one-shot s | exact s | vs exact | exact / rays | exact packets s | vs exact packets | render 1spp s | px mean | px p95 | mismatch |");
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
 }
 
@@ -656,7 +656,7 @@ fn main() -> snell::Result<()> {
         "\n## Frames at {bw}x{bh}, 100k vertices (median of {} interleaved repetitions)\n",
         reps()
     );
-    println!("frame = warp + copies (rebuilt, Embree's fast builder) + packet rays; refit s = the copies' update when the camera did not move (copies built with SAH once, then refitted; 'SAH copies' = the rays against those); one-shot = warp_scene + render_warped (copies built per frame, single rays); vs exact = exact trace (single rays, the reference) / frame; exact 8-packets = the same exact trace with its pieces cast in packets of eight\n");
+    println!("frame = warp + copies (rebuilt, Embree's fast builder) + packet rays; refit s = the copies' update when the camera did not move (copies built with SAH once, then refitted; 'SAH copies' = the rays against those); one-shot = warp_scene + render_warped (copies built per frame, single rays); vs exact = exact trace (single rays, the reference) / frame; exact packets = the same exact trace with its pieces cast in packets of sixteen (4x4 pixel tiles, as the warp's rays)\n");
     header();
     for (name, scene) in [
         ("plate", "scenes/warp_plate.toml"),

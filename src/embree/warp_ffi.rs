@@ -223,6 +223,13 @@ impl DynamicMesh {
             p.query(self.scene, true, false);
         }
     }
+
+    /// [`intersect8`](Self::intersect8) for sixteen rays.
+    pub fn intersect16(&self, p: &mut Packet16) {
+        if self.ready && self.attached > 0 {
+            p.query(self.scene, true, false);
+        }
+    }
 }
 
 /// A packet of rays for Embree's packet queries (`rtcIntersect8/16`,
@@ -386,6 +393,11 @@ ray_packet!(
 impl Scene {
     /// Trace a packet of up to eight rays (coherent primary rays).
     pub fn intersect8(&self, p: &mut Packet8) {
+        p.query(self.raw, true, false);
+    }
+
+    /// Trace a packet of up to sixteen rays (coherent primary rays).
+    pub fn intersect16(&self, p: &mut Packet16) {
         p.query(self.raw, true, false);
     }
 }
