@@ -46,6 +46,10 @@ pub struct FilterRecords {
     /// accepted t seen so far: after the query these are the true hit and any
     /// solid surfaces coincident with it.
     pub near: [Rejected; NEAR_CAPACITY],
+    /// When on ([`time_list_updates`](super::time_list_updates)): seconds
+    /// spent applying false hits to interior lists, and the number of timed
+    /// applications (each adds one clock read pair of overhead).
+    pub(crate) update_timer: Option<(f64, u64)>,
 }
 
 impl Default for FilterRecords {
@@ -61,6 +65,7 @@ impl Default for FilterRecords {
         FilterRecords {
             rejected: [zero; REJECT_CAPACITY],
             near: [zero; NEAR_CAPACITY],
+            update_timer: None,
         }
     }
 }

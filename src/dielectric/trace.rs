@@ -47,14 +47,19 @@ fn verify_rejected(scene: &RenderScene, ray: &Ray, rejected: &mut [Rejected]) ->
 
 /// A true hit near a mesh edge that does not change whether the ray is in
 /// its solid (as `list` says before the hit) is no crossing.
+#[inline]
 fn is_touch(scene: &RenderScene, ray: &Ray, h: &Hit, list: &InteriorList) -> bool {
+    !scene.mesh_solids.is_empty() && near_edge(h.u, h.v) && mesh_touch(scene, ray, h, list)
+}
+
+#[inline(never)]
+fn mesh_touch(scene: &RenderScene, ray: &Ray, h: &Hit, list: &InteriorList) -> bool {
     match scene.solid_by_geom[h.geom_id as usize] {
         Some(s)
-            if near_edge(h.u, h.v)
-                && matches!(
-                    scene.geoms[h.geom_id as usize].shape,
-                    crate::scene::Shape::Mesh(_)
-                ) =>
+            if matches!(
+                scene.geoms[h.geom_id as usize].shape,
+                crate::scene::Shape::Mesh(_)
+            ) =>
         {
             inside_after(scene, s, ray, h.t) == list.contains(s)
         }
@@ -70,8 +75,18 @@ fn is_touch(scene: &RenderScene, ray: &Ray, h: &Hit, list: &InteriorList) -> boo
 /// just before the hit, for the first hit on a solid of a ray whose list is
 /// empty: the only place such a ray meets a vertex exactly (every later
 /// segment starts at a refraction). Analytic solids do not leak.
+#[inline]
 fn leaked_entry(scene: &RenderScene, r: &Ray, h: &Hit) -> Option<(u32, u32)> {
     let hit_solid = scene.solid_by_geom[h.geom_id as usize]?;
+    // Only a mesh solid other than the hit's own can have leaked.
+    if scene.mesh_solids.iter().all(|&(i, _)| i == hit_solid) {
+        return None;
+    }
+    leaked_mesh_entry(scene, r, h, hit_solid)
+}
+
+#[inline(never)]
+fn leaked_mesh_entry(scene: &RenderScene, r: &Ray, h: &Hit, hit_solid: u32) -> Option<(u32, u32)> {
     let d = r.dir.as_dvec3();
     let dl = d.length();
     let p = r.org.as_dvec3() + d * h.t as f64;
@@ -79,17 +94,12 @@ fn leaked_entry(scene: &RenderScene, r: &Ray, h: &Hit) -> Option<(u32, u32)> {
     let back = (2e-5 * (1.0 + p.abs().max_element())).min(0.5 * (h.t - r.tnear) as f64 * dl);
     let q = p - d * (back / dl);
     scene
-        .solids
+        .mesh_solids
         .iter()
-        .enumerate()
-        .find(|&(i, s)| {
-            i as u32 != hit_solid
-                && matches!(scene.geoms[s.geom as usize].shape, crate::scene::Shape::Mesh(_))
-                && q.cmpge(s.aabb.0).all()
-                && q.cmple(s.aabb.1).all()
-                && scene.solid_contains(i as u32, q)
+        .find(|&&(i, (lo, hi))| {
+            i != hit_solid && q.cmpge(lo).all() && q.cmple(hi).all() && scene.solid_contains(i, q)
         })
-        .map(|(i, s)| (i as u32, s.rank))
+        .map(|&(i, _)| (i, scene.solids[i as usize].rank))
 }
 
 /// After a leaked entry of `leaked` (solid, rank) found at the hit `h`: the
@@ -268,12 +278,17 @@ pub fn trace(
                 return Ok(plain(recast(scene, &r, list, c, false)?));
             };
             let t_hit = hit.map(|h| h.t).unwrap_or(f32::INFINITY);
+            let clock = filter.rec.update_timer.map(|_| std::time::Instant::now());
             let n = verify_rejected(scene, &r, &mut filter.rec.rejected[..filter.len]);
             // False crossings up to and including those coincident with the true hit.
             // The filter's coefficients: the same window without a square root.
             let win = filter.window(if t_hit.is_finite() { t_hit } else { 0.0 });
             let limit = t_hit + win;
             c.false_hits += apply_rejected(list, &mut filter.rec.rejected[..n], limit, win) as u64;
+            if let (Some(t0), Some((s, k))) = (clock, filter.rec.update_timer.as_mut()) {
+                *s += t0.elapsed().as_secs_f64();
+                *k += 1;
+            }
             c.max_list_depth = c.max_list_depth.max(list.len() as u64);
             if list.spilled() {
                 c.list_spills += 1;
@@ -293,6 +308,22 @@ pub fn trace(
         NestedStrategy::Toggle => Ok(plain(recast(scene, ray, list, c, true)?)),
         NestedStrategy::Off => unreachable!("handled above"),
     }
+}
+
+/// Run `f` with the filter strategy's application of false hits to interior
+/// lists (the point-in-solid verification of near-edge records and
+/// `apply_rejected`, after each filtered query of [`trace`] on this thread)
+/// timed: returns `f`'s result, the seconds spent there, and the number of
+/// timed applications. Each application adds the cost of one pair of clock
+/// reads to `f`'s time and to the seconds; subtract it (see
+/// `bench::clock_pair_s`) to estimate the paper's "list update" share.
+pub fn time_list_updates<R>(f: impl FnOnce() -> R) -> (R, f64, u64) {
+    RECORDS.with_borrow_mut(|r| r.update_timer = Some((0.0, 0)));
+    let out = f();
+    let (s, k) = RECORDS
+        .with_borrow_mut(|r| r.update_timer.take())
+        .unwrap_or((0.0, 0));
+    (out, s, k)
 }
 
 /// Can one plain query of a ray inside `list` stand in for [`trace`]?
@@ -403,4 +434,54 @@ fn recast(
     Err(crate::error::Error::Invalid(
         "a ray crossed more than 100000 false surfaces; the scene geometry is degenerate".into(),
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{load_scene_str, BuildOptions};
+    use glam::Vec3A;
+
+    #[test]
+    fn list_updates_are_timed_once_per_filtered_query_and_only_when_asked() {
+        // Water (priority 1) inside the right half of the glass (priority 2):
+        // a ray inside both crosses the water's face at x = 0.5 as a false hit.
+        let text = r#"
+[camera]
+position = [0.0, 0.0, 5.0]
+target = [0.0, 0.0, 0.0]
+fov = 40.0
+[[objects]]
+name = "water"
+shape = { type = "box", center = [0.0, 0.0, 0.0], size = [1.0, 1.0, 1.0] }
+material = { type = "dielectric", ior = 1.33, priority = 1 }
+[[objects]]
+name = "glass"
+shape = { type = "box", center = [0.3, 0.0, 0.0], size = [1.0, 2.0, 2.0] }
+material = { type = "dielectric", ior = 1.5, priority = 2 }
+"#;
+        let scene = load_scene_str(
+            "t.toml",
+            text,
+            std::path::Path::new("."),
+            &BuildOptions::default(),
+        )
+        .unwrap();
+        let ray = Ray::new(Vec3A::new(0.0, 0.1, 0.3), Vec3A::X);
+        let mut c = Counters::default();
+        let run = |c: &mut Counters, n: usize| {
+            for _ in 0..n {
+                let mut list = InteriorList::from_solids(&scene.solids, &[0, 1]);
+                trace(&scene, NestedStrategy::Filter, &ray, &mut list, c).unwrap();
+            }
+        };
+        let ((), s, k) = time_list_updates(|| run(&mut c, 3));
+        assert_eq!(k, 3, "one timed application per filtered query");
+        assert!(s > 0.0);
+        assert_eq!(c.false_hits, 3);
+        // Off again: nothing is timed.
+        run(&mut c, 2);
+        let ((), _, k) = time_list_updates(|| ());
+        assert_eq!(k, 0);
+    }
 }

@@ -226,6 +226,10 @@ pub struct RenderScene {
     /// True when some solids may overlap (bounds intersect): only then can a
     /// false hit happen and only then is a filter installed.
     pub has_overlap: bool,
+    /// Indices of the solids that are closed meshes, with their bounds: the
+    /// only solids whose entry Embree can leak (a ray through a vertex) and
+    /// whose hits near an edge may be touches (`dielectric::trace`).
+    pub(crate) mesh_solids: Vec<(u32, (DVec3, DVec3))>,
     /// The gradient-index medium, if any: rays inside its bounds are cast as chords.
     pub medium: Option<crate::media::Medium>,
     /// The analytic warp glass (`[warp]`), if any; its geometry is also in

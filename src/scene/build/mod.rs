@@ -196,9 +196,17 @@ impl Builder<'_> {
             ambient_ior: ambient as f32,
             camera_interior: Vec::new(),
             has_overlap: up.has_overlap,
+            mesh_solids: Vec::new(),
             warnings,
             containment: up.containment,
         };
+        scene.mesh_solids = scene
+            .solids
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| matches!(scene.geoms[s.geom as usize].shape, crate::scene::Shape::Mesh(_)))
+            .map(|(i, s)| (i as u32, s.aabb))
+            .collect();
         scene.camera_interior = self.camera_interior(&d.camera, &scene, position)?;
         Ok(scene)
     }
