@@ -512,7 +512,7 @@ pub fn nested_ratios(runs: &[NestedRun]) -> String {
                 fmt(ratio_spread(&f.walls, &off.walls)),
                 f.false_hits_per_ray,
                 f.list_update_share
-                    .map_or("-".into(), |x| format!("{:.2}%", 100.0 * x))
+                    .map_or("-".into(), |x| format!("{:.3}%", 100.0 * x))
             ));
         }
     }

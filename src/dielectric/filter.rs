@@ -267,10 +267,16 @@ pub struct TrueHit {
 /// solid in t order; within one window a solid's enter and leave cancel (a
 /// tangent touch or a silhouette-edge double report), duplicates of one
 /// direction count once. Returns the number of distinct false crossings.
+#[inline]
 pub fn apply_rejected(list: &mut InteriorList, rejected: &mut [Rejected], t_hit: f32, win: f32) -> u32 {
     if rejected.is_empty() {
         return 0; // most queries: no false hit
     }
+    apply_records(list, rejected, t_hit, win)
+}
+
+#[inline(never)]
+fn apply_records(list: &mut InteriorList, rejected: &mut [Rejected], t_hit: f32, win: f32) -> u32 {
     rejected.sort_unstable_by(|a, b| a.solid.cmp(&b.solid).then(a.t.total_cmp(&b.t)));
     let mut crossings = 0;
     let mut i = 0;

@@ -36,13 +36,22 @@ fn inside_after(scene: &RenderScene, solid: u32, ray: &Ray, t: f32) -> bool {
 /// after the event iff the point just past it is. A touch (inside as before)
 /// becomes an insert or remove that changes nothing; two reports of one
 /// crossing (a shared edge) agree.
+#[inline]
 fn verify_rejected(scene: &RenderScene, ray: &Ray, rejected: &mut [Rejected]) -> usize {
+    // Most queries record nothing.
+    if !rejected.is_empty() {
+        verify_near_edge(scene, ray, rejected);
+    }
+    rejected.len()
+}
+
+#[inline(never)]
+fn verify_near_edge(scene: &RenderScene, ray: &Ray, rejected: &mut [Rejected]) {
     for r in rejected.iter_mut() {
         if r.near_edge && (r.solid as usize) < scene.solids.len() {
             r.entering = inside_after(scene, r.solid, ray, r.t);
         }
     }
-    rejected.len()
 }
 
 /// A true hit near a mesh edge that does not change whether the ray is in
