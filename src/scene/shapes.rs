@@ -143,6 +143,47 @@ impl Analytic {
         (q <= r * r && q >= inner * inner).then_some(t)
     }
 
+    /// Might a surface of this solid pass within `tol` of `p`? A distance
+    /// test for spheres, closed cylinders and tubes (never false when the
+    /// distance is at most `tol`); `None` for other shapes.
+    pub fn surface_near(&self, p: DVec3, tol: f64) -> Option<bool> {
+        match *self {
+            Analytic::Sphere { center, radius } => Some(((p - center).length() - radius).abs() <= tol),
+            Analytic::Cylinder {
+                p0,
+                axis,
+                height,
+                radius,
+                caps: true,
+                inward: false,
+            } => {
+                let q = p - p0;
+                let y = q.dot(axis);
+                let r = (q - axis * y).length();
+                let side = (r - radius).abs() <= tol && y >= -tol && y <= height + tol;
+                let cap = (y.abs() <= tol || (y - height).abs() <= tol) && r <= radius + tol;
+                Some(side || cap)
+            }
+            Analytic::Tube {
+                p0,
+                axis,
+                height,
+                outer,
+                inner,
+            } => {
+                let q = p - p0;
+                let y = q.dot(axis);
+                let r = (q - axis * y).length();
+                let walls =
+                    ((r - outer).abs() <= tol || (r - inner).abs() <= tol) && y >= -tol && y <= height + tol;
+                let ends =
+                    (y.abs() <= tol || (y - height).abs() <= tol) && r <= outer + tol && r >= inner - tol;
+                Some(walls || ends)
+            }
+            _ => None,
+        }
+    }
+
     /// Is `p` strictly inside the solid this shape bounds (spheres, closed
     /// cylinders, tubes)? `None` for shapes that bound no volume.
     pub fn contains(&self, p: DVec3) -> Option<bool> {
