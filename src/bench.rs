@@ -297,6 +297,23 @@ pub struct NestedRun {
     /// of every strategy ran back to back, so per-repetition ratios compare
     /// runs that saw the same machine load).
     pub walls: Vec<f64>,
+    /// Trace mode, filter only: the share of the trace time spent applying
+    /// false hits to interior lists (the paper's "list updates" statistic),
+    /// from one extra timed pass ([`dielectric::time_list_updates`], the
+    /// clock's own cost subtracted) over the median wall time.
+    pub list_update_share: Option<f64>,
+}
+
+/// The mean duration an empty interval between two clock reads measures (s):
+/// the bias of each interval [`dielectric::time_list_updates`] times.
+pub fn clock_pair_s() -> f64 {
+    let n = 100_000;
+    let mut acc = 0.0;
+    for _ in 0..n {
+        let t0 = Instant::now();
+        acc += std::hint::black_box(t0).elapsed().as_secs_f64();
+    }
+    acc / n as f64
 }
 
 fn trace_only(scene: &RenderScene, strategy: NestedStrategy, rays: &[ListedRay]) -> Result<(f64, Counters)> {
@@ -400,6 +417,11 @@ pub fn nested(opts: &NestedBenchOptions, mut progress: impl FnMut(&str)) -> Resu
                 render_stats[k] = Some(r.stats);
             }
         }
+        // The paper's statistic, from one extra pass with the list updates timed.
+        let (timed, update_s, updates) =
+            dielectric::time_list_updates(|| trace_only(&scene, NestedStrategy::Filter, &rays));
+        timed?;
+        let update_s = (update_s - updates as f64 * clock_pair_s()).max(0.0);
         for (k, s) in strategies.iter().enumerate() {
             let wall = median(trace_t[k].clone());
             runs.push(NestedRun {
@@ -414,6 +436,7 @@ pub fn nested(opts: &NestedBenchOptions, mut progress: impl FnMut(&str)) -> Resu
                 rays: rays.len() as u64,
                 samples_per_s: None,
                 walls: trace_t[k].clone(),
+                list_update_share: (*s == NestedStrategy::Filter).then(|| update_s / wall),
             });
             let wall = median(render_t[k].clone());
             let st = render_stats[k].expect("at least one repeat");
@@ -429,6 +452,7 @@ pub fn nested(opts: &NestedBenchOptions, mut progress: impl FnMut(&str)) -> Resu
                 rays: st.counters.rays(),
                 samples_per_s: Some(st.counters.samples as f64 / wall),
                 walls: render_t[k].clone(),
+                list_update_share: None,
             });
         }
     }
@@ -458,7 +482,7 @@ pub fn ratio_spread(filter: &[f64], other: &[f64]) -> (f64, f64, f64) {
 /// one of the four strategies in a mode is left out.
 pub fn nested_ratios(runs: &[NestedRun]) -> String {
     let mut out = String::from(
-        "scene                   mode    filter Mrays/s  recast  toggle  off   filter/recast (min-max)   filter/off (min-max)      false hits/ray\n",
+        "scene                   mode    filter Mrays/s  recast  toggle  off   filter/recast (min-max)   filter/off (min-max)      false hits/ray  list upd\n",
     );
     let mut scenes: Vec<&str> = runs.iter().map(|r| r.scene.as_str()).collect();
     scenes.dedup();
@@ -479,18 +503,20 @@ pub fn nested_ratios(runs: &[NestedRun]) -> String {
                 continue;
             };
             out.push_str(&format!(
-                "{s:<23} {mode:<7} {:>13.3} {:>7.3} {:>7.3} {:>6.3} {:>24} {:>24} {:>15.3}\n",
+                "{s:<23} {mode:<7} {:>13.3} {:>7.3} {:>7.3} {:>6.3} {:>24} {:>24} {:>15.3} {:>9}\n",
                 f.rays_per_s / 1e6,
                 rc.rays_per_s / 1e6,
                 tg.rays_per_s / 1e6,
                 off.rays_per_s / 1e6,
                 fmt(ratio_spread(&f.walls, &rc.walls)),
                 fmt(ratio_spread(&f.walls, &off.walls)),
-                f.false_hits_per_ray
+                f.false_hits_per_ray,
+                f.list_update_share
+                    .map_or("-".into(), |x| format!("{:.3}%", 100.0 * x))
             ));
         }
     }
-    out.push_str("(speed ratios: time of the other strategy / time of filter, median over interleaved repetitions with their range; > 1 means filter is faster; ~ = within noise)\n");
+    out.push_str("(speed ratios: time of the other strategy / time of filter, median over interleaved repetitions with their range; > 1 means filter is faster; ~ = within noise; list upd = share of the filter's trace time spent applying false hits to interior lists)\n");
     out
 }
 

@@ -46,6 +46,10 @@ pub struct FilterRecords {
     /// accepted t seen so far: after the query these are the true hit and any
     /// solid surfaces coincident with it.
     pub near: [Rejected; NEAR_CAPACITY],
+    /// When on ([`time_list_updates`](super::time_list_updates)): seconds
+    /// spent applying false hits to interior lists, and the number of timed
+    /// applications (each adds one clock read pair of overhead).
+    pub(crate) update_timer: Option<(f64, u64)>,
 }
 
 impl Default for FilterRecords {
@@ -61,6 +65,7 @@ impl Default for FilterRecords {
         FilterRecords {
             rejected: [zero; REJECT_CAPACITY],
             near: [zero; NEAR_CAPACITY],
+            update_timer: None,
         }
     }
 }
@@ -262,10 +267,16 @@ pub struct TrueHit {
 /// solid in t order; within one window a solid's enter and leave cancel (a
 /// tangent touch or a silhouette-edge double report), duplicates of one
 /// direction count once. Returns the number of distinct false crossings.
+#[inline]
 pub fn apply_rejected(list: &mut InteriorList, rejected: &mut [Rejected], t_hit: f32, win: f32) -> u32 {
     if rejected.is_empty() {
         return 0; // most queries: no false hit
     }
+    apply_records(list, rejected, t_hit, win)
+}
+
+#[inline(never)]
+fn apply_records(list: &mut InteriorList, rejected: &mut [Rejected], t_hit: f32, win: f32) -> u32 {
     rejected.sort_unstable_by(|a, b| a.solid.cmp(&b.solid).then(a.t.total_cmp(&b.t)));
     let mut crossings = 0;
     let mut i = 0;

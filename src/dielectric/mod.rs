@@ -32,7 +32,7 @@ pub use filter::{
     REJECT_CAPACITY,
 };
 pub use list::InteriorList;
-pub use trace::{plain_hit_is_true, plain_query_suffices, trace};
+pub use trace::{plain_hit_is_true, plain_query_suffices, time_list_updates, trace};
 
 /// How false hits are found and skipped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -36,25 +36,39 @@ fn inside_after(scene: &RenderScene, solid: u32, ray: &Ray, t: f32) -> bool {
 /// after the event iff the point just past it is. A touch (inside as before)
 /// becomes an insert or remove that changes nothing; two reports of one
 /// crossing (a shared edge) agree.
+#[inline]
 fn verify_rejected(scene: &RenderScene, ray: &Ray, rejected: &mut [Rejected]) -> usize {
+    // Most queries record nothing.
+    if !rejected.is_empty() {
+        verify_near_edge(scene, ray, rejected);
+    }
+    rejected.len()
+}
+
+#[inline(never)]
+fn verify_near_edge(scene: &RenderScene, ray: &Ray, rejected: &mut [Rejected]) {
     for r in rejected.iter_mut() {
         if r.near_edge && (r.solid as usize) < scene.solids.len() {
             r.entering = inside_after(scene, r.solid, ray, r.t);
         }
     }
-    rejected.len()
 }
 
 /// A true hit near a mesh edge that does not change whether the ray is in
 /// its solid (as `list` says before the hit) is no crossing.
+#[inline]
 fn is_touch(scene: &RenderScene, ray: &Ray, h: &Hit, list: &InteriorList) -> bool {
+    !scene.mesh_solids.is_empty() && near_edge(h.u, h.v) && mesh_touch(scene, ray, h, list)
+}
+
+#[inline(never)]
+fn mesh_touch(scene: &RenderScene, ray: &Ray, h: &Hit, list: &InteriorList) -> bool {
     match scene.solid_by_geom[h.geom_id as usize] {
         Some(s)
-            if near_edge(h.u, h.v)
-                && matches!(
-                    scene.geoms[h.geom_id as usize].shape,
-                    crate::scene::Shape::Mesh(_)
-                ) =>
+            if matches!(
+                scene.geoms[h.geom_id as usize].shape,
+                crate::scene::Shape::Mesh(_)
+            ) =>
         {
             inside_after(scene, s, ray, h.t) == list.contains(s)
         }
@@ -70,8 +84,18 @@ fn is_touch(scene: &RenderScene, ray: &Ray, h: &Hit, list: &InteriorList) -> boo
 /// just before the hit, for the first hit on a solid of a ray whose list is
 /// empty: the only place such a ray meets a vertex exactly (every later
 /// segment starts at a refraction). Analytic solids do not leak.
+#[inline]
 fn leaked_entry(scene: &RenderScene, r: &Ray, h: &Hit) -> Option<(u32, u32)> {
     let hit_solid = scene.solid_by_geom[h.geom_id as usize]?;
+    // Only a mesh solid other than the hit's own can have leaked.
+    if scene.mesh_solids.iter().all(|&(i, _)| i == hit_solid) {
+        return None;
+    }
+    leaked_mesh_entry(scene, r, h, hit_solid)
+}
+
+#[inline(never)]
+fn leaked_mesh_entry(scene: &RenderScene, r: &Ray, h: &Hit, hit_solid: u32) -> Option<(u32, u32)> {
     let d = r.dir.as_dvec3();
     let dl = d.length();
     let p = r.org.as_dvec3() + d * h.t as f64;
@@ -79,17 +103,12 @@ fn leaked_entry(scene: &RenderScene, r: &Ray, h: &Hit) -> Option<(u32, u32)> {
     let back = (2e-5 * (1.0 + p.abs().max_element())).min(0.5 * (h.t - r.tnear) as f64 * dl);
     let q = p - d * (back / dl);
     scene
-        .solids
+        .mesh_solids
         .iter()
-        .enumerate()
-        .find(|&(i, s)| {
-            i as u32 != hit_solid
-                && matches!(scene.geoms[s.geom as usize].shape, crate::scene::Shape::Mesh(_))
-                && q.cmpge(s.aabb.0).all()
-                && q.cmple(s.aabb.1).all()
-                && scene.solid_contains(i as u32, q)
+        .find(|&&(i, (lo, hi))| {
+            i != hit_solid && q.cmpge(lo).all() && q.cmple(hi).all() && scene.solid_contains(i, q)
         })
-        .map(|(i, s)| (i as u32, s.rank))
+        .map(|&(i, _)| (i, scene.solids[i as usize].rank))
 }
 
 /// After a leaked entry of `leaked` (solid, rank) found at the hit `h`: the
@@ -223,76 +242,164 @@ pub fn trace(
                 }
             }
         }
-        NestedStrategy::Filter => RECORDS.with_borrow_mut(|rec| {
-            let p0 = list.top_rank().unwrap_or(0);
-            let mut filter;
-            let mut r = *ray;
-            let hit = loop {
-                filter = FalseHitFilter::new(scene, p0, &r, &mut *rec);
-                let hit = scene.embree.intersect_filtered(&r, &mut filter)?;
-                c.filter_calls += filter.calls as u64;
-                if filter.overflow {
-                    break None;
-                }
-                match hit {
-                    Some(h) if is_touch(scene, &r, &h, list) => {
-                        // Touching a mesh solid at an edge or vertex: not a crossing.
-                        // Apply the false hits before it and continue past it.
-                        let n = verify_rejected(scene, &r, &mut filter.rec.rejected[..filter.len]);
-                        let win = window(&r, h.t);
-                        let limit = h.t + win;
-                        c.false_hits +=
-                            apply_rejected(list, &mut filter.rec.rejected[..n], limit, win) as u64;
-                        // Other solids' surfaces at the touch point are crossed there.
-                        let touched = scene.solid_by_geom[h.geom_id as usize];
-                        let mut near = filter.rec.near;
-                        let m = verify_rejected(scene, &r, &mut near[..filter.near_len]);
-                        let mut others = [near[0]; NEAR_CAPACITY];
-                        let mut k = 0;
-                        for e in &near[..m] {
-                            if Some(e.solid) != touched && (e.t - h.t).abs() <= win {
-                                others[k] = *e;
-                                k += 1;
-                            }
-                        }
-                        apply_rejected(list, &mut others[..k], limit, win);
-                        r.tnear = recast_tnear(&r, h.t);
-                        c.queries += 1;
-                    }
-                    h => break Some(h),
-                }
-            };
-            let Some(hit) = hit else {
-                // Too many false hits to record: the correct slow path.
-                c.fallbacks += 1;
-                return Ok(plain(recast(scene, &r, list, c, false)?));
-            };
-            let t_hit = hit.map(|h| h.t).unwrap_or(f32::INFINITY);
-            let n = verify_rejected(scene, &r, &mut filter.rec.rejected[..filter.len]);
-            // False crossings up to and including those coincident with the true hit.
-            // The filter's coefficients: the same window without a square root.
-            let win = filter.window(if t_hit.is_finite() { t_hit } else { 0.0 });
-            let limit = t_hit + win;
-            c.false_hits += apply_rejected(list, &mut filter.rec.rejected[..n], limit, win) as u64;
-            c.max_list_depth = c.max_list_depth.max(list.len() as u64);
-            if list.spilled() {
-                c.list_spills += 1;
+        NestedStrategy::Filter if list.top_rank() == Some(scene.bottom_rank) => {
+            match nothing_ranks_below(scene, ray, list, c) {
+                Some(h) => Ok(h),
+                None => filtered(scene, ray, list, c),
             }
-            Ok(hit.map(|hit| {
-                let mut coincident = Coincident::NONE;
-                let own = scene.solid_by_geom[hit.geom_id as usize];
-                for r in &filter.rec.near[..filter.near_len] {
-                    if Some(r.solid) != own && (r.t - hit.t).abs() <= win {
-                        coincident.push(r.solid, r.rank, r.entering);
-                    }
-                }
-                TrueHit { hit, coincident }
-            }))
-        }),
+        }
+        NestedStrategy::Filter => filtered(scene, ray, list, c),
         NestedStrategy::Recast => Ok(plain(recast(scene, ray, list, c, false)?)),
         NestedStrategy::Toggle => Ok(plain(recast(scene, ray, list, c, true)?)),
         NestedStrategy::Off => unreachable!("handled above"),
     }
+}
+
+/// A ray inside solids of which the top one has the scene's lowest rank
+/// meets no false hit, so one plain query finds its first true hit: `Some`
+/// with it, unless the hit may touch a mesh edge or another solid's surface
+/// may pass through the hit point (a coincident crossing, which only the
+/// filter records): `None`, and the filter decides (the plain query counted
+/// as one more query). Spheres, closed cylinders and tubes are tested by
+/// distance; a mesh solid whose bounds hold the point always sends the ray
+/// to the filter.
+fn nothing_ranks_below(
+    scene: &RenderScene,
+    ray: &Ray,
+    list: &InteriorList,
+    c: &mut Counters,
+) -> Option<Option<TrueHit>> {
+    let Some(h) = scene.embree.intersect(ray) else {
+        return Some(None);
+    };
+    if !scene.mesh_solids.is_empty() && near_edge(h.u, h.v) {
+        c.queries += 1;
+        return None;
+    }
+    let own = scene.solid_by_geom[h.geom_id as usize];
+    let d = ray.dir.as_dvec3();
+    let p = ray.org.as_dvec3() + d * h.t as f64;
+    // Four times the filter's coincidence window, as a distance.
+    let tol = 4.0 * window(ray, h.t) as f64 * d.length();
+    let lo = p - tol;
+    let hi = p + tol;
+    for (i, s) in scene.solids.iter().enumerate() {
+        let i = i as u32;
+        if Some(i) != own
+            && hi.cmpge(s.aabb.0).all()
+            && lo.cmple(s.aabb.1).all()
+            && scene.surface_may_be_near(i, p, tol)
+        {
+            c.queries += 1;
+            return None;
+        }
+    }
+    c.max_list_depth = c.max_list_depth.max(list.len() as u64);
+    Some(Some(TrueHit {
+        hit: h,
+        coincident: Coincident::NONE,
+    }))
+}
+
+/// [`trace`] with the false-hit filter, for a ray inside `list` (not empty).
+fn filtered(
+    scene: &RenderScene,
+    ray: &Ray,
+    list: &mut InteriorList,
+    c: &mut Counters,
+) -> crate::error::Result<Option<TrueHit>> {
+    let plain = |h: Option<Hit>| {
+        h.map(|hit| TrueHit {
+            hit,
+            coincident: Coincident::NONE,
+        })
+    };
+    RECORDS.with_borrow_mut(|rec| {
+        let p0 = list.top_rank().unwrap_or(0);
+        let mut filter;
+        let mut r = *ray;
+        let hit = loop {
+            filter = FalseHitFilter::new(scene, p0, &r, &mut *rec);
+            let hit = scene.embree.intersect_filtered(&r, &mut filter)?;
+            c.filter_calls += filter.calls as u64;
+            if filter.overflow {
+                break None;
+            }
+            match hit {
+                Some(h) if is_touch(scene, &r, &h, list) => {
+                    // Touching a mesh solid at an edge or vertex: not a crossing.
+                    // Apply the false hits before it and continue past it.
+                    let n = verify_rejected(scene, &r, &mut filter.rec.rejected[..filter.len]);
+                    let win = window(&r, h.t);
+                    let limit = h.t + win;
+                    c.false_hits += apply_rejected(list, &mut filter.rec.rejected[..n], limit, win) as u64;
+                    // Other solids' surfaces at the touch point are crossed there.
+                    let touched = scene.solid_by_geom[h.geom_id as usize];
+                    let mut near = filter.rec.near;
+                    let m = verify_rejected(scene, &r, &mut near[..filter.near_len]);
+                    let mut others = [near[0]; NEAR_CAPACITY];
+                    let mut k = 0;
+                    for e in &near[..m] {
+                        if Some(e.solid) != touched && (e.t - h.t).abs() <= win {
+                            others[k] = *e;
+                            k += 1;
+                        }
+                    }
+                    apply_rejected(list, &mut others[..k], limit, win);
+                    r.tnear = recast_tnear(&r, h.t);
+                    c.queries += 1;
+                }
+                h => break Some(h),
+            }
+        };
+        let Some(hit) = hit else {
+            // Too many false hits to record: the correct slow path.
+            c.fallbacks += 1;
+            return Ok(plain(recast(scene, &r, list, c, false)?));
+        };
+        let t_hit = hit.map(|h| h.t).unwrap_or(f32::INFINITY);
+        let clock = filter.rec.update_timer.map(|_| std::time::Instant::now());
+        let n = verify_rejected(scene, &r, &mut filter.rec.rejected[..filter.len]);
+        // False crossings up to and including those coincident with the true hit.
+        // The filter's coefficients: the same window without a square root.
+        let win = filter.window(if t_hit.is_finite() { t_hit } else { 0.0 });
+        let limit = t_hit + win;
+        c.false_hits += apply_rejected(list, &mut filter.rec.rejected[..n], limit, win) as u64;
+        if let (Some(t0), Some((s, k))) = (clock, filter.rec.update_timer.as_mut()) {
+            *s += t0.elapsed().as_secs_f64();
+            *k += 1;
+        }
+        c.max_list_depth = c.max_list_depth.max(list.len() as u64);
+        if list.spilled() {
+            c.list_spills += 1;
+        }
+        Ok(hit.map(|hit| {
+            let mut coincident = Coincident::NONE;
+            let own = scene.solid_by_geom[hit.geom_id as usize];
+            for r in &filter.rec.near[..filter.near_len] {
+                if Some(r.solid) != own && (r.t - hit.t).abs() <= win {
+                    coincident.push(r.solid, r.rank, r.entering);
+                }
+            }
+            TrueHit { hit, coincident }
+        }))
+    })
+}
+
+/// Run `f` with the filter strategy's application of false hits to interior
+/// lists (the point-in-solid verification of near-edge records and
+/// `apply_rejected`, after each filtered query of [`trace`] on this thread)
+/// timed: returns `f`'s result, the seconds spent there, and the number of
+/// timed applications. Each application adds the cost of one pair of clock
+/// reads to `f`'s time and to the seconds; subtract it (see
+/// `bench::clock_pair_s`) to estimate the paper's "list update" share.
+pub fn time_list_updates<R>(f: impl FnOnce() -> R) -> (R, f64, u64) {
+    RECORDS.with_borrow_mut(|r| r.update_timer = Some((0.0, 0)));
+    let out = f();
+    let (s, k) = RECORDS
+        .with_borrow_mut(|r| r.update_timer.take())
+        .unwrap_or((0.0, 0));
+    (out, s, k)
 }
 
 /// Can one plain query of a ray inside `list` stand in for [`trace`]?
@@ -403,4 +510,113 @@ fn recast(
     Err(crate::error::Error::Invalid(
         "a ray crossed more than 100000 false surfaces; the scene geometry is degenerate".into(),
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{load_scene_str, BuildOptions};
+    use glam::Vec3A;
+
+    #[test]
+    fn list_updates_are_timed_once_per_filtered_query_and_only_when_asked() {
+        // Water (priority 1) inside the right half of the glass (priority 2):
+        // a ray inside both crosses the water's face at x = 0.5 as a false hit.
+        let text = r#"
+[camera]
+position = [0.0, 0.0, 5.0]
+target = [0.0, 0.0, 0.0]
+fov = 40.0
+[[objects]]
+name = "water"
+shape = { type = "box", center = [0.0, 0.0, 0.0], size = [1.0, 1.0, 1.0] }
+material = { type = "dielectric", ior = 1.33, priority = 1 }
+[[objects]]
+name = "glass"
+shape = { type = "box", center = [0.3, 0.0, 0.0], size = [1.0, 2.0, 2.0] }
+material = { type = "dielectric", ior = 1.5, priority = 2 }
+"#;
+        let scene = load_scene_str(
+            "t.toml",
+            text,
+            std::path::Path::new("."),
+            &BuildOptions::default(),
+        )
+        .unwrap();
+        let ray = Ray::new(Vec3A::new(0.0, 0.1, 0.3), Vec3A::X);
+        let mut c = Counters::default();
+        let run = |c: &mut Counters, n: usize| {
+            for _ in 0..n {
+                let mut list = InteriorList::from_solids(&scene.solids, &[0, 1]);
+                trace(&scene, NestedStrategy::Filter, &ray, &mut list, c).unwrap();
+            }
+        };
+        let ((), s, k) = time_list_updates(|| run(&mut c, 3));
+        assert_eq!(k, 3, "one timed application per filtered query");
+        assert!(s > 0.0);
+        assert_eq!(c.false_hits, 3);
+        // Off again: nothing is timed.
+        run(&mut c, 2);
+        let ((), _, k) = time_list_updates(|| ());
+        assert_eq!(k, 0);
+    }
+
+    #[test]
+    fn inside_the_lowest_solid_a_plain_query_answers_unless_a_surface_meets_the_hit() {
+        // Sphere a (the lowest rank) overlaps sphere b; they meet on the
+        // circle x = 0.75, radius sqrt(0.4375).
+        let text = r#"
+[camera]
+position = [0.0, 0.0, 5.0]
+target = [0.0, 0.0, 0.0]
+fov = 40.0
+[[objects]]
+name = "a"
+shape = { type = "sphere", center = [0.0, 0.0, 0.0], radius = 1.0 }
+material = { type = "dielectric", ior = 1.33, priority = 1 }
+[[objects]]
+name = "b"
+shape = { type = "sphere", center = [1.5, 0.0, 0.0], radius = 1.0 }
+material = { type = "dielectric", ior = 1.5, priority = 2 }
+"#;
+        let scene = load_scene_str(
+            "t.toml",
+            text,
+            std::path::Path::new("."),
+            &BuildOptions::default(),
+        )
+        .unwrap();
+        assert_eq!(scene.bottom_rank, scene.solids[0].rank);
+        let org = Vec3A::new(-0.5, 0.0, 0.0);
+        let mut c = Counters::default();
+        // Away from b: one plain query, no filter call.
+        let mut list = InteriorList::from_solids(&scene.solids, &[0]);
+        let h = trace(
+            &scene,
+            NestedStrategy::Filter,
+            &Ray::new(org, -Vec3A::X),
+            &mut list,
+            &mut c,
+        )
+        .unwrap()
+        .unwrap();
+        assert!((h.hit.t - 0.5).abs() < 1e-5);
+        assert_eq!((c.queries, c.filter_calls), (1, 0));
+        // Through the circle where a's exit is b's entry: the filter decides,
+        // and the hit carries the other sphere's crossing.
+        let on_circle = Vec3A::new(0.75, 0.4375f32.sqrt(), 0.0);
+        let mut list = InteriorList::from_solids(&scene.solids, &[0]);
+        let h = trace(
+            &scene,
+            NestedStrategy::Filter,
+            &Ray::new(org, on_circle - org),
+            &mut list,
+            &mut c,
+        )
+        .unwrap()
+        .unwrap();
+        assert!((h.hit.t - 1.0).abs() < 1e-5);
+        assert!(c.filter_calls > 0, "the filter ran");
+        assert_eq!(h.coincident.as_slice().len(), 1, "{:?}", h.coincident);
+    }
 }

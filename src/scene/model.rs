@@ -226,6 +226,15 @@ pub struct RenderScene {
     /// True when some solids may overlap (bounds intersect): only then can a
     /// false hit happen and only then is a filter installed.
     pub has_overlap: bool,
+    /// Indices of the solids that are closed meshes, with their bounds: the
+    /// only solids whose entry Embree can leak (a ray through a vertex) and
+    /// whose hits near an edge may be touches (`dielectric::trace`).
+    pub(crate) mesh_solids: Vec<(u32, (DVec3, DVec3))>,
+    /// The lowest solid rank (`u32::MAX` without solids): a ray whose top
+    /// solid has it can meet no false hit. `u32::MAX` also when a solid whose
+    /// bounds meet that solid's has no distance test (`surface_may_be_near`
+    /// is `true` for it everywhere): its rays always need the filter.
+    pub(crate) bottom_rank: u32,
     /// The gradient-index medium, if any: rays inside its bounds are cast as chords.
     pub medium: Option<crate::media::Medium>,
     /// The analytic warp glass (`[warp]`), if any; its geometry is also in
@@ -249,6 +258,23 @@ impl RenderScene {
         match &self.containment[s as usize] {
             Containment::Mesh(m) => m.contains(p),
             Containment::Analytic(a) => a.contains(p).unwrap_or(false),
+        }
+    }
+
+    /// Might a surface of solid `s` pass within `tol` of `p`? Exact for
+    /// spheres, closed cylinders and tubes; `true` (unknown) for the rest.
+    pub(crate) fn surface_may_be_near(&self, s: u32, p: DVec3, tol: f64) -> bool {
+        match &self.containment[s as usize] {
+            Containment::Analytic(a) => a.surface_near(p, tol).unwrap_or(true),
+            Containment::Mesh(_) => true,
+        }
+    }
+
+    /// Does solid `s` have an exact `surface_may_be_near`?
+    pub(crate) fn has_distance_test(&self, s: u32) -> bool {
+        match &self.containment[s as usize] {
+            Containment::Analytic(a) => a.surface_near(DVec3::ZERO, 0.0).is_some(),
+            Containment::Mesh(_) => false,
         }
     }
 

@@ -196,9 +196,30 @@ impl Builder<'_> {
             ambient_ior: ambient as f32,
             camera_interior: Vec::new(),
             has_overlap: up.has_overlap,
+            mesh_solids: Vec::new(),
+            bottom_rank: u32::MAX,
             warnings,
             containment: up.containment,
         };
+        scene.mesh_solids = scene
+            .solids
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| matches!(scene.geoms[s.geom as usize].shape, crate::scene::Shape::Mesh(_)))
+            .map(|(i, s)| (i as u32, s.aabb))
+            .collect();
+        if let Some((b, bs)) = scene.solids.iter().enumerate().min_by_key(|(_, s)| s.rank) {
+            let pad = 1e-4 * (1.0 + bs.aabb.0.abs().max(bs.aabb.1.abs()).max_element());
+            let testable = scene.solids.iter().enumerate().all(|(i, o)| {
+                i == b
+                    || (o.aabb.0 - pad).cmpgt(bs.aabb.1).any()
+                    || (o.aabb.1 + pad).cmplt(bs.aabb.0).any()
+                    || scene.has_distance_test(i as u32)
+            });
+            if testable {
+                scene.bottom_rank = bs.rank;
+            }
+        }
         scene.camera_interior = self.camera_interior(&d.camera, &scene, position)?;
         Ok(scene)
     }
