@@ -28,6 +28,15 @@ fn sphere_ts(c: DVec3, r: f64, o: DVec3, d: DVec3) -> Option<(f64, f64)> {
     Some((t0.min(t1), t0.max(t1)))
 }
 
+/// The height of `p` along the unit `axis` from `p0`, and its distance from
+/// the axis line.
+#[inline]
+fn axial(p0: DVec3, axis: DVec3, p: DVec3) -> (f64, f64) {
+    let q = p - p0;
+    let y = q.dot(axis);
+    (y, (q - axis * y).length())
+}
+
 /// Two roots this close are one tangent touch, not an entry and an exit.
 /// Two roots closer than the renderer's crossing window (twice the spawn
 /// offset, `ray::crossing_window`, in the same units) are a tangent
@@ -157,9 +166,7 @@ impl Analytic {
                 caps: true,
                 inward: false,
             } => {
-                let q = p - p0;
-                let y = q.dot(axis);
-                let r = (q - axis * y).length();
+                let (y, r) = axial(p0, axis, p);
                 let side = (r - radius).abs() <= tol && y >= -tol && y <= height + tol;
                 let cap = (y.abs() <= tol || (y - height).abs() <= tol) && r <= radius + tol;
                 Some(side || cap)
@@ -171,9 +178,7 @@ impl Analytic {
                 outer,
                 inner,
             } => {
-                let q = p - p0;
-                let y = q.dot(axis);
-                let r = (q - axis * y).length();
+                let (y, r) = axial(p0, axis, p);
                 let walls =
                     ((r - outer).abs() <= tol || (r - inner).abs() <= tol) && y >= -tol && y <= height + tol;
                 let ends =

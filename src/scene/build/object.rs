@@ -201,23 +201,30 @@ impl Builder<'_> {
                 "a capped (solid) cylinder needs normal = \"out\"",
             ));
         }
-        let (a, b) = (pl.point(p0), pl.point(p1));
-        let h = (b - a).length();
-        if h <= 0.0 {
-            return Err(self.err(&format!("{sk}.p1"), "p0 and p1 must differ"));
-        }
+        let (a, axis, h) = self.axis(sk, pl, p0, p1)?;
         self.analytic(
             k,
             pl,
             Analytic::Cylinder {
                 p0: a,
-                axis: (b - a) / h,
+                axis,
                 height: h,
                 radius: r * pl.scale,
                 inward,
                 caps: cy.caps,
             },
         )
+    }
+
+    /// The world-space axis from `p0` to `p1` of shape `sk`: its start, unit
+    /// direction and length.
+    fn axis(&self, sk: &str, pl: &Placement, p0: DVec3, p1: DVec3) -> Result<(DVec3, DVec3, f64)> {
+        let (a, b) = (pl.point(p0), pl.point(p1));
+        let h = (b - a).length();
+        if h <= 0.0 {
+            return Err(self.err(&format!("{sk}.p1"), "p0 and p1 must differ"));
+        }
+        Ok((a, (b - a) / h, h))
     }
 
     /// An analytic thick-walled tube.
@@ -232,17 +239,13 @@ impl Builder<'_> {
                 "expected inner_radius < outer_radius",
             ));
         }
-        let (a, b) = (pl.point(p0), pl.point(p1));
-        let h = (b - a).length();
-        if h <= 0.0 {
-            return Err(self.err(&format!("{sk}.p1"), "p0 and p1 must differ"));
-        }
+        let (a, axis, h) = self.axis(sk, pl, p0, p1)?;
         self.analytic(
             k,
             pl,
             Analytic::Tube {
                 p0: a,
-                axis: (b - a) / h,
+                axis,
                 height: h,
                 outer: ro * pl.scale,
                 inner: ri * pl.scale,
