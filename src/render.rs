@@ -333,15 +333,22 @@ impl TileJob<'_> {
                 let mut sumsq = V3::ZERO;
                 let taken = self.count - held;
                 let inv = 1.0 / taken.max(1) as f32;
-                // The pixel's samples in groups of up to eight, traced side by
+                // The pixel's samples in groups of up to LANES, traced side by
                 // side (without a medium): their camera rays (jittered within
                 // one pixel, nearly parallel) go to Embree as one packet, and so
                 // do their later plain-query segments and shadow rays.
                 let mut s = self.start + held;
                 while s < self.start + self.count {
                     let lanes = (self.start + self.count - s).min(LANES as u32) as usize;
+                    // Lanes past `lanes` are never read: they hold a copy of the
+                    // first generator instead of seeding one each.
+                    let first = Rng::for_sample(self.settings.seed, pixel, s as u64);
                     let mut rngs: [Rng; LANES] = std::array::from_fn(|i| {
-                        Rng::for_sample(self.settings.seed, pixel, s as u64 + i as u64)
+                        if i == 0 || i >= lanes {
+                            first.clone()
+                        } else {
+                            Rng::for_sample(self.settings.seed, pixel, s as u64 + i as u64)
+                        }
                     });
                     let mut rays = [(V3::ZERO, V3::ZERO); LANES];
                     for (rng, ray) in rngs.iter_mut().zip(&mut rays).take(lanes) {
