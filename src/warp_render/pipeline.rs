@@ -114,6 +114,43 @@ const TILE_W: usize = 4;
 const TILE_H: usize = 4;
 const LANES: usize = TILE_W * TILE_H;
 
+/// One tile of the packet renders, in a band of `rows` (≤ `TILE_H`) rows of
+/// a film `w` pixels wide: lane `l` is pixel (x0 + l % TILE_W, band row
+/// l / TILE_W), when that pixel is on the film.
+struct Tile {
+    x0: usize,
+    y0: usize,
+    nx: usize,
+    rows: usize,
+    w: usize,
+}
+
+impl Tile {
+    /// The tile at column `x0` of band `band` (of `TILE_H` rows).
+    fn new(x0: usize, band: usize, rows: usize, w: usize) -> Tile {
+        Tile {
+            x0,
+            y0: band * TILE_H,
+            nx: TILE_W.min(w - x0),
+            rows,
+            w,
+        }
+    }
+
+    /// Lane `l`'s pixel: its index in the band's slice of the frame and its
+    /// film coordinates; `None` past the film's right or bottom edge.
+    fn lane(&self, l: usize) -> Option<(usize, u32, u32)> {
+        let (dx, dy) = (l % TILE_W, l / TILE_W);
+        (dx < self.nx && dy < self.rows).then(|| {
+            (
+                dy * self.w + self.x0 + dx,
+                (self.x0 + dx) as u32,
+                (self.y0 + dy) as u32,
+            )
+        })
+    }
+}
+
 /// The copy keys that share one BVH. A ray asks one BVH for the nearest
 /// hit among its members, which must be the nearest hit the ray would
 /// take from the members queried one by one.
@@ -520,21 +557,16 @@ impl Pipeline {
                 let rows = prow.len() / w;
                 let mut packet = Packet16::new();
                 for x0 in (0..w).step_by(TILE_W) {
-                    let nx = TILE_W.min(w - x0);
-                    // Lane l is pixel (x0 + l % TILE_W, row l / TILE_W of the tile).
-                    let lane_px = |l: usize| {
-                        let (dx, dy) = (l % TILE_W, l / TILE_W);
-                        (dx < nx && dy < rows).then_some(dy * w + x0 + dx)
-                    };
+                    let tile = Tile::new(x0, ty, rows, w);
+                    let lane_px = |l: usize| tile.lane(l).map(|(i, _, _)| i);
                     let mut rays = [(DVec3::ZERO, DVec3::ZERO); LANES];
                     let mut class = [(f64::INFINITY, 0u8); LANES];
                     let mut want = 0u8;
                     for l in 0..LANES {
-                        if lane_px(l).is_none() {
+                        let Some((_, x, y)) = tile.lane(l) else {
                             continue;
-                        }
-                        let (x, y) = (x0 + l % TILE_W, ty * TILE_H + l / TILE_W);
-                        rays[l] = pixel_ray(scene, x as u32, y as u32);
+                        };
+                        rays[l] = pixel_ray(scene, x, y);
                         class[l] = classifier.classify(rays[l].1);
                         want |= class[l].1;
                     }
@@ -630,17 +662,12 @@ pub fn render_exact_packets(
             let rows = prow.len() / w;
             let mut packet = Packet16::new();
             for x0 in (0..w).step_by(TILE_W) {
-                let nx = TILE_W.min(w - x0);
-                // Lane l is pixel (x0 + l % TILE_W, row l / TILE_W of the tile).
-                let lane_px = |l: usize| {
-                    let (dx, dy) = (l % TILE_W, l / TILE_W);
-                    (dx < nx && dy < rows).then_some(dy * w + x0 + dx)
-                };
+                let tile = Tile::new(x0, ty, rows, w);
+                let lane_px = |l: usize| tile.lane(l).map(|(i, _, _)| i);
                 let paths: Vec<Option<crate::warp::ExactPath>> = (0..LANES)
                     .map(|l| {
-                        lane_px(l).map(|_| {
-                            let (x, y) = (x0 + l % TILE_W, ty * TILE_H + l / TILE_W);
-                            let (o, d) = pixel_ray(scene, x as u32, y as u32);
+                        tile.lane(l).map(|(_, x, y)| {
+                            let (o, d) = pixel_ray(scene, x, y);
                             spec.glass.exact_path(o, d)
                         })
                     })
