@@ -27,6 +27,10 @@ pub struct Counters {
     pub max_list_depth: u64,
     /// Interior lists that outgrew their inline storage.
     pub list_spills: u64,
+    /// Memberships decided by point-in-solid near a true hit, where the list
+    /// and the queries disagreed with it (`dielectric::settle_child`: another
+    /// solid's surface within the spawn offset of the hit).
+    pub settled: u64,
     /// Total internal reflections.
     pub tir: u64,
     /// Samples whose radiance was NaN or infinite (counted black).
@@ -59,6 +63,7 @@ impl AddAssign for Counters {
             fallbacks,
             max_list_depth,
             list_spills,
+            settled,
             tir,
             nan,
             segments,
@@ -73,6 +78,7 @@ impl AddAssign for Counters {
         self.fallbacks += fallbacks;
         self.max_list_depth = self.max_list_depth.max(max_list_depth);
         self.list_spills += list_spills;
+        self.settled += settled;
         self.tir += tir;
         self.nan += nan;
         self.segments += segments;

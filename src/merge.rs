@@ -269,7 +269,7 @@ pub fn sum_stats<'a>(
     stats: impl Iterator<Item = Option<&'a serde_json::Value>>,
     parts: usize,
 ) -> serde_json::Value {
-    const SUMMED: [&str; 16] = [
+    const SUMMED: [&str; 17] = [
         "wall_s",
         "cpu_s",
         "samples",
@@ -280,6 +280,7 @@ pub fn sum_stats<'a>(
         "filter_calls",
         "fallbacks",
         "list_spills",
+        "settled",
         "tir",
         "nan_or_inf_samples",
         "segments",

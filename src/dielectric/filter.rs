@@ -201,6 +201,44 @@ impl FalseHitFilter<'_> {
     }
 }
 
+/// Solids to settle at a true hit's child ray: other solids whose surface
+/// passes near the hit, and the hit's own mesh solid when the hit is near an
+/// edge (`dielectric::settle_child`). Beyond [`NEAR_CAPACITY`] solids the
+/// rest keep the list's claim.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct NearSolids {
+    ids: [u32; NEAR_CAPACITY],
+    len: u8,
+    /// The hit's own mesh solid, for a hit near one of its edges.
+    pub(crate) own_edge: Option<u32>,
+}
+
+impl NearSolids {
+    /// Nothing to settle.
+    pub const NONE: NearSolids = NearSolids {
+        ids: [0; NEAR_CAPACITY],
+        len: 0,
+        own_edge: None,
+    };
+
+    /// Is there nothing to settle?
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.len == 0 && self.own_edge.is_none()
+    }
+
+    pub(crate) fn push(&mut self, s: u32) {
+        if (self.len as usize) < NEAR_CAPACITY {
+            self.ids[self.len as usize] = s;
+            self.len += 1;
+        }
+    }
+
+    pub(crate) fn ids(&self) -> &[u32] {
+        &self.ids[..self.len as usize]
+    }
+}
+
 /// Solid crossings at the same point as a true hit (coincident faces), beyond
 /// the true hit's own solid: (solid, rank, entering).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -210,6 +248,9 @@ pub struct Coincident {
     /// Solids both entered and left at the point (a touch): no crossing.
     touched: [u32; NEAR_CAPACITY],
     touched_len: usize,
+    /// Solids whose surface passes near the hit, settled for the child ray
+    /// by point-in-solid (`dielectric::settle_child`).
+    pub(crate) near: NearSolids,
 }
 
 impl Coincident {
@@ -222,6 +263,7 @@ impl Coincident {
         len: 0,
         touched: [0; NEAR_CAPACITY],
         touched_len: 0,
+        near: NearSolids::NONE,
     };
 
     /// The crossings: (solid, rank, entering).
@@ -250,6 +292,25 @@ impl Coincident {
         if self.len < NEAR_CAPACITY {
             self.items[self.len] = (solid, rank, entering);
             self.len += 1;
+        }
+    }
+
+    /// Whether the crossings enter `solid` (`None`: they do not cross it).
+    pub(crate) fn entering_of(&self, solid: u32) -> Option<bool> {
+        self.as_slice().iter().find(|c| c.0 == solid).map(|c| c.2)
+    }
+
+    /// Make the crossings leave the ray inside `solid` or not, as
+    /// point-in-solid decided (`settle::look_ahead`): replaces a report of
+    /// the other direction and undoes a touch.
+    pub(crate) fn settle(&mut self, solid: u32, rank: u32, entering: bool) {
+        if let Some(i) = self.touched[..self.touched_len].iter().position(|&t| t == solid) {
+            self.touched[i] = self.touched[self.touched_len - 1];
+            self.touched_len -= 1;
+        }
+        match self.as_slice().iter().position(|c| c.0 == solid) {
+            Some(i) => self.items[i].2 = entering,
+            None => self.push(solid, rank, entering),
         }
     }
 }

@@ -20,18 +20,22 @@
 //! Files: `list.rs` (the list, with ranks), `filter.rs` (the filter and the
 //! application of its records), `trace.rs` (the first true hit, every
 //! strategy), `boundary.rs` (the boundary event at a true hit: the one place
-//! that decides the indices, entering vs leaving and the list after).
+//! that decides the indices, entering vs leaving and the list after),
+//! `settle.rs` (other solids' surfaces within the spawn offset of a true hit,
+//! which no query crosses: settled by point-in-solid).
 mod boundary;
 mod filter;
 mod list;
+mod settle;
 mod trace;
 
 pub use boundary::{boundary, keeps_line, medium_of, Boundary, Nesting};
 pub use filter::{
-    apply_rejected, Coincident, FalseHitFilter, FilterRecords, Rejected, TrueHit, EDGE_EPS, NEAR_CAPACITY,
-    REJECT_CAPACITY,
+    apply_rejected, Coincident, FalseHitFilter, FilterRecords, NearSolids, Rejected, TrueHit, EDGE_EPS,
+    NEAR_CAPACITY, REJECT_CAPACITY,
 };
 pub use list::InteriorList;
+pub use settle::settle_child;
 pub use trace::{plain_hit_is_true, plain_query_suffices, time_list_updates, trace};
 
 /// How false hits are found and skipped.

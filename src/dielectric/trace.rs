@@ -3,6 +3,7 @@
 use super::filter::{
     apply_rejected, near_edge, Coincident, FalseHitFilter, Rejected, TrueHit, NEAR_CAPACITY, RECORDS,
 };
+use super::settle::{has_neighbours, look_ahead};
 use super::{InteriorList, NestedStrategy};
 use crate::counters::Counters;
 use crate::ray::{crossing_window, front_facing, just_past, Hit, Ray};
@@ -213,7 +214,7 @@ pub fn trace(
     if !scene.has_overlap || strategy == NestedStrategy::Off {
         return Ok(plain(scene.embree.intersect(ray)));
     }
-    match strategy {
+    let mut th = match strategy {
         NestedStrategy::Filter if list.is_empty() => {
             // Outside every solid nothing is false: a plain query, as cheap as
             // the re-cast baseline's. (Entering two solids through coincident
@@ -228,10 +229,10 @@ pub fn trace(
                     }
                     Some(h) => {
                         let Some(leaked) = leaked_entry(scene, &r, &h) else {
-                            return Ok(plain(Some(h)));
+                            break plain(Some(h));
                         };
                         if repair_leak(scene, &r, &h, leaked, list) {
-                            return Ok(plain(Some(h)));
+                            break plain(Some(h));
                         }
                         // A false hit: trace on from it with the list the ray had.
                         c.false_hits += 1;
@@ -244,15 +245,23 @@ pub fn trace(
         }
         NestedStrategy::Filter if list.top_rank() == Some(scene.bottom_rank) => {
             match nothing_ranks_below(scene, ray, list, c) {
-                Some(h) => Ok(h),
-                None => filtered(scene, ray, list, c),
+                // No other surface is near its hit: nothing to look ahead for.
+                Some(h) => return Ok(h),
+                None => filtered(scene, ray, list, c)?,
             }
         }
-        NestedStrategy::Filter => filtered(scene, ray, list, c),
-        NestedStrategy::Recast => Ok(plain(recast(scene, ray, list, c, false)?)),
-        NestedStrategy::Toggle => Ok(plain(recast(scene, ray, list, c, true)?)),
+        NestedStrategy::Filter => filtered(scene, ray, list, c)?,
+        NestedStrategy::Recast => plain(recast(scene, ray, list, c, false)?),
+        // The paper's method as the paper has it.
+        NestedStrategy::Toggle => return Ok(plain(recast(scene, ray, list, c, true)?)),
         NestedStrategy::Off => unreachable!("handled above"),
+    };
+    if let Some(th) = &mut th {
+        // Every query of this ray shared its origin and direction: the hit's
+        // t is on `ray`.
+        look_ahead(scene, ray, th, list, c);
     }
+    Ok(th)
 }
 
 /// A ray inside solids of which the top one has the scene's lowest rank
@@ -424,8 +433,10 @@ pub fn plain_query_suffices(
 /// Is the answer `hit` of a plain query of `ray`, by a ray outside every
 /// solid (`list` empty), the hit [`trace`] returns with `strategy`? Not when
 /// it only touches a mesh solid at an edge or vertex, nor (except for the
-/// toggle, which does not test it) when the point just before it lies in a
-/// mesh solid whose entry Embree leaked: `trace` continues past those.
+/// toggle, which does not test them) when the point just before it lies in a
+/// mesh solid whose entry Embree leaked (`trace` continues past those) or
+/// another solid's surface passes near it (`trace` looks ahead there:
+/// `settle::look_ahead`).
 pub fn plain_hit_is_true(
     scene: &RenderScene,
     strategy: NestedStrategy,
@@ -435,7 +446,8 @@ pub fn plain_hit_is_true(
 ) -> bool {
     hit.is_none_or(|h| {
         !is_touch(scene, ray, h, list)
-            && (strategy == NestedStrategy::Toggle || leaked_entry(scene, ray, h).is_none())
+            && (strategy == NestedStrategy::Toggle
+                || (leaked_entry(scene, ray, h).is_none() && !has_neighbours(scene, ray, h)))
     })
 }
 

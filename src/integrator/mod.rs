@@ -48,6 +48,20 @@ impl<'a> Tracer<'a> {
         dielectric::boundary(nesting, self.strategy, material, front, coincident, list)
     }
 
+    /// The list of `child`, spawned at a true hit with `coincident`, settled
+    /// where another solid's surface passes near the hit
+    /// (`dielectric::settle_child`).
+    #[inline]
+    fn settle(
+        self,
+        coincident: &dielectric::Coincident,
+        child: &Ray,
+        list: &mut InteriorList,
+        st: &mut Counters,
+    ) {
+        dielectric::settle_child(self.scene, coincident, child, list, st);
+    }
+
     /// Absorption of the medium a ray inside `list` travels through.
     fn medium(self, list: &InteriorList) -> Option<V3> {
         dielectric::medium_of(dielectric::Nesting::of(self.scene), list)
@@ -481,6 +495,7 @@ impl PathState {
                 self.specular = false;
                 self.prev_p = sp.p;
                 self.ray = Ray::new(offset_origin(sp.p, ng), wi);
+                tr.settle(coincident, &self.ray, &mut self.list, st);
             }
             Material::Mirror { reflectance } => {
                 let n = if front { sp.ns } else { -sp.ns };
@@ -490,6 +505,7 @@ impl PathState {
                 self.prev_p = sp.p;
                 let side = if front { sp.ng } else { -sp.ng };
                 self.ray = Ray::new(offset_origin(sp.p, side), wi);
+                tr.settle(coincident, &self.ray, &mut self.list, st);
             }
             m @ (Material::Interface { .. } | Material::Solid(_)) => {
                 let Some(c) = tr.boundary(m, front, coincident, &mut self.list) else {
@@ -507,6 +523,7 @@ impl PathState {
                 let choose_reflect = refr.is_none() || (rng.uniform() as f64) < fr;
                 if choose_reflect {
                     self.ray = Ray::new(offset_origin(sp.p, incident_side), reflected(d, n, incident_side));
+                    tr.settle(coincident, &self.ray, &mut self.list, st);
                 } else {
                     let wi = refr.expect("checked above");
                     let k = c.n1 / c.n2;
@@ -517,6 +534,7 @@ impl PathState {
                         .then_some((&seg.chord, hit.t));
                     let next = spawn_transmitted(sp.p, -incident_side, self.ray.dir, wi, (c.n1, c.n2), line);
                     c.transmit(&mut self.list);
+                    tr.settle(coincident, &next, &mut self.list, st);
                     self.ray = next;
                 }
                 self.specular = true;
@@ -756,7 +774,9 @@ fn whitted(
             let n = if front { sp.ns } else { -sp.ns };
             let side = if front { sp.ng } else { -sp.ng };
             let wi = (optics::reflect(dir.as_dvec3(), n.as_dvec3()).normalize()).as_vec3a();
-            l += *reflectance * whitted(tr, offset_origin(sp.p, side), wi, list, rng, st, depth + 1)?;
+            let org = offset_origin(sp.p, side);
+            tr.settle(&coincident, &Ray::new(org, wi), &mut list, st);
+            l += *reflectance * whitted(tr, org, wi, list, rng, st, depth + 1)?;
         }
         m @ (Material::Interface { .. } | Material::Solid(_)) => {
             let Some(c) = tr.boundary(m, front, &coincident, &mut list) else {
@@ -767,22 +787,17 @@ fn whitted(
             let fr = optics::fresnel_dielectric(d.dot(n).abs(), c.n1 as f64, c.n2 as f64) as f32;
             let side = if front { sp.ng } else { -sp.ng };
             let wr = reflected(d, n, side);
-            l += fr
-                * whitted(
-                    tr,
-                    offset_origin(sp.p, side),
-                    wr,
-                    list.clone(),
-                    rng,
-                    st,
-                    depth + 1,
-                )?;
+            let org = offset_origin(sp.p, side);
+            let mut rl = list.clone();
+            tr.settle(&coincident, &Ray::new(org, wr), &mut rl, st);
+            l += fr * whitted(tr, org, wr, rl, rng, st, depth + 1)?;
             if let Some(t) = refracted(d, n, side, c.n1, c.n2) {
                 let k = c.n1 / c.n2;
                 let (n1, n2) = (c.n1, c.n2);
                 let mut nl = list;
                 c.transmit(&mut nl);
                 let next = spawn_transmitted(sp.p, -side, dir, t, (n1, n2), None);
+                tr.settle(&coincident, &next, &mut nl, st);
                 l += (1.0 - fr) * k * k * whitted(tr, next.org, next.dir, nl, rng, st, depth + 1)?;
             } else {
                 st.tir += 1;
@@ -883,6 +898,7 @@ pub fn refraction_path(
             let line = (c.n1 == c.n2 && dielectric::keeps_line(scene)).then_some((&ray, hit.t));
             spawn_transmitted(sp.p, -incident_side, ray.dir, wi, (c.n1, c.n2), line)
         };
+        tr.settle(&coincident, &next, &mut list, counters);
         events.push(PathEvent {
             geom: hit.geom_id,
             point: sp.p,

@@ -644,6 +644,70 @@ impl Mesh {
     }
 
     /// Crossings of the parity ray from `p` with the triangles `tris`.
+    /// Squared distance from `p` to triangle `tri`, exact (closest point by
+    /// region, Ericson, *Real-Time Collision Detection* §5.1.5) when it may
+    /// be at most `bound`; some value above `bound` (the squared distance to
+    /// the triangle's plane) when the plane alone is farther; 0 for a
+    /// degenerate triangle.
+    pub fn distance_squared(&self, tri: u32, p: DVec3, bound: f64) -> f64 {
+        let [a, b, c] = self.indices[tri as usize].map(|i| {
+            let q = self.positions[i as usize];
+            DVec3::new(q[0] as f64, q[1] as f64, q[2] as f64)
+        });
+        let ab = b - a;
+        let ac = c - a;
+        let ap = p - a;
+        let n = ab.cross(ac);
+        let nn = n.length_squared();
+        if nn == 0.0 {
+            // A degenerate triangle (a segment or a point): called near, so
+            // the answer stays conservative. Its edges are its neighbours'.
+            return 0.0;
+        }
+        let h = ap.dot(n);
+        // Most triangles of a cell are far from the point's plane.
+        if h * h > bound * nn {
+            return h * h / nn;
+        }
+        let d1 = ab.dot(ap);
+        let d2 = ac.dot(ap);
+        if d1 <= 0.0 && d2 <= 0.0 {
+            return ap.length_squared();
+        }
+        let bp = p - b;
+        let d3 = ab.dot(bp);
+        let d4 = ac.dot(bp);
+        if d3 >= 0.0 && d4 <= d3 {
+            return bp.length_squared();
+        }
+        let vc = d1 * d4 - d3 * d2;
+        if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+            let v = d1 / (d1 - d3);
+            return (ap - ab * v).length_squared();
+        }
+        let cp = p - c;
+        let d5 = ab.dot(cp);
+        let d6 = ac.dot(cp);
+        if d6 >= 0.0 && d5 <= d6 {
+            return cp.length_squared();
+        }
+        let vb = d5 * d2 - d1 * d6;
+        if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+            let w = d2 / (d2 - d6);
+            return (ap - ac * w).length_squared();
+        }
+        let va = d3 * d6 - d5 * d4;
+        if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+            let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+            return (bp - (c - b) * w).length_squared();
+        }
+        // va + vb + vc = |ab × ac|² > 0 here.
+        let denom = va + vb + vc;
+        let v = vb / denom;
+        let w = vc / denom;
+        (ap - ab * v - ac * w).length_squared()
+    }
+
     fn crossings(&self, p: DVec3, tris: impl IntoIterator<Item = u32>) -> u32 {
         let d = Self::parity_dir();
         let mut crossings = 0;
@@ -696,6 +760,9 @@ pub struct ContainsGrid {
     /// Cell c's triangles are `tris[start[c]..start[c + 1]]`.
     start: Vec<u32>,
     tris: Vec<u32>,
+    /// Each triangle's plane: unit normal and offset (`n·x = d`); zero for
+    /// a degenerate triangle. Gates `surface_near`'s exact distances.
+    planes: Vec<[f64; 4]>,
 }
 
 impl ContainsGrid {
@@ -805,6 +872,15 @@ impl ContainsGrid {
                 }
             }
         }
+        let planes = mesh
+            .indices
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| DVec3::from_array(mesh.positions[i as usize].map(f64::from)));
+                let n = (b - a).cross(c - a).normalize_or_zero();
+                [n.x, n.y, n.z, n.dot(a)]
+            })
+            .collect();
         Self {
             mesh,
             axes,
@@ -813,6 +889,7 @@ impl ContainsGrid {
             n,
             start,
             tris,
+            planes,
         }
     }
 
@@ -831,6 +908,41 @@ impl ContainsGrid {
         let c = cell[1] * self.n[0] + cell[0];
         let tris = &self.tris[self.start[c] as usize..self.start[c + 1] as usize];
         self.mesh.crossings(p, tris.iter().copied()) % 2 == 1
+    }
+
+    /// Might the mesh's surface pass within `tol` of `p`? Never false when
+    /// some triangle is within `tol` (the triangles of every cell the
+    /// projected disc of radius `tol` overlaps are tested by exact
+    /// point–triangle distance); O(triangles per cell), like [`Self::contains`].
+    pub fn surface_near(&self, p: DVec3, tol: f64) -> bool {
+        let q = [p.dot(self.axes[0]), p.dot(self.axes[1])];
+        let mut range = [(0usize, 0usize); 2];
+        for k in 0..2 {
+            let a = (q[k] - tol - self.lo[k]) * self.inv_cell[k];
+            let b = (q[k] + tol - self.lo[k]) * self.inv_cell[k];
+            // `!(..)` also rejects NaN.
+            if !(b >= 0.0 && a < self.n[k] as f64) {
+                return false;
+            }
+            range[k] = (a.max(0.0) as usize, (b as usize).min(self.n[k] - 1));
+        }
+        let tol2 = tol * tol;
+        for y in range[1].0..=range[1].1 {
+            for x in range[0].0..=range[0].1 {
+                let c = y * self.n[0] + x;
+                let tris = &self.tris[self.start[c] as usize..self.start[c + 1] as usize];
+                let near = |&t: &u32| {
+                    let [nx, ny, nz, d] = self.planes[t as usize];
+                    // Most triangles of a cell are far from the point's plane.
+                    (nx * p.x + ny * p.y + nz * p.z - d).abs() <= tol
+                        && self.mesh.distance_squared(t, p, tol2) <= tol2
+                };
+                if tris.iter().any(near) {
+                    return true;
+                }
+            }
+        }
+        false
     }
 
     /// Triangles a query at `p` tests (0 outside the grid).
@@ -890,6 +1002,82 @@ mod tests {
         }
         assert_eq!(t.contains(DVec3::new(0.9, 0.0, 0.0)), Some(true));
         assert_eq!(t.contains(DVec3::ZERO), Some(false));
+    }
+
+    #[test]
+    fn triangle_distance_is_exact_and_the_grid_finds_every_near_surface() {
+        use crate::scene::meshgen::{lathe, LatheShading};
+        let p = [
+            [0.0, 0.0],
+            [1.0, 0.0],
+            [1.0, 2.5],
+            [0.9, 2.5],
+            [0.9, 0.1],
+            [0.0, 0.1],
+        ];
+        let m = std::sync::Arc::new(lathe(&p, 48, LatheShading::Flat));
+        let mut rng = crate::sampling::Rng::new(11);
+        // The closed form against a dense barycentric sampling of one triangle
+        // (an independent upper bound, within the sampling's spacing).
+        for _ in 0..200 {
+            let t = (rng.uniform_f64() * m.indices.len() as f64) as u32;
+            let q = DVec3::new(
+                rng.uniform_f64() * 3.0 - 1.5,
+                rng.uniform_f64() * 3.0 - 0.25,
+                rng.uniform_f64() * 3.0 - 1.5,
+            );
+            let [a, b, c] =
+                m.indices[t as usize].map(|i| DVec3::from_array(m.positions[i as usize].map(f64::from)));
+            let k = 200;
+            let mut best = f64::INFINITY;
+            for i in 0..=k {
+                for j in 0..=(k - i) {
+                    let (u, v) = (i as f64 / k as f64, j as f64 / k as f64);
+                    best = best.min((a + (b - a) * u + (c - a) * v - q).length());
+                }
+            }
+            let exact = m.distance_squared(t, q, f64::INFINITY).sqrt();
+            let spacing = (b - a).length().max((c - a).length()) / k as f64;
+            assert!(
+                exact <= best + 1e-12 && best - exact <= spacing,
+                "{exact} vs sampled {best}"
+            );
+        }
+        // The grid's answer equals brute force over every triangle, for points
+        // scattered near the surface at distances around the tolerance.
+        let g = ContainsGrid::new(m.clone());
+        let tol = 1e-5;
+        let (mut near, mut far) = (0, 0);
+        for _ in 0..20000 {
+            let t = (rng.uniform_f64() * m.indices.len() as f64) as usize;
+            let [a, b, c] = m.indices[t].map(|i| DVec3::from_array(m.positions[i as usize].map(f64::from)));
+            let (u, v) = (rng.uniform_f64(), rng.uniform_f64());
+            let (u, v) = if u + v > 1.0 { (1.0 - u, 1.0 - v) } else { (u, v) };
+            let on = a + (b - a) * u + (c - a) * v;
+            let dir = DVec3::new(
+                rng.uniform_f64() - 0.5,
+                rng.uniform_f64() - 0.5,
+                rng.uniform_f64() - 0.5,
+            )
+            .normalize();
+            let q = on + dir * (rng.uniform_f64() * 3.0 * tol);
+            let brute = (0..m.indices.len() as u32)
+                .map(|t| m.distance_squared(t, q, f64::INFINITY))
+                .fold(f64::INFINITY, f64::min);
+            let expect = brute <= tol * tol;
+            assert_eq!(g.surface_near(q, tol), expect, "{q}: brute {}", brute.sqrt());
+            if expect {
+                near += 1;
+            } else {
+                far += 1;
+            }
+        }
+        assert!(
+            near > 3000 && far > 3000,
+            "both answers sampled: {near} near, {far} far"
+        );
+        // Far outside the grid: nothing near.
+        assert!(!g.surface_near(DVec3::new(5.0, 1.0, 5.0), tol));
     }
 
     #[test]

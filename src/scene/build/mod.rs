@@ -197,10 +197,12 @@ impl Builder<'_> {
             camera_interior: Vec::new(),
             has_overlap: up.has_overlap,
             mesh_solids: Vec::new(),
+            solid_boxes: Default::default(),
             bottom_rank: u32::MAX,
             warnings,
             containment: up.containment,
         };
+        scene.solid_boxes = crate::scene::model::SolidBoxes::new(scene.solids.iter().map(|s| s.aabb));
         scene.mesh_solids = scene
             .solids
             .iter()
