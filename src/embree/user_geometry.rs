@@ -7,7 +7,7 @@
 //! asks the context filter, what an accepted hit writes) is a [`LaneQuery`].
 
 use super::device::{panic_message, EmbreeError};
-use super::filter::soa;
+use super::filter::{context_skips, soa};
 use embree_sys as sys;
 use glam::Vec3A as V3;
 use std::any::Any;
@@ -367,7 +367,10 @@ unsafe fn lanes<Q: LaneQuery>(args: *const Q::Args) {
                 // geometries never get per-geometry filters (`add_user`), so
                 // rtcFilter* would accept the hit anyway. Wide queries are not
                 // used by snell's filters; their hits are accepted directly.
-                if n == 1 && (*Q::context(a)).filter.is_some() {
+                // Nor for a geometry the filtered query's skip ranges name
+                // (`context_skips`: a filtered query's context is a FilterContext's).
+                if n == 1 && (*Q::context(a)).filter.is_some() && !context_skips(Q::context(a), Q::geom_id(a))
+                {
                     let mut lane_valid: i32 = -1;
                     let fargs = sys::RTCFilterFunctionNArguments {
                         valid: &mut lane_valid,
