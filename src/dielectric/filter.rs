@@ -239,6 +239,85 @@ impl NearSolids {
     }
 }
 
+/// The geometries whose hits a query by a ray with top rank P0 need not show
+/// [`FalseHitFilter`] ([`crate::embree::SkipRanges`] with key P0), per geometry id:
+/// - a non-solid: always (never false, never recorded);
+/// - a solid of rank `r` when `lo <= P0 <= r`, `lo` being one more than the
+///   highest rank of the other solids whose surfaces may meet its own
+///   (`surfaces_may_meet`; 0 when none does): the filter would accept the
+///   hit (`r >= P0`), and its only other use, recording it as possibly
+///   coincident with another accepted solid's true hit, needs a solid ranked
+///   at least P0 whose surface meets this one's, which `P0 >= lo` excludes.
+///   (glass_of_water_nested: the glass, for rays inside it; deep_nesting:
+///   every shell, whose surfaces are concentric spheres that never meet.)
+///
+/// Computed once per scene (the table lives in its Embree scene).
+pub fn skip_ranges(scene: &RenderScene) -> &[(u32, u32)] {
+    scene.embree.filter_table(|| {
+        scene
+            .solid_by_geom
+            .iter()
+            .map(|s| match s {
+                None => (0, u32::MAX),
+                Some(s) => {
+                    let me = &scene.solids[*s as usize];
+                    let lo = scene
+                        .solids
+                        .iter()
+                        .enumerate()
+                        .filter(|&(i, _)| i != *s as usize && surfaces_may_meet(scene, *s, i as u32))
+                        .map(|(_, o)| o.rank.saturating_add(1))
+                        .max()
+                        .unwrap_or(0);
+                    (lo, me.rank)
+                }
+            })
+            .collect()
+    })
+}
+
+/// May the surfaces of solids `a` and `b` come within a small tolerance of
+/// each other? Their bounds must meet; a sphere's surface also misses a box
+/// that lies wholly inside or outside its ball (concentric shells never
+/// meet). `true` when unsure: a wider test only skips less.
+fn surfaces_may_meet(scene: &RenderScene, a: u32, b: u32) -> bool {
+    use crate::scene::{shapes::Analytic, Shape};
+    let (sa, sb) = (&scene.solids[a as usize], &scene.solids[b as usize]);
+    let (ba, bb) = (sa.aabb, sb.aabb);
+    let scale =
+        ba.0.abs()
+            .max(ba.1.abs())
+            .max(bb.0.abs())
+            .max(bb.1.abs())
+            .max_element();
+    let tol = 1e-4 * (1.0 + scale);
+    if !((ba.0 - tol).cmple(bb.1).all() && (bb.0 - tol).cmple(ba.1).all()) {
+        return false;
+    }
+    let sphere = |s: &crate::scene::Solid| match &scene.geoms[s.geom as usize].shape {
+        Shape::Analytic(Analytic::Sphere { center, radius }) => Some((*center, *radius)),
+        _ => None,
+    };
+    // A sphere's surface misses every point of `bx` when the box lies in its
+    // ball (farthest corner nearer than r - tol) or outside it (nearest
+    // point farther than r + tol).
+    let misses = |(c, r): (glam::DVec3, f64), bx: (glam::DVec3, glam::DVec3)| {
+        let far = (bx.0 - c).abs().max((bx.1 - c).abs()).length();
+        let near = (c.clamp(bx.0, bx.1) - c).length();
+        far < r - tol || near > r + tol
+    };
+    match (sphere(sa), sphere(sb)) {
+        // Two spheres' surfaces meet iff |ra - rb| <= |ca - cb| <= ra + rb.
+        (Some((ca, ra)), Some((cb, rb))) => {
+            let d = (ca - cb).length();
+            (ra - rb).abs() - tol <= d && d <= ra + rb + tol
+        }
+        (Some(sp), None) => !misses(sp, bb),
+        (None, Some(sp)) => !misses(sp, ba),
+        (None, None) => true,
+    }
+}
+
 /// Solid crossings at the same point as a true hit (coincident faces), beyond
 /// the true hit's own solid: (solid, rank, entering).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -373,6 +452,66 @@ fn apply_records(list: &mut InteriorList, rejected: &mut [Rejected], t_hit: f32,
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn skip_ranges_name_non_solids_and_solids_no_accepted_solid_can_meet() {
+        let text = r#"
+[camera]
+position = [0.0, 0.0, 9.0]
+target = [0.0, 0.0, 0.0]
+fov = 40.0
+[[objects]]
+name = "water"
+shape = { type = "box", center = [0.0, 0.0, 0.0], size = [1.0, 1.0, 1.0] }
+material = { type = "dielectric", ior = 1.33, priority = 1 }
+[[objects]]
+name = "glass"
+shape = { type = "box", center = [0.3, 0.0, 0.0], size = [1.0, 2.0, 2.0] }
+material = { type = "dielectric", ior = 1.5, priority = 2 }
+[[objects]]
+name = "far"
+shape = { type = "sphere", center = [5.0, 0.0, 0.0], radius = 1.0 }
+material = { type = "dielectric", ior = 1.5, priority = 3 }
+[[objects]]
+name = "core"
+shape = { type = "sphere", center = [5.0, 0.0, 0.0], radius = 0.5 }
+material = { type = "dielectric", ior = 1.2, priority = 4 }
+[[objects]]
+name = "ground"
+shape = { type = "rect", center = [0.0, -3.0, 0.0], normal = [0.0, 1.0, 0.0], u_axis = [1.0, 0.0, 0.0], size = [4.0, 4.0] }
+material = { type = "diffuse", reflectance = [0.5, 0.5, 0.5] }
+"#;
+        let scene = crate::scene::load_scene_str(
+            "t.toml",
+            text,
+            std::path::Path::new("."),
+            &crate::scene::BuildOptions::default(),
+        )
+        .unwrap();
+        let t = skip_ranges(&scene);
+        assert_eq!(t.len(), scene.geoms.len());
+        let of = |name: &str| {
+            let g = scene.geoms.iter().position(|g| g.name == name).unwrap();
+            (g, scene.solid_by_geom[g].map(|s| scene.solids[s as usize].rank))
+        };
+        let (water, glass, far, ground) = (of("water"), of("glass"), of("far"), of("ground"));
+        let (rw, rg, rf) = (water.1.unwrap(), glass.1.unwrap(), far.1.unwrap());
+        let (core, rc) = (of("core").0, of("core").1.unwrap());
+        let skips = |g: usize, key: u32| t[g].0 <= key && key <= t[g].1;
+        // The water can be false (inside the glass) and meets the glass: always seen.
+        assert!((0..=rf + 1).all(|k| !skips(water.0, k)));
+        // The glass is never false; its hits can coincide with an accepted
+        // water hit only for rays whose top is the water.
+        assert!(skips(glass.0, rg) && !skips(glass.0, rw) && !skips(glass.0, rf));
+        // Solids whose surfaces meet no other (two concentric spheres, their
+        // bounds nested): skipped whenever the filter would accept them.
+        assert!((0..=rf).all(|k| skips(far.0, k)) && !skips(far.0, rf + 1));
+        assert!((0..=rc).all(|k| skips(core, k)) && !skips(core, rc + 1));
+        // A non-solid: always.
+        assert!(ground.1.is_none() && skips(ground.0, 0) && skips(ground.0, u32::MAX));
+        // One table per scene.
+        assert!(std::ptr::eq(t, skip_ranges(&scene)));
+    }
 
     #[test]
     fn duplicate_and_tangent_reports_collapse() {

@@ -323,13 +323,20 @@ fn filtered(
             coincident: Coincident::NONE,
         })
     };
+    // Hits the filter need not see (non-solids; solids that cannot be false
+    // for this P0 nor coincide with another accepted solid).
+    let skip = super::filter::skip_ranges(scene);
     RECORDS.with_borrow_mut(|rec| {
         let p0 = list.top_rank().unwrap_or(0);
         let mut filter;
         let mut r = *ray;
         let hit = loop {
             filter = FalseHitFilter::new(scene, p0, &r, &mut *rec);
-            let hit = scene.embree.intersect_filtered(&r, &mut filter)?;
+            let skip = crate::embree::SkipRanges {
+                ranges: skip,
+                key: p0,
+            };
+            let hit = scene.embree.intersect_filtered_skipping(&r, &mut filter, skip)?;
             c.filter_calls += filter.calls as u64;
             if filter.overflow {
                 break None;

@@ -52,6 +52,69 @@ pub trait HitFilter {
     fn accept(&mut self, hit: &FilterHit) -> bool;
 }
 
+/// Which geometries a filtered query's filter need not see
+/// ([`Scene::intersect_filtered_skipping`](super::Scene::intersect_filtered_skipping)):
+/// a hit on geometry `g` is
+/// accepted without a call when `ranges[g].0 <= key <= ranges[g].1`
+/// (geometries past the end of `ranges` are always passed to the filter).
+/// Analytic shapes then skip the call altogether, triangles leave the
+/// trampoline before reading the hit: most of a call's cost.
+#[derive(Debug, Clone, Copy)]
+pub struct SkipRanges<'a> {
+    /// Per geometry id: the inclusive range of `key` for which its hits are accepted unseen.
+    pub ranges: &'a [(u32, u32)],
+    /// This query's key (e.g. the ray's top rank).
+    pub key: u32,
+}
+
+impl SkipRanges<'_> {
+    /// Skip nothing.
+    pub const NONE: SkipRanges<'static> = SkipRanges { ranges: &[], key: 0 };
+}
+
+/// The part of every [`FilterContext`] that does not depend on the filter's
+/// type: Embree's context, then the skip ranges. `#[repr(C)]` and first in
+/// `FilterContext`, so code that only knows the raw context (the analytic
+/// shapes' intersect callback) can read the ranges of any filtered query.
+#[repr(C)]
+pub(super) struct FilterHead {
+    base: sys::RTCIntersectContext,
+    ranges: *const (u32, u32),
+    len: usize,
+    key: u32,
+}
+
+impl FilterHead {
+    /// Accept hits on `geom` without calling the filter?
+    #[inline(always)]
+    fn skips(&self, geom: u32) -> bool {
+        let g = geom as usize;
+        if g >= self.len {
+            return false;
+        }
+        // SAFETY: `ranges` points at `len` entries borrowed for the life of
+        // the context (`FilterContext::new`), and g < len.
+        let (lo, hi) = unsafe { *self.ranges.add(g) };
+        lo <= self.key && self.key <= hi
+    }
+}
+
+/// For an analytic shape's intersect callback, given its query's context:
+/// is `geom`'s hit accepted without calling the context filter? `false` for a
+/// context without a filter (nothing would be called anyway).
+///
+/// # Safety
+/// `ctx` is the context Embree passed to the callback: `init_context`'s or
+/// the `base` of a live [`FilterContext`] (the only contexts snell passes,
+/// and every one with a filter is a `FilterContext`).
+#[inline(always)]
+pub(super) unsafe fn context_skips(ctx: *const sys::RTCIntersectContext, geom: u32) -> bool {
+    // SAFETY: the caller's contract: `ctx` is valid, and when its filter is
+    // set it is the first field of a #[repr(C)] FilterContext, whose first
+    // field is a FilterHead.
+    unsafe { (*ctx).filter.is_some() && (*(ctx as *const FilterHead)).skips(geom) }
+}
+
 /// The extended intersection context: Embree's context first, then our payload.
 /// Embree hands the pointer to `base` back to the trampoline, which casts it to
 /// the whole struct; `#[repr(C)]` with `base` first makes that cast valid.
@@ -59,19 +122,30 @@ pub trait HitFilter {
 /// outside this module tree.
 #[repr(C)]
 pub struct FilterContext<'a, F: HitFilter> {
-    base: sys::RTCIntersectContext,
+    head: FilterHead,
     filter: &'a mut F,
     panic: Option<String>,
+    /// The skip ranges' borrow (`head` holds them as a raw pointer).
+    _ranges: std::marker::PhantomData<&'a [(u32, u32)]>,
 }
 
 impl<'a, F: HitFilter> FilterContext<'a, F> {
-    /// A context whose filter function is the trampoline for `F`.
+    /// A context whose filter function is the trampoline for `F`, which
+    /// accepts the hits `skip` names without calling `filter`.
     #[inline]
-    pub(super) fn new(filter: &'a mut F) -> Self {
+    pub(super) fn new(filter: &'a mut F, skip: SkipRanges<'a>) -> Self {
+        let SkipRanges { ranges, key } = skip;
+        let (ranges, len) = (ranges.as_ptr(), ranges.len());
         FilterContext {
-            base: init_context(Some(filter_trampoline::<F>)),
+            head: FilterHead {
+                base: init_context(Some(filter_trampoline::<F>)),
+                ranges,
+                len,
+                key,
+            },
             filter,
             panic: None,
+            _ranges: std::marker::PhantomData,
         }
     }
 
@@ -111,13 +185,39 @@ pub(super) fn init_context(filter: sys::RTCFilterFunctionN) -> sys::RTCIntersect
 
 /// The context filter function of a [`FilterContext<F>`]: reads each valid
 /// lane's potential hit, asks `F`, and clears the lane's valid flag on reject.
+/// A one-lane hit on a geometry the context's skip ranges name returns at
+/// once (accepted), before anything else is read.
 unsafe extern "C" fn filter_trampoline<F: HitFilter>(args: *const sys::RTCFilterFunctionNArguments) {
-    // SAFETY: Embree passes valid arguments; `context` is the `base` field of a
-    // live `FilterContext<F>` (only `FilterContext::<F>::new` installs this
-    // trampoline, and the queries pass `FilterContext::as_raw`, a pointer to
-    // the whole struct).
+    // SAFETY: Embree passes valid arguments.
     let a = unsafe { &*args };
-    // SAFETY: as above; `base` is the first field of the #[repr(C)] struct.
+    if a.N == 1 {
+        // SAFETY: `context` is the `base` field of a live `FilterContext<F>`
+        // (only `FilterContext::<F>::new` installs this trampoline, and the
+        // queries pass `FilterContext::as_raw`, a pointer to the whole
+        // struct), whose first field is a #[repr(C)] `FilterHead`; the hit
+        // block has one lane, whose field 6 is geomID.
+        let skip = unsafe {
+            let head = &*(a.context as *const FilterHead);
+            head.skips((*(a.hit as *const f32).add(soa(6, 0, 1))).to_bits())
+        };
+        if skip {
+            return;
+        }
+    }
+    // SAFETY: as above.
+    unsafe { filter_lanes::<F>(a) }
+}
+
+/// The trampoline's calls of the filter, out of line so that a skipped hit
+/// costs the trampoline no stack frame.
+///
+/// # Safety
+/// `a` is the argument block Embree passed to [`filter_trampoline::<F>`].
+#[inline(never)]
+unsafe fn filter_lanes<F: HitFilter>(a: &sys::RTCFilterFunctionNArguments) {
+    // SAFETY: `context` is the `base` field of a live `FilterContext<F>` (see
+    // `filter_trampoline`); `base` is the first field of the #[repr(C)] head,
+    // itself first in the #[repr(C)] struct.
     let ctx = unsafe { &mut *(a.context as *mut FilterContext<'_, F>) };
     if ctx.panic.is_some() {
         // A previous call panicked: reject everything, the query result is discarded.
@@ -139,8 +239,13 @@ unsafe extern "C" fn filter_trampoline<F: HitFilter>(args: *const sys::RTCFilter
         return;
     }
     for i in 0..n {
-        // SAFETY: i < N (Embree contract: valid mask, ray and hit blocks have N lanes).
-        unsafe { filter_lane(ctx, a, ray, hit, i, n) };
+        // SAFETY: i < N (Embree contract: valid mask, ray and hit blocks have
+        // N lanes); field 6 of the hit block is geomID.
+        unsafe {
+            if !ctx.head.skips((*hit.add(soa(6, i, n))).to_bits()) {
+                filter_lane(ctx, a, ray, hit, i, n);
+            }
+        }
     }
 }
 

@@ -35,7 +35,11 @@
 //!   `user_geometry.rs` stays valid for the scene's life.
 //! - The context a filtered query passes to Embree points at the whole
 //!   `#[repr(C)]` `FilterContext` (not at its first field), so the trampoline
-//!   in `filter.rs` may cast it back and reach the filter behind it.
+//!   in `filter.rs` may cast it back and reach the filter behind it. Every
+//!   context with a filter function is a `FilterContext`, whose first field
+//!   is a `#[repr(C)]` `FilterHead` (Embree's context, then the query's skip
+//!   ranges, borrowed for the query): the analytic shapes' intersect
+//!   callback reads the ranges through it without knowing the filter's type.
 //! - Rays that Embree's `ray.valid()` would abort on never reach Embree
 //!   ([`Ray::is_valid`]); filtered queries on scenes without the
 //!   context-filter flag are refused ([`EmbreeError::NoContextFilterFlag`]).
@@ -52,7 +56,7 @@ pub mod warp_ffi;
 pub use crate::ray::{Hit, Ray};
 pub use device::{Device, EmbreeError};
 use filter::init_context;
-pub use filter::{FilterContext, FilterHit, HitFilter};
+pub use filter::{FilterContext, FilterHit, HitFilter, SkipRanges};
 pub use scene::{BuildQuality, Scene, SceneBuilder, SceneFlags};
 pub use user_geometry::{user_geometry_panics, Bounds, Candidate, Candidates, UserShape};
 

@@ -3,7 +3,7 @@
 //! single rays, unfiltered or through a [`HitFilter`]).
 
 use super::device::{Device, EmbreeError};
-use super::filter::{init_context, FilterContext, HitFilter};
+use super::filter::{init_context, FilterContext, HitFilter, SkipRanges};
 use super::user_geometry::{
     check_user_panics, user_bounds, user_geometry_panics, user_intersect, user_occluded, UserGeom, UserShape,
 };
@@ -220,6 +220,7 @@ impl SceneBuilder {
             raw,
             context_filter: self.context_filter,
             user_panics_at_build: user_geometry_panics(),
+            filter_table: std::sync::OnceLock::new(),
             _user: std::mem::take(&mut self.user),
         })
     }
@@ -237,6 +238,8 @@ pub struct Scene {
     context_filter: bool,
     /// `user_geometry_panics()` when the scene was committed.
     user_panics_at_build: u64,
+    /// [`Scene::filter_table`]'s table.
+    filter_table: std::sync::OnceLock<Vec<(u32, u32)>>,
     #[allow(clippy::vec_box)]
     _user: Vec<Box<UserGeom>>,
 }
@@ -341,19 +344,45 @@ impl Scene {
         ray: &Ray,
         filter: &mut F,
     ) -> Result<Option<Hit>, EmbreeError> {
+        self.intersect_filtered_skipping(ray, filter, SkipRanges::NONE)
+    }
+
+    /// [`intersect_filtered`](Self::intersect_filtered), accepting the hits
+    /// on the geometries `skip` names without calling `filter` (for them the
+    /// query costs about what an unfiltered one does).
+    ///
+    /// # Errors
+    /// As [`intersect_filtered`](Self::intersect_filtered).
+    #[inline]
+    pub fn intersect_filtered_skipping<F: HitFilter>(
+        &self,
+        ray: &Ray,
+        filter: &mut F,
+        skip: SkipRanges<'_>,
+    ) -> Result<Option<Hit>, EmbreeError> {
         if !self.context_filter {
             return Err(EmbreeError::NoContextFilterFlag);
         }
         if !ray.is_valid() {
             return Ok(None); // an invalid ray would abort the process inside Embree
         }
-        let mut ctx = FilterContext::new(filter);
+        let mut ctx = FilterContext::new(filter, skip);
         let mut rh = to_rayhit(ray);
         // SAFETY: `as_raw` points at the #[repr(C)] FilterContext (its `base`
-        // first), which outlives the call, so the trampoline's cast back is valid.
+        // first), which outlives the call, so the trampoline's cast back is
+        // valid; the skip ranges it points at are borrowed for the call.
         unsafe { sys::rtcIntersect1(self.raw, ctx.as_raw(), &mut rh) };
         ctx.finish()?;
         Ok(from_rayhit(&rh))
+    }
+
+    /// A per-geometry table computed once per scene by `init` (on the first
+    /// call; later calls return it): for filters whose skip ranges
+    /// ([`SkipRanges`]) depend on the scene alone. One table per scene,
+    /// whatever `init` later calls pass.
+    #[inline]
+    pub fn filter_table(&self, init: impl FnOnce() -> Vec<(u32, u32)>) -> &[(u32, u32)] {
+        self.filter_table.get_or_init(init)
     }
 
     /// Occlusion with `filter` (see [`intersect_filtered`](Self::intersect_filtered)).
@@ -367,7 +396,7 @@ impl Scene {
         if !ray.is_valid() {
             return Ok(false);
         }
-        let mut ctx = FilterContext::new(filter);
+        let mut ctx = FilterContext::new(filter, SkipRanges::NONE);
         let mut r = to_rayhit(ray).ray;
         // SAFETY: as in `intersect_filtered`.
         unsafe { sys::rtcOccluded1(self.raw, ctx.as_raw(), &mut r) };
@@ -391,6 +420,91 @@ impl Scene {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::embree::UserShape;
+
+    /// A square z = `z` (|x|, |y| < 1) as an analytic shape.
+    struct Plane(f32);
+
+    impl UserShape for Plane {
+        fn bounds(&self, _: u32) -> super::super::Bounds {
+            super::super::Bounds {
+                lower: [-1.0, -1.0, self.0],
+                upper: [1.0, 1.0, self.0],
+            }
+        }
+        fn intersect(&self, _: u32, o: V3, d: V3, out: &mut super::super::Candidates) {
+            let t = (self.0 - o.z) / d.z;
+            let p = o + d * t;
+            if t.is_finite() && p.x.abs() < 1.0 && p.y.abs() < 1.0 {
+                out.push(super::super::Candidate {
+                    t,
+                    ng: [0.0, 0.0, 1.0],
+                    u: 0.0,
+                    v: 0.0,
+                });
+            }
+        }
+    }
+
+    /// Rejects every hit it sees and remembers their geometries.
+    struct RejectAll(Vec<u32>);
+
+    impl HitFilter for RejectAll {
+        fn accept(&mut self, h: &super::super::FilterHit) -> bool {
+            self.0.push(h.geom_id);
+            false
+        }
+    }
+
+    #[test]
+    fn skipped_geometries_are_accepted_unseen_by_the_filter() {
+        // Geometry 0: triangles at z = 1; 1: analytic plane at z = 2;
+        // 2: triangles at z = 3; 3: analytic plane at z = 4.
+        let d = Device::new("").unwrap();
+        let flags = SceneFlags {
+            context_filter: true,
+            robust: false,
+        };
+        let mut b = SceneBuilder::new(&d, flags, BuildQuality::Medium).unwrap();
+        let quad = |z: f32| {
+            let v = [[-1.0, -1.0, z], [1.0, -1.0, z], [1.0, 1.0, z], [-1.0, 1.0, z]];
+            (v, [[0, 1, 2], [0, 2, 3]])
+        };
+        let (v, i) = quad(1.0);
+        assert_eq!(b.add_triangles(&v, &i).unwrap(), 0);
+        assert_eq!(b.add_user(Box::new(Plane(2.0))).unwrap(), 1);
+        let (v, i) = quad(3.0);
+        assert_eq!(b.add_triangles(&v, &i).unwrap(), 2);
+        assert_eq!(b.add_user(Box::new(Plane(4.0))).unwrap(), 3);
+        let s = b.commit().unwrap();
+        let ray = Ray::new(V3::new(0.1, 0.2, 0.0), V3::Z);
+        // Triangles skipped for keys 5..=9, the analytic plane for 0..=5 (geometry 3: never).
+        let ranges = [(9, 0), (0, 5), (5, 9), (9, 0)];
+        let cases = [
+            // key, nearest hit, geometries the filter must see (those before the hit)
+            (5, Some(1), vec![0]),
+            (7, Some(2), vec![0, 1]),
+            (2, Some(1), vec![0]),
+            (12, None, vec![0, 1, 2, 3]),
+        ];
+        for (key, want, seen) in cases {
+            let mut f = RejectAll(Vec::new());
+            let skip = SkipRanges { ranges: &ranges, key };
+            let h = s.intersect_filtered_skipping(&ray, &mut f, skip).unwrap();
+            assert_eq!(h.map(|h| h.geom_id), want, "key {key}");
+            let saw = f.0;
+            // Never a skipped geometry (Embree may report the others beyond the hit).
+            let skipped = |g: u32| ranges[g as usize].0 <= key && key <= ranges[g as usize].1;
+            assert!(saw.iter().all(|&g| !skipped(g)), "key {key}: saw {saw:?}");
+            assert!(seen.iter().all(|g| saw.contains(g)), "key {key}: saw {saw:?}");
+        }
+        // Without skip ranges the filter sees every geometry.
+        let mut f = RejectAll(Vec::new());
+        assert_eq!(s.intersect_filtered(&ray, &mut f).unwrap(), None);
+        f.0.sort_unstable();
+        f.0.dedup();
+        assert_eq!(f.0, vec![0, 1, 2, 3]);
+    }
 
     #[test]
     fn out_of_range_index_is_an_error() {
