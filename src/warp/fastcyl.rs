@@ -298,6 +298,10 @@ impl<'a> Scanner<'a> {
 pub struct CylinderWarper {
     cyl: HollowCylinder,
     eye: DVec3,
+    /// The eye in the tube's 2-D frame and its height (once per eye, not
+    /// per target).
+    e: DVec2,
+    ev: f64,
     beta_lo: f64,
     /// [bin][family].
     tables: Vec<[Table; 4]>,
@@ -374,9 +378,12 @@ impl CylinderWarper {
                 })
             })
             .collect();
+        let (e, ev) = cyl.to2(eye);
         Ok(CylinderWarper {
             cyl,
             eye,
+            e,
+            ev,
             beta_lo: lo,
             tables,
         })
@@ -384,12 +391,28 @@ impl CylinderWarper {
 
     /// All images of `target` (as `HollowCylinder::images`).
     pub fn images(&self, target: DVec3) -> Result<Vec<CylImage>, CylStatus> {
-        self.images_opts(target, true)
+        let mut out = Vec::new();
+        self.images_into(target, true, &mut out)?;
+        Ok(out)
     }
 
     /// The same images without their parity (0): what the renderer needs.
     pub fn images_no_parity(&self, target: DVec3) -> Result<Vec<CylImage>, CylStatus> {
-        self.images_opts(target, false)
+        let mut out = Vec::new();
+        self.images_into(target, false, &mut out)?;
+        Ok(out)
+    }
+
+    /// The images of `target` into `out` (cleared first), with their parity
+    /// or without it (0, the renderer's call): the same images as `images`
+    /// without an allocation per target when `out` is reused. Outside the
+    /// tabulated β range `out` gets the robust sampler's images.
+    ///
+    /// # Errors
+    /// As `HollowCylinder::images` (a target inside the glass).
+    pub fn images_into(&self, target: DVec3, parity: bool, out: &mut Vec<CylImage>) -> Result<(), CylStatus> {
+        out.clear();
+        self.images_opts(target, parity, out)
     }
 
     /// Newton in (b, β) with the closed-form Jacobian from the table's first
@@ -433,9 +456,9 @@ impl CylinderWarper {
         None
     }
 
-    fn images_opts(&self, target: DVec3, parity: bool) -> Result<Vec<CylImage>, CylStatus> {
+    fn images_opts(&self, target: DVec3, parity: bool, out: &mut Vec<CylImage>) -> Result<(), CylStatus> {
         let c = &self.cyl;
-        let (e, ev) = c.to2(self.eye);
+        let (e, ev) = (self.e, self.ev);
         let (p, pv) = c.to2(target);
         let rp = p.length();
         if rp > c.inner_radius && rp < c.outer_radius {
@@ -444,15 +467,15 @@ impl CylinderWarper {
         let in_hollow = rp <= c.inner_radius;
         let dist = (target - self.eye).length();
         let dv = pv - ev;
-        let mut out = Vec::new();
-        if let Some(direct) = c.direct_image(self.eye, target) {
+        if let Some(direct) = c.direct_image_2d(e, p, self.eye, target, dist) {
             out.push(direct);
         }
         let beta0 = dv / dist;
         let bin = ((beta0 - self.beta_lo) / BIN).floor();
         if bin < 0.0 || bin as usize >= self.tables.len() {
             // Outside the tabulated range: the robust path.
-            return c.images(self.eye, target);
+            *out = c.images(self.eye, target)?;
+            return Ok(());
         }
         let table = &self.tables[bin as usize];
         // The candidate buffer is the thread's, reused across calls (one
@@ -523,7 +546,7 @@ impl CylinderWarper {
             }
         }
         CANDS.with(|c| c.replace(cands));
-        Ok(out)
+        Ok(())
     }
 }
 

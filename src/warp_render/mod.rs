@@ -276,6 +276,11 @@ impl VertexSolver {
     }
 }
 
+thread_local! {
+    /// The fast cylinder solver's image buffer, reused across vertices.
+    static IMAGES: std::cell::RefCell<Vec<crate::warp::CylImage>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
 /// Images of one point by `method` (first image per copy key).
 pub fn vertex_images(
     glass: &WarpGlass,
@@ -298,11 +303,20 @@ pub fn vertex_images(
             Err(_) => {}
         },
         WarpGlass::Cylinder(c) => {
+            if let (WarpMethod::Exact, Some(f)) = (method, fast) {
+                // The fast solver writes into the thread's buffer: no
+                // allocation per vertex.
+                IMAGES.with_borrow_mut(|ims| {
+                    if f.images_into(p, false, ims).is_ok() {
+                        for im in ims.iter() {
+                            out.push(WarpGlass::key_for(im.family, im.impact), im.position);
+                        }
+                    }
+                });
+                return out;
+            }
             let ims = match method {
-                WarpMethod::Exact => match fast {
-                    Some(f) => f.images_no_parity(p).unwrap_or_default(),
-                    None => c.images(eye, p).unwrap_or_default(),
-                },
+                WarpMethod::Exact => c.images(eye, p).unwrap_or_default(),
                 WarpMethod::Paper => paper_image(c, eye, p).ok().flatten().into_iter().collect(),
             };
             for im in ims {
