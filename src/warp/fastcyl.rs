@@ -415,47 +415,6 @@ impl CylinderWarper {
         self.images_opts(target, parity, out)
     }
 
-    /// Newton in (b, β) with the closed-form Jacobian from the table's first
-    /// guess: one path evaluation per step instead of three. `None` (the
-    /// caller then runs the damped finite-difference Newton, which also
-    /// handles the family edges) unless the residual falls to 1e-13·dist
-    /// within six steps at a `b` near the bracket (so that it is this
-    /// bracket's root, not a neighbour's).
-    #[allow(clippy::too_many_arguments)]
-    fn polish(
-        &self,
-        fam: Family,
-        e: DVec2,
-        p: DVec2,
-        dv: f64,
-        dist: f64,
-        b0: f64,
-        beta0: f64,
-        in_hollow: bool,
-        bracket: (f64, f64),
-    ) -> Option<(f64, f64)> {
-        let tol = 1e-13 * dist;
-        let (mut b, mut beta) = (b0, beta0);
-        let width = (bracket.1 - bracket.0).abs();
-        let (lo, hi) = (bracket.0.min(bracket.1) - width, bracket.0.max(bracket.1) + width);
-        for _ in 0..6 {
-            let (r, j) = self.cyl.resid_jac(fam, e, p, dv, b, beta, in_hollow)?;
-            if r[0].abs().max(r[1].abs()) <= tol {
-                return (lo..=hi).contains(&b).then_some((b, beta));
-            }
-            let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
-            if det == 0.0 || !det.is_finite() {
-                return None;
-            }
-            b -= (r[0] * j[1][1] - r[1] * j[0][1]) / det;
-            beta -= (j[0][0] * r[1] - j[1][0] * r[0]) / det;
-            if beta.is_nan() || beta.abs() >= 0.999_999 {
-                return None;
-            }
-        }
-        None
-    }
-
     fn images_opts(&self, target: DVec3, parity: bool, out: &mut Vec<CylImage>) -> Result<(), CylStatus> {
         let c = &self.cyl;
         let (e, ev) = (self.e, self.ev);
@@ -478,9 +437,22 @@ impl CylinderWarper {
             return Ok(());
         }
         let table = &self.tables[bin as usize];
-        // The candidate buffer is the thread's, reused across calls (one
-        // allocation and free per target less).
+        // The candidate and job buffers are the thread's, reused across
+        // calls (no allocation per target).
         let mut cands = CANDS.with(|c| c.take());
+        let mut jobs = JOBS.with(|c| c.take());
+        jobs.clear();
+        // Edge candidates: a run end whose |g| falls below this. The family
+        // edge moves with β, and an image's β can be a bin or two from the
+        // table's (0.1·BIN·dist lost 3 tir2 images at the TIR edge in
+        // `no_image_lost_on_random_targets`).
+        let edge_tol = 0.5 * BIN * dist;
+        // Entries whose final ray starts up to 2 % of the distance beyond the
+        // target still bracket: for a target just outside the tube the root
+        // can sit where `along` crosses 0 between two entries (one through4
+        // image lost in the same test). Newton then demands along > 0 at the
+        // image itself.
+        let along_min = -0.02 * dist;
         for (fi, &fam) in FAMILIES.iter().enumerate() {
             if (fam == Family::Hollow2) != in_hollow {
                 continue;
@@ -488,21 +460,10 @@ impl CylinderWarper {
             let t = &table[fi];
             let gk = |k: usize| t.gx[k] * p.x + t.gy[k] * p.y - t.gc[k];
             let ak = |k: usize| t.gy[k] * p.x - t.gx[k] * p.y - t.ac[k];
-            // Edge candidates: a run end whose |g| falls below this. The
-            // family edge moves with β, and an image's β can be a bin or two
-            // from the table's (0.1·BIN·dist lost 3 tir2 images at the TIR
-            // edge in `no_image_lost_on_random_targets`).
-            let edge_tol = 0.5 * BIN * dist;
-            // Entries whose final ray starts up to 2 % of the distance beyond
-            // the target still bracket: for a target just outside the tube
-            // the root can sit where `along` crosses 0 between two entries
-            // (one through4 image lost in the same test). Newton then
-            // demands along > 0 at the image itself.
-            let along_min = -0.02 * dist;
             cands.clear();
             t.candidates_into(p, edge_tol, along_min, &mut cands);
             for &cand in &cands {
-                let img = match cand {
+                jobs.push(match cand {
                     Candidate::Bracket(k0, k1) => {
                         // First guesses: b by the secant through the two
                         // samples, β from the climb with their lengths.
@@ -518,8 +479,35 @@ impl CylinderWarper {
                             let mg = (c.ior * c.ior - beta * beta).sqrt();
                             beta = (dv / (air / ma + glass / mg)).clamp(-0.999, 0.999);
                         }
-                        let pol = self.polish(fam, e, p, dv, dist, b, beta, in_hollow, (t.b[k0], t.b[k1]));
-                        pol.and_then(|(b, beta)| {
+                        Job::Bracket(Polish::new(fam, dist, b, beta, (t.b[k0], t.b[k1])))
+                    }
+                    Candidate::Edge(k) => Job::Edge(fam, t.b[k]),
+                });
+            }
+        }
+        // The brackets' polishes run interleaved, one Newton step of each in
+        // turn: a target's brackets are nearly always in different families
+        // (through4 and tir2), each polish a chain of dependent square roots
+        // and divisions, so the core overlaps the independent chains. Each
+        // polish is the same sequence of steps as alone: same results.
+        for _ in 0..POLISH_STEPS {
+            let mut running = false;
+            for job in jobs.iter_mut() {
+                if let Job::Bracket(pol) = job {
+                    running |= pol.step(c, e, p, dv, in_hollow);
+                }
+            }
+            if !running {
+                break;
+            }
+        }
+        for job in &jobs {
+            let img = match *job {
+                Job::Bracket(ref pol) => {
+                    let (fam, b, beta) = (pol.fam, pol.b0, pol.beta0);
+                    let (k0b, k1b) = pol.bracket;
+                    pol.result()
+                        .and_then(|(b, beta)| {
                             c.image_at(fam, e, p, dist, self.eye, b, beta, in_hollow, parity)
                         })
                         .or_else(|| {
@@ -529,29 +517,124 @@ impl CylinderWarper {
                             c.newton_image_opts(fam, e, p, dv, dist, self.eye, b, beta0, in_hollow, parity)
                         })
                         .or_else(|| {
-                            c.refine_public(fam, e, p, dv, dist, self.eye, t.b[k0], t.b[k1], beta0, in_hollow)
+                            c.refine_public(fam, e, p, dv, dist, self.eye, k0b, k1b, beta0, in_hollow)
                         })
-                    }
-                    Candidate::Edge(k) => {
-                        c.newton_image_opts(fam, e, p, dv, dist, self.eye, t.b[k], beta0, in_hollow, parity)
-                    }
-                };
-                if let Some(img) = img {
-                    if !out.iter().any(|o: &CylImage| {
-                        o.family == img.family && (o.direction - img.direction).length() < 1e-9
-                    }) {
-                        out.push(img);
-                    }
+                }
+                Job::Edge(fam, bk) => {
+                    c.newton_image_opts(fam, e, p, dv, dist, self.eye, bk, beta0, in_hollow, parity)
+                }
+            };
+            if let Some(img) = img {
+                if !out.iter().any(|o: &CylImage| {
+                    o.family == img.family && (o.direction - img.direction).length() < 1e-9
+                }) {
+                    out.push(img);
                 }
             }
         }
         CANDS.with(|c| c.replace(cands));
+        JOBS.with(|c| c.replace(jobs));
         Ok(())
+    }
+}
+
+/// Newton steps a polish may take.
+const POLISH_STEPS: usize = 6;
+
+/// Newton in (b, β) with the closed-form Jacobian from the table's first
+/// guess, one step at a time (`step`), so that a target's polishes can run
+/// interleaved: one path evaluation per step instead of three. Fails (the
+/// caller then runs the damped finite-difference Newton, which also handles
+/// the family edges) unless the residual falls to 1e-13·dist within
+/// `POLISH_STEPS` steps at a `b` near the bracket (so that it is this
+/// bracket's root, not a neighbour's).
+struct Polish {
+    fam: Family,
+    /// The first guess (the fallbacks start there).
+    b0: f64,
+    beta0: f64,
+    /// The bracket's samples.
+    bracket: (f64, f64),
+    b: f64,
+    beta: f64,
+    tol: f64,
+    /// Accepted b, the bracket widened by its width.
+    lo: f64,
+    hi: f64,
+    state: PolishState,
+}
+
+#[derive(Clone, Copy, PartialEq)]
+enum PolishState {
+    Running,
+    Done,
+    Failed,
+}
+
+enum Job {
+    Bracket(Polish),
+    Edge(Family, f64),
+}
+
+impl Polish {
+    fn new(fam: Family, dist: f64, b0: f64, beta0: f64, bracket: (f64, f64)) -> Polish {
+        let width = (bracket.1 - bracket.0).abs();
+        Polish {
+            fam,
+            b0,
+            beta0,
+            bracket,
+            b: b0,
+            beta: beta0,
+            tol: 1e-13 * dist,
+            lo: bracket.0.min(bracket.1) - width,
+            hi: bracket.0.max(bracket.1) + width,
+            state: PolishState::Running,
+        }
+    }
+
+    /// One Newton step (or the convergence test that ends the polish).
+    /// Returns whether the polish is still running.
+    #[inline]
+    fn step(&mut self, c: &HollowCylinder, e: DVec2, p: DVec2, dv: f64, in_hollow: bool) -> bool {
+        if self.state != PolishState::Running {
+            return false;
+        }
+        let Some((r, j)) = c.resid_jac(self.fam, e, p, dv, self.b, self.beta, in_hollow) else {
+            self.state = PolishState::Failed;
+            return false;
+        };
+        if r[0].abs().max(r[1].abs()) <= self.tol {
+            self.state = if (self.lo..=self.hi).contains(&self.b) {
+                PolishState::Done
+            } else {
+                PolishState::Failed
+            };
+            return false;
+        }
+        let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
+        if det == 0.0 || !det.is_finite() {
+            self.state = PolishState::Failed;
+            return false;
+        }
+        self.b -= (r[0] * j[1][1] - r[1] * j[0][1]) / det;
+        self.beta -= (j[0][0] * r[1] - j[1][0] * r[0]) / det;
+        if self.beta.is_nan() || self.beta.abs() >= 0.999_999 {
+            self.state = PolishState::Failed;
+            return false;
+        }
+        true
+    }
+
+    /// The solved (b, β), if the polish converged.
+    fn result(&self) -> Option<(f64, f64)> {
+        (self.state == PolishState::Done).then_some((self.b, self.beta))
     }
 }
 
 thread_local! {
     static CANDS: std::cell::RefCell<Vec<Candidate>> = const { std::cell::RefCell::new(Vec::new()) };
+    static JOBS: std::cell::RefCell<Vec<Job>> = const { std::cell::RefCell::new(Vec::new()) };
 }
 
 #[cfg(test)]
