@@ -302,6 +302,9 @@ pub struct CylinderWarper {
     /// per target).
     e: DVec2,
     ev: f64,
+    /// Which tables exist: hollow2, and the families of targets outside.
+    hollow: bool,
+    outside: bool,
     beta_lo: f64,
     /// [bin][family].
     tables: Vec<[Table; 4]>,
@@ -312,6 +315,47 @@ const FAMILIES: [Family; 4] = [Family::Through4, Family::Tir2, Family::Wall2, Fa
 impl CylinderWarper {
     /// Tables for targets whose straight elevation β0 lies in [lo, hi].
     pub fn new(cyl: HollowCylinder, eye: DVec3, lo: f64, hi: f64) -> Result<Self, CylStatus> {
+        Self::build(cyl, eye, lo, hi, true, true)
+    }
+
+    /// Tables for `targets` (a mesh's vertices): their range of straight
+    /// elevations, and only the families they can need: hollow2 when some
+    /// target is in the hollow, the others when some is outside the tube
+    /// (the bench's plane and the reference scene have nothing in the
+    /// hollow: a third of the table entries less). A target of a kind
+    /// without tables is answered by the robust sampler.
+    ///
+    /// # Errors
+    /// `EyeNotOutside` when the eye is within the outer radius.
+    pub fn for_targets(cyl: HollowCylinder, eye: DVec3, targets: &[DVec3]) -> Result<Self, CylStatus> {
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        let (mut hollow, mut outside) = (false, false);
+        for &t in targets {
+            let d = t - eye;
+            let l = d.length();
+            if l > 0.0 {
+                let b = d.dot(cyl.axis_direction) / l;
+                lo = lo.min(b);
+                hi = hi.max(b);
+            }
+            let rp = cyl.to2(t).0.length();
+            hollow |= rp <= cyl.inner_radius;
+            outside |= rp >= cyl.outer_radius;
+        }
+        if lo > hi {
+            (lo, hi) = (0.0, 0.0);
+        }
+        Self::build(cyl, eye, lo, hi, hollow, outside)
+    }
+
+    fn build(
+        cyl: HollowCylinder,
+        eye: DVec3,
+        lo: f64,
+        hi: f64,
+        hollow: bool,
+        outside: bool,
+    ) -> Result<Self, CylStatus> {
         use rayon::prelude::*;
         let (e, _) = cyl.to2(eye);
         if e.length() <= cyl.outer_radius {
@@ -345,6 +389,9 @@ impl CylinderWarper {
                 let tir_edge = cyl.inner_radius * mg / ma;
                 FAMILIES.map(|fam| {
                     let mut t = Table::default();
+                    if !(if fam == Family::Hollow2 { hollow } else { outside }) {
+                        return t;
+                    }
                     // Only the samples inside the family's b domain: `path`
                     // would reject the others after most of its square roots
                     // (two thirds of the tables' time went to them). Widened
@@ -384,6 +431,8 @@ impl CylinderWarper {
             eye,
             e,
             ev,
+            hollow,
+            outside,
             beta_lo: lo,
             tables,
         })
@@ -431,8 +480,9 @@ impl CylinderWarper {
         }
         let beta0 = dv / dist;
         let bin = ((beta0 - self.beta_lo) / BIN).floor();
-        if bin < 0.0 || bin as usize >= self.tables.len() {
-            // Outside the tabulated range: the robust path.
+        let tabulated = if in_hollow { self.hollow } else { self.outside };
+        if bin < 0.0 || bin as usize >= self.tables.len() || !tabulated {
+            // Outside the tabulated range or kinds: the robust path.
             *out = c.images(self.eye, target)?;
             return Ok(());
         }
@@ -698,6 +748,56 @@ mod tests {
                 "r={inner}: {same} of {total} targets: all robust images found; {extra} extra (verified)"
             );
             assert!(total > 200 && same == total, "r={inner}: {same} of {total} agree");
+        }
+    }
+}
+
+#[cfg(test)]
+mod target_tests {
+    use super::*;
+
+    /// Tables built for the targets (`for_targets`: their β range, only the
+    /// families they need) give the same images as tables for every family
+    /// over a wider range; a target of a kind the tables skipped (in the
+    /// hollow, for tables built for targets outside) still gets every
+    /// robust image.
+    #[test]
+    fn tables_for_the_targets_give_the_same_images() {
+        let eye = DVec3::new(0.3, 0.2, 4.0);
+        let c = HollowCylinder::try_new(DVec3::ZERO, DVec3::Y, 1.0, 0.8, 1.5).unwrap();
+        let outside: Vec<DVec3> = (0..400)
+            .map(|i| {
+                let (x, y) = ((i % 20) as f64, (i / 20) as f64);
+                DVec3::new(-3.0 + 0.3 * x, -1.0 + 0.1 * y, -3.0 + 0.05 * x)
+            })
+            .collect();
+        let all = CylinderWarper::new(c, eye, -0.7, 0.7).unwrap();
+        let only = CylinderWarper::for_targets(c, eye, &outside).unwrap();
+        assert!(only.outside && !only.hollow);
+        let skipped: usize = only.tables.iter().map(|t| t[3].b.len()).sum();
+        assert_eq!(skipped, 0, "hollow2 tables built for targets outside");
+        let mut images = 0;
+        for &t in &outside {
+            let (a, b) = (all.images(t).unwrap(), only.images(t).unwrap());
+            assert_eq!(a.len(), b.len(), "{t}");
+            for (x, y) in a.iter().zip(&b) {
+                assert_eq!(x.family, y.family, "{t}");
+                assert!((x.direction - y.direction).length() < 1e-12, "{t}: {x:?} {y:?}");
+            }
+            images += a.len();
+        }
+        assert!(images > outside.len(), "{images}");
+        for t in [DVec3::new(0.1, 0.3, -0.2), DVec3::new(-0.5, -0.4, 0.3)] {
+            let robust = c.images(eye, t).unwrap();
+            let fast = only.images(t).unwrap();
+            assert!(!robust.is_empty());
+            for r in &robust {
+                assert!(
+                    fast.iter()
+                        .any(|f| f.family == r.family && (f.direction - r.direction).length() < 1e-9),
+                    "{t}: {r:?} not in {fast:?}"
+                );
+            }
         }
     }
 }

@@ -243,22 +243,8 @@ impl VertexSolver {
     /// lies within those of `points`.
     pub fn new(glass: WarpGlass, method: WarpMethod, eye: DVec3, points: &[DVec3]) -> Self {
         let fast = match (&glass, method) {
-            (WarpGlass::Cylinder(c), WarpMethod::Exact) => {
-                let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-                for p in points {
-                    let d = *p - eye;
-                    let l = d.length();
-                    if l > 0.0 {
-                        let b = d.dot(c.axis_direction) / l;
-                        lo = lo.min(b);
-                        hi = hi.max(b);
-                    }
-                }
-                if lo <= hi {
-                    crate::warp::fastcyl::CylinderWarper::new(*c, eye, lo, hi).ok()
-                } else {
-                    None
-                }
+            (WarpGlass::Cylinder(c), WarpMethod::Exact) if !points.is_empty() => {
+                crate::warp::fastcyl::CylinderWarper::for_targets(*c, eye, points).ok()
             }
             _ => None,
         };
