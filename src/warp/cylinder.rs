@@ -483,11 +483,16 @@ impl HollowCylinder {
             .map(|p| (p.origin, p.dir, p.air, p.glass))
     }
 
-    /// The direct image, when the straight line misses the tube.
-    pub(crate) fn direct_image(&self, eye: DVec3, target: DVec3) -> Option<CylImage> {
-        let f = self.frame();
-        let (e, _) = f.to2(eye);
-        let (p, _) = f.to2(target);
+    /// The direct image, when the straight line misses the tube, from the
+    /// eye's and the target's 2-D positions `e`, `p` and their distance.
+    pub(crate) fn direct_image_2d(
+        &self,
+        e: DVec2,
+        p: DVec2,
+        eye: DVec3,
+        target: DVec3,
+        dist: f64,
+    ) -> Option<CylImage> {
         if p.length() <= self.inner_radius {
             return None;
         }
@@ -498,7 +503,6 @@ impl HollowCylinder {
         if blocked {
             return None;
         }
-        let dist = (target - eye).length();
         Some(CylImage {
             family: Family::Direct,
             direction: (target - eye) / dist,

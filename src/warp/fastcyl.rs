@@ -298,6 +298,13 @@ impl<'a> Scanner<'a> {
 pub struct CylinderWarper {
     cyl: HollowCylinder,
     eye: DVec3,
+    /// The eye in the tube's 2-D frame and its height (once per eye, not
+    /// per target).
+    e: DVec2,
+    ev: f64,
+    /// Which tables exist: hollow2, and the families of targets outside.
+    hollow: bool,
+    outside: bool,
     beta_lo: f64,
     /// [bin][family].
     tables: Vec<[Table; 4]>,
@@ -308,6 +315,47 @@ const FAMILIES: [Family; 4] = [Family::Through4, Family::Tir2, Family::Wall2, Fa
 impl CylinderWarper {
     /// Tables for targets whose straight elevation β0 lies in [lo, hi].
     pub fn new(cyl: HollowCylinder, eye: DVec3, lo: f64, hi: f64) -> Result<Self, CylStatus> {
+        Self::build(cyl, eye, lo, hi, true, true)
+    }
+
+    /// Tables for `targets` (a mesh's vertices): their range of straight
+    /// elevations, and only the families they can need: hollow2 when some
+    /// target is in the hollow, the others when some is outside the tube
+    /// (the bench's plane and the reference scene have nothing in the
+    /// hollow: a third of the table entries less). A target of a kind
+    /// without tables is answered by the robust sampler.
+    ///
+    /// # Errors
+    /// `EyeNotOutside` when the eye is within the outer radius.
+    pub fn for_targets(cyl: HollowCylinder, eye: DVec3, targets: &[DVec3]) -> Result<Self, CylStatus> {
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        let (mut hollow, mut outside) = (false, false);
+        for &t in targets {
+            let d = t - eye;
+            let l = d.length();
+            if l > 0.0 {
+                let b = d.dot(cyl.axis_direction) / l;
+                lo = lo.min(b);
+                hi = hi.max(b);
+            }
+            let rp = cyl.to2(t).0.length();
+            hollow |= rp <= cyl.inner_radius;
+            outside |= rp >= cyl.outer_radius;
+        }
+        if lo > hi {
+            (lo, hi) = (0.0, 0.0);
+        }
+        Self::build(cyl, eye, lo, hi, hollow, outside)
+    }
+
+    fn build(
+        cyl: HollowCylinder,
+        eye: DVec3,
+        lo: f64,
+        hi: f64,
+        hollow: bool,
+        outside: bool,
+    ) -> Result<Self, CylStatus> {
         use rayon::prelude::*;
         let (e, _) = cyl.to2(eye);
         if e.length() <= cyl.outer_radius {
@@ -341,6 +389,9 @@ impl CylinderWarper {
                 let tir_edge = cyl.inner_radius * mg / ma;
                 FAMILIES.map(|fam| {
                     let mut t = Table::default();
+                    if !(if fam == Family::Hollow2 { hollow } else { outside }) {
+                        return t;
+                    }
                     // Only the samples inside the family's b domain: `path`
                     // would reject the others after most of its square roots
                     // (two thirds of the tables' time went to them). Widened
@@ -374,9 +425,14 @@ impl CylinderWarper {
                 })
             })
             .collect();
+        let (e, ev) = cyl.to2(eye);
         Ok(CylinderWarper {
             cyl,
             eye,
+            e,
+            ev,
+            hollow,
+            outside,
             beta_lo: lo,
             tables,
         })
@@ -384,58 +440,33 @@ impl CylinderWarper {
 
     /// All images of `target` (as `HollowCylinder::images`).
     pub fn images(&self, target: DVec3) -> Result<Vec<CylImage>, CylStatus> {
-        self.images_opts(target, true)
+        let mut out = Vec::new();
+        self.images_into(target, true, &mut out)?;
+        Ok(out)
     }
 
     /// The same images without their parity (0): what the renderer needs.
     pub fn images_no_parity(&self, target: DVec3) -> Result<Vec<CylImage>, CylStatus> {
-        self.images_opts(target, false)
+        let mut out = Vec::new();
+        self.images_into(target, false, &mut out)?;
+        Ok(out)
     }
 
-    /// Newton in (b, β) with the closed-form Jacobian from the table's first
-    /// guess: one path evaluation per step instead of three. `None` (the
-    /// caller then runs the damped finite-difference Newton, which also
-    /// handles the family edges) unless the residual falls to 1e-13·dist
-    /// within six steps at a `b` near the bracket (so that it is this
-    /// bracket's root, not a neighbour's).
-    #[allow(clippy::too_many_arguments)]
-    fn polish(
-        &self,
-        fam: Family,
-        e: DVec2,
-        p: DVec2,
-        dv: f64,
-        dist: f64,
-        b0: f64,
-        beta0: f64,
-        in_hollow: bool,
-        bracket: (f64, f64),
-    ) -> Option<(f64, f64)> {
-        let tol = 1e-13 * dist;
-        let (mut b, mut beta) = (b0, beta0);
-        let width = (bracket.1 - bracket.0).abs();
-        let (lo, hi) = (bracket.0.min(bracket.1) - width, bracket.0.max(bracket.1) + width);
-        for _ in 0..6 {
-            let (r, j) = self.cyl.resid_jac(fam, e, p, dv, b, beta, in_hollow)?;
-            if r[0].abs().max(r[1].abs()) <= tol {
-                return (lo..=hi).contains(&b).then_some((b, beta));
-            }
-            let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
-            if det == 0.0 || !det.is_finite() {
-                return None;
-            }
-            b -= (r[0] * j[1][1] - r[1] * j[0][1]) / det;
-            beta -= (j[0][0] * r[1] - j[1][0] * r[0]) / det;
-            if beta.is_nan() || beta.abs() >= 0.999_999 {
-                return None;
-            }
-        }
-        None
+    /// The images of `target` into `out` (cleared first), with their parity
+    /// or without it (0, the renderer's call): the same images as `images`
+    /// without an allocation per target when `out` is reused. Outside the
+    /// tabulated β range `out` gets the robust sampler's images.
+    ///
+    /// # Errors
+    /// As `HollowCylinder::images` (a target inside the glass).
+    pub fn images_into(&self, target: DVec3, parity: bool, out: &mut Vec<CylImage>) -> Result<(), CylStatus> {
+        out.clear();
+        self.images_opts(target, parity, out)
     }
 
-    fn images_opts(&self, target: DVec3, parity: bool) -> Result<Vec<CylImage>, CylStatus> {
+    fn images_opts(&self, target: DVec3, parity: bool, out: &mut Vec<CylImage>) -> Result<(), CylStatus> {
         let c = &self.cyl;
-        let (e, ev) = c.to2(self.eye);
+        let (e, ev) = (self.e, self.ev);
         let (p, pv) = c.to2(target);
         let rp = p.length();
         if rp > c.inner_radius && rp < c.outer_radius {
@@ -444,20 +475,34 @@ impl CylinderWarper {
         let in_hollow = rp <= c.inner_radius;
         let dist = (target - self.eye).length();
         let dv = pv - ev;
-        let mut out = Vec::new();
-        if let Some(direct) = c.direct_image(self.eye, target) {
+        if let Some(direct) = c.direct_image_2d(e, p, self.eye, target, dist) {
             out.push(direct);
         }
         let beta0 = dv / dist;
         let bin = ((beta0 - self.beta_lo) / BIN).floor();
-        if bin < 0.0 || bin as usize >= self.tables.len() {
-            // Outside the tabulated range: the robust path.
-            return c.images(self.eye, target);
+        let tabulated = if in_hollow { self.hollow } else { self.outside };
+        if bin < 0.0 || bin as usize >= self.tables.len() || !tabulated {
+            // Outside the tabulated range or kinds: the robust path.
+            *out = c.images(self.eye, target)?;
+            return Ok(());
         }
         let table = &self.tables[bin as usize];
-        // The candidate buffer is the thread's, reused across calls (one
-        // allocation and free per target less).
+        // The candidate and job buffers are the thread's, reused across
+        // calls (no allocation per target).
         let mut cands = CANDS.with(|c| c.take());
+        let mut jobs = JOBS.with(|c| c.take());
+        jobs.clear();
+        // Edge candidates: a run end whose |g| falls below this. The family
+        // edge moves with β, and an image's β can be a bin or two from the
+        // table's (0.1·BIN·dist lost 3 tir2 images at the TIR edge in
+        // `no_image_lost_on_random_targets`).
+        let edge_tol = 0.5 * BIN * dist;
+        // Entries whose final ray starts up to 2 % of the distance beyond the
+        // target still bracket: for a target just outside the tube the root
+        // can sit where `along` crosses 0 between two entries (one through4
+        // image lost in the same test). Newton then demands along > 0 at the
+        // image itself.
+        let along_min = -0.02 * dist;
         for (fi, &fam) in FAMILIES.iter().enumerate() {
             if (fam == Family::Hollow2) != in_hollow {
                 continue;
@@ -465,21 +510,10 @@ impl CylinderWarper {
             let t = &table[fi];
             let gk = |k: usize| t.gx[k] * p.x + t.gy[k] * p.y - t.gc[k];
             let ak = |k: usize| t.gy[k] * p.x - t.gx[k] * p.y - t.ac[k];
-            // Edge candidates: a run end whose |g| falls below this. The
-            // family edge moves with β, and an image's β can be a bin or two
-            // from the table's (0.1·BIN·dist lost 3 tir2 images at the TIR
-            // edge in `no_image_lost_on_random_targets`).
-            let edge_tol = 0.5 * BIN * dist;
-            // Entries whose final ray starts up to 2 % of the distance beyond
-            // the target still bracket: for a target just outside the tube
-            // the root can sit where `along` crosses 0 between two entries
-            // (one through4 image lost in the same test). Newton then
-            // demands along > 0 at the image itself.
-            let along_min = -0.02 * dist;
             cands.clear();
             t.candidates_into(p, edge_tol, along_min, &mut cands);
             for &cand in &cands {
-                let img = match cand {
+                jobs.push(match cand {
                     Candidate::Bracket(k0, k1) => {
                         // First guesses: b by the secant through the two
                         // samples, β from the climb with their lengths.
@@ -495,8 +529,35 @@ impl CylinderWarper {
                             let mg = (c.ior * c.ior - beta * beta).sqrt();
                             beta = (dv / (air / ma + glass / mg)).clamp(-0.999, 0.999);
                         }
-                        let pol = self.polish(fam, e, p, dv, dist, b, beta, in_hollow, (t.b[k0], t.b[k1]));
-                        pol.and_then(|(b, beta)| {
+                        Job::Bracket(Polish::new(fam, dist, b, beta, (t.b[k0], t.b[k1])))
+                    }
+                    Candidate::Edge(k) => Job::Edge(fam, t.b[k]),
+                });
+            }
+        }
+        // The brackets' polishes run interleaved, one Newton step of each in
+        // turn: a target's brackets are nearly always in different families
+        // (through4 and tir2), each polish a chain of dependent square roots
+        // and divisions, so the core overlaps the independent chains. Each
+        // polish is the same sequence of steps as alone: same results.
+        for _ in 0..POLISH_STEPS {
+            let mut running = false;
+            for job in jobs.iter_mut() {
+                if let Job::Bracket(pol) = job {
+                    running |= pol.step(c, e, p, dv, in_hollow);
+                }
+            }
+            if !running {
+                break;
+            }
+        }
+        for job in &jobs {
+            let img = match *job {
+                Job::Bracket(ref pol) => {
+                    let (fam, b, beta) = (pol.fam, pol.b0, pol.beta0);
+                    let (k0b, k1b) = pol.bracket;
+                    pol.result()
+                        .and_then(|(b, beta)| {
                             c.image_at(fam, e, p, dist, self.eye, b, beta, in_hollow, parity)
                         })
                         .or_else(|| {
@@ -506,29 +567,124 @@ impl CylinderWarper {
                             c.newton_image_opts(fam, e, p, dv, dist, self.eye, b, beta0, in_hollow, parity)
                         })
                         .or_else(|| {
-                            c.refine_public(fam, e, p, dv, dist, self.eye, t.b[k0], t.b[k1], beta0, in_hollow)
+                            c.refine_public(fam, e, p, dv, dist, self.eye, k0b, k1b, beta0, in_hollow)
                         })
-                    }
-                    Candidate::Edge(k) => {
-                        c.newton_image_opts(fam, e, p, dv, dist, self.eye, t.b[k], beta0, in_hollow, parity)
-                    }
-                };
-                if let Some(img) = img {
-                    if !out.iter().any(|o: &CylImage| {
-                        o.family == img.family && (o.direction - img.direction).length() < 1e-9
-                    }) {
-                        out.push(img);
-                    }
+                }
+                Job::Edge(fam, bk) => {
+                    c.newton_image_opts(fam, e, p, dv, dist, self.eye, bk, beta0, in_hollow, parity)
+                }
+            };
+            if let Some(img) = img {
+                if !out.iter().any(|o: &CylImage| {
+                    o.family == img.family && (o.direction - img.direction).length() < 1e-9
+                }) {
+                    out.push(img);
                 }
             }
         }
         CANDS.with(|c| c.replace(cands));
-        Ok(out)
+        JOBS.with(|c| c.replace(jobs));
+        Ok(())
+    }
+}
+
+/// Newton steps a polish may take.
+const POLISH_STEPS: usize = 6;
+
+/// Newton in (b, β) with the closed-form Jacobian from the table's first
+/// guess, one step at a time (`step`), so that a target's polishes can run
+/// interleaved: one path evaluation per step instead of three. Fails (the
+/// caller then runs the damped finite-difference Newton, which also handles
+/// the family edges) unless the residual falls to 1e-13·dist within
+/// `POLISH_STEPS` steps at a `b` near the bracket (so that it is this
+/// bracket's root, not a neighbour's).
+struct Polish {
+    fam: Family,
+    /// The first guess (the fallbacks start there).
+    b0: f64,
+    beta0: f64,
+    /// The bracket's samples.
+    bracket: (f64, f64),
+    b: f64,
+    beta: f64,
+    tol: f64,
+    /// Accepted b, the bracket widened by its width.
+    lo: f64,
+    hi: f64,
+    state: PolishState,
+}
+
+#[derive(Clone, Copy, PartialEq)]
+enum PolishState {
+    Running,
+    Done,
+    Failed,
+}
+
+enum Job {
+    Bracket(Polish),
+    Edge(Family, f64),
+}
+
+impl Polish {
+    fn new(fam: Family, dist: f64, b0: f64, beta0: f64, bracket: (f64, f64)) -> Polish {
+        let width = (bracket.1 - bracket.0).abs();
+        Polish {
+            fam,
+            b0,
+            beta0,
+            bracket,
+            b: b0,
+            beta: beta0,
+            tol: 1e-13 * dist,
+            lo: bracket.0.min(bracket.1) - width,
+            hi: bracket.0.max(bracket.1) + width,
+            state: PolishState::Running,
+        }
+    }
+
+    /// One Newton step (or the convergence test that ends the polish).
+    /// Returns whether the polish is still running.
+    #[inline]
+    fn step(&mut self, c: &HollowCylinder, e: DVec2, p: DVec2, dv: f64, in_hollow: bool) -> bool {
+        if self.state != PolishState::Running {
+            return false;
+        }
+        let Some((r, j)) = c.resid_jac(self.fam, e, p, dv, self.b, self.beta, in_hollow) else {
+            self.state = PolishState::Failed;
+            return false;
+        };
+        if r[0].abs().max(r[1].abs()) <= self.tol {
+            self.state = if (self.lo..=self.hi).contains(&self.b) {
+                PolishState::Done
+            } else {
+                PolishState::Failed
+            };
+            return false;
+        }
+        let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
+        if det == 0.0 || !det.is_finite() {
+            self.state = PolishState::Failed;
+            return false;
+        }
+        self.b -= (r[0] * j[1][1] - r[1] * j[0][1]) / det;
+        self.beta -= (j[0][0] * r[1] - j[1][0] * r[0]) / det;
+        if self.beta.is_nan() || self.beta.abs() >= 0.999_999 {
+            self.state = PolishState::Failed;
+            return false;
+        }
+        true
+    }
+
+    /// The solved (b, β), if the polish converged.
+    fn result(&self) -> Option<(f64, f64)> {
+        (self.state == PolishState::Done).then_some((self.b, self.beta))
     }
 }
 
 thread_local! {
     static CANDS: std::cell::RefCell<Vec<Candidate>> = const { std::cell::RefCell::new(Vec::new()) };
+    static JOBS: std::cell::RefCell<Vec<Job>> = const { std::cell::RefCell::new(Vec::new()) };
 }
 
 #[cfg(test)]
@@ -592,6 +748,56 @@ mod tests {
                 "r={inner}: {same} of {total} targets: all robust images found; {extra} extra (verified)"
             );
             assert!(total > 200 && same == total, "r={inner}: {same} of {total} agree");
+        }
+    }
+}
+
+#[cfg(test)]
+mod target_tests {
+    use super::*;
+
+    /// Tables built for the targets (`for_targets`: their β range, only the
+    /// families they need) give the same images as tables for every family
+    /// over a wider range; a target of a kind the tables skipped (in the
+    /// hollow, for tables built for targets outside) still gets every
+    /// robust image.
+    #[test]
+    fn tables_for_the_targets_give_the_same_images() {
+        let eye = DVec3::new(0.3, 0.2, 4.0);
+        let c = HollowCylinder::try_new(DVec3::ZERO, DVec3::Y, 1.0, 0.8, 1.5).unwrap();
+        let outside: Vec<DVec3> = (0..400)
+            .map(|i| {
+                let (x, y) = ((i % 20) as f64, (i / 20) as f64);
+                DVec3::new(-3.0 + 0.3 * x, -1.0 + 0.1 * y, -3.0 + 0.05 * x)
+            })
+            .collect();
+        let all = CylinderWarper::new(c, eye, -0.7, 0.7).unwrap();
+        let only = CylinderWarper::for_targets(c, eye, &outside).unwrap();
+        assert!(only.outside && !only.hollow);
+        let skipped: usize = only.tables.iter().map(|t| t[3].b.len()).sum();
+        assert_eq!(skipped, 0, "hollow2 tables built for targets outside");
+        let mut images = 0;
+        for &t in &outside {
+            let (a, b) = (all.images(t).unwrap(), only.images(t).unwrap());
+            assert_eq!(a.len(), b.len(), "{t}");
+            for (x, y) in a.iter().zip(&b) {
+                assert_eq!(x.family, y.family, "{t}");
+                assert!((x.direction - y.direction).length() < 1e-12, "{t}: {x:?} {y:?}");
+            }
+            images += a.len();
+        }
+        assert!(images > outside.len(), "{images}");
+        for t in [DVec3::new(0.1, 0.3, -0.2), DVec3::new(-0.5, -0.4, 0.3)] {
+            let robust = c.images(eye, t).unwrap();
+            let fast = only.images(t).unwrap();
+            assert!(!robust.is_empty());
+            for r in &robust {
+                assert!(
+                    fast.iter()
+                        .any(|f| f.family == r.family && (f.direction - r.direction).length() < 1e-9),
+                    "{t}: {r:?} not in {fast:?}"
+                );
+            }
         }
     }
 }

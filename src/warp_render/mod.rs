@@ -243,22 +243,8 @@ impl VertexSolver {
     /// lies within those of `points`.
     pub fn new(glass: WarpGlass, method: WarpMethod, eye: DVec3, points: &[DVec3]) -> Self {
         let fast = match (&glass, method) {
-            (WarpGlass::Cylinder(c), WarpMethod::Exact) => {
-                let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-                for p in points {
-                    let d = *p - eye;
-                    let l = d.length();
-                    if l > 0.0 {
-                        let b = d.dot(c.axis_direction) / l;
-                        lo = lo.min(b);
-                        hi = hi.max(b);
-                    }
-                }
-                if lo <= hi {
-                    crate::warp::fastcyl::CylinderWarper::new(*c, eye, lo, hi).ok()
-                } else {
-                    None
-                }
+            (WarpGlass::Cylinder(c), WarpMethod::Exact) if !points.is_empty() => {
+                crate::warp::fastcyl::CylinderWarper::for_targets(*c, eye, points).ok()
             }
             _ => None,
         };
@@ -274,6 +260,11 @@ impl VertexSolver {
     pub fn images(&self, p: DVec3) -> VertexImages {
         vertex_images(&self.glass, self.method, self.eye, p, self.fast.as_ref())
     }
+}
+
+thread_local! {
+    /// The fast cylinder solver's image buffer, reused across vertices.
+    static IMAGES: std::cell::RefCell<Vec<crate::warp::CylImage>> = const { std::cell::RefCell::new(Vec::new()) };
 }
 
 /// Images of one point by `method` (first image per copy key).
@@ -298,11 +289,20 @@ pub fn vertex_images(
             Err(_) => {}
         },
         WarpGlass::Cylinder(c) => {
+            if let (WarpMethod::Exact, Some(f)) = (method, fast) {
+                // The fast solver writes into the thread's buffer: no
+                // allocation per vertex.
+                IMAGES.with_borrow_mut(|ims| {
+                    if f.images_into(p, false, ims).is_ok() {
+                        for im in ims.iter() {
+                            out.push(WarpGlass::key_for(im.family, im.impact), im.position);
+                        }
+                    }
+                });
+                return out;
+            }
             let ims = match method {
-                WarpMethod::Exact => match fast {
-                    Some(f) => f.images_no_parity(p).unwrap_or_default(),
-                    None => c.images(eye, p).unwrap_or_default(),
-                },
+                WarpMethod::Exact => c.images(eye, p).unwrap_or_default(),
                 WarpMethod::Paper => paper_image(c, eye, p).ok().flatten().into_iter().collect(),
             };
             for im in ims {
