@@ -597,11 +597,14 @@ const FIXED_AUDIT_RAYS: [(&str, [f32; 3], [f32; 3]); 12] = [
     ),
 ];
 
-#[test]
-fn the_audits_wrong_rays_keep_their_lists() {
+/// Audit each ray `(label, scene path, eye, direction)` with the filter and
+/// the re-cast (each scene loaded once): `(label, strategy, audit, counters)`.
+fn audit_rays<'a>(
+    rays: impl IntoIterator<Item = (&'a str, &'a str, [f32; 3], [f32; 3])>,
+) -> Vec<(&'a str, NestedStrategy, snell::audit::RayAudit, Counters)> {
     let mut scenes: Vec<(&str, RenderScene)> = Vec::new();
-    let mut wrong = Vec::new();
-    for (path, eye, dir) in FIXED_AUDIT_RAYS {
+    let mut out = Vec::new();
+    for (label, path, eye, dir) in rays {
         if !scenes.iter().any(|(p, _)| *p == path) {
             scenes.push((
                 path,
@@ -618,11 +621,27 @@ fn the_audits_wrong_rays_keep_their_lists() {
                 &mut c,
             )
             .unwrap();
-            if a.mismatches > 0 || a.left_nonempty {
-                wrong.push(format!("{path} {strategy:?} eye {eye:?} dir {dir:?}: {a:?}"));
-            }
+            out.push((label, strategy, a, c));
         }
     }
+    out
+}
+
+#[test]
+fn the_audits_wrong_rays_keep_their_lists() {
+    let labels: Vec<String> = FIXED_AUDIT_RAYS
+        .iter()
+        .map(|(path, eye, dir)| format!("{path} eye {eye:?} dir {dir:?}"))
+        .collect();
+    let rays = FIXED_AUDIT_RAYS
+        .iter()
+        .zip(&labels)
+        .map(|(&(path, eye, dir), l)| (l.as_str(), path, eye, dir));
+    let wrong: Vec<String> = audit_rays(rays)
+        .into_iter()
+        .filter(|(_, _, a, _)| a.mismatches > 0 || a.left_nonempty)
+        .map(|(l, strategy, a, _)| format!("{l} {strategy:?}: {a:?}"))
+        .collect();
     assert!(
         wrong.is_empty(),
         "{} wrong rays:\n{}",
@@ -752,35 +771,17 @@ const SPAWN_OFFSET_RAYS: [(&str, &str, [f32; 3], [f32; 3]); 18] = {
 
 #[test]
 fn surfaces_within_the_spawn_offset_of_a_hit_are_settled() {
-    let scenes: Vec<(&str, RenderScene)> = [
-        "scenes/glass_ice_bubbles.toml",
-        "scenes/glass_of_water_nested.toml",
-    ]
-    .into_iter()
-    .map(|p| (p, load_scene(Path::new(p), &BuildOptions::default()).unwrap()))
-    .collect();
     let mut wrong = Vec::new();
     let mut unsettled = Vec::new();
-    for (name, path, eye, dir) in SPAWN_OFFSET_RAYS {
-        let s = &scenes.iter().find(|(p, _)| *p == path).unwrap().1;
-        for strategy in [NestedStrategy::Filter, NestedStrategy::Recast] {
-            let mut c = Counters::default();
-            let a = audit_ray(
-                Tracer { scene: s, strategy },
-                V3::from(eye),
-                V3::from(dir),
-                &mut c,
-            )
-            .unwrap();
-            if a.mismatches > 0 || a.left_nonempty {
-                wrong.push(format!("{name} {strategy:?}: {a:?}"));
-            }
-            // The test's power: each ray meets a surface that the lists and
-            // queries alone got wrong (the filter got R9 right by traversal
-            // order, so only the re-cast is required to need the step).
-            if c.settled == 0 && (strategy == NestedStrategy::Recast || name != "R9") {
-                unsettled.push(format!("{name} {strategy:?}"));
-            }
+    for (name, strategy, a, c) in audit_rays(SPAWN_OFFSET_RAYS) {
+        if a.mismatches > 0 || a.left_nonempty {
+            wrong.push(format!("{name} {strategy:?}: {a:?}"));
+        }
+        // The test's power: each ray meets a surface that the lists and
+        // queries alone got wrong (the filter got R9 right by traversal
+        // order, so only the re-cast is required to need the step).
+        if c.settled == 0 && (strategy == NestedStrategy::Recast || name != "R9") {
+            unsettled.push(format!("{name} {strategy:?}"));
         }
     }
     assert!(
