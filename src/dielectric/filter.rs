@@ -455,20 +455,8 @@ mod tests {
 
     #[test]
     fn skip_ranges_name_non_solids_and_solids_no_accepted_solid_can_meet() {
-        let text = r#"
-[camera]
-position = [0.0, 0.0, 9.0]
-target = [0.0, 0.0, 0.0]
-fov = 40.0
-[[objects]]
-name = "water"
-shape = { type = "box", center = [0.0, 0.0, 0.0], size = [1.0, 1.0, 1.0] }
-material = { type = "dielectric", ior = 1.33, priority = 1 }
-[[objects]]
-name = "glass"
-shape = { type = "box", center = [0.3, 0.0, 0.0], size = [1.0, 2.0, 2.0] }
-material = { type = "dielectric", ior = 1.5, priority = 2 }
-[[objects]]
+        let scene = crate::dielectric::water_in_glass(
+            r#"[[objects]]
 name = "far"
 shape = { type = "sphere", center = [5.0, 0.0, 0.0], radius = 1.0 }
 material = { type = "dielectric", ior = 1.5, priority = 3 }
@@ -480,14 +468,8 @@ material = { type = "dielectric", ior = 1.2, priority = 4 }
 name = "ground"
 shape = { type = "rect", center = [0.0, -3.0, 0.0], normal = [0.0, 1.0, 0.0], u_axis = [1.0, 0.0, 0.0], size = [4.0, 4.0] }
 material = { type = "diffuse", reflectance = [0.5, 0.5, 0.5] }
-"#;
-        let scene = crate::scene::load_scene_str(
-            "t.toml",
-            text,
-            std::path::Path::new("."),
-            &crate::scene::BuildOptions::default(),
-        )
-        .unwrap();
+"#,
+        );
         let t = skip_ranges(&scene);
         assert_eq!(t.len(), scene.geoms.len());
         let of = |name: &str| {

@@ -38,6 +38,33 @@ pub use list::InteriorList;
 pub use settle::settle_child;
 pub use trace::{plain_hit_is_true, plain_query_suffices, time_list_updates, trace};
 
+/// A test scene: water (priority 1, the unit box at the origin) whose right
+/// half lies inside a glass box (priority 2, x from -0.2 to 0.8), then the
+/// `[[objects]]` of `more`. A ray inside both crosses the water's face at
+/// x = 0.5 as a false hit.
+#[cfg(test)]
+pub(crate) fn water_in_glass(more: &str) -> crate::scene::RenderScene {
+    let text = format!(
+        r#"
+[camera]
+position = [0.0, 0.0, 9.0]
+target = [0.0, 0.0, 0.0]
+fov = 40.0
+[[objects]]
+name = "water"
+shape = {{ type = "box", center = [0.0, 0.0, 0.0], size = [1.0, 1.0, 1.0] }}
+material = {{ type = "dielectric", ior = 1.33, priority = 1 }}
+[[objects]]
+name = "glass"
+shape = {{ type = "box", center = [0.3, 0.0, 0.0], size = [1.0, 2.0, 2.0] }}
+material = {{ type = "dielectric", ior = 1.5, priority = 2 }}
+{more}"#
+    );
+    let build = crate::scene::BuildOptions::default();
+    crate::scene::load_scene_str("t.toml", &text, std::path::Path::new("."), &build)
+        .expect("a valid test scene")
+}
+
 /// How false hits are found and skipped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum NestedStrategy {

@@ -539,29 +539,7 @@ mod tests {
 
     #[test]
     fn list_updates_are_timed_once_per_filtered_query_and_only_when_asked() {
-        // Water (priority 1) inside the right half of the glass (priority 2):
-        // a ray inside both crosses the water's face at x = 0.5 as a false hit.
-        let text = r#"
-[camera]
-position = [0.0, 0.0, 5.0]
-target = [0.0, 0.0, 0.0]
-fov = 40.0
-[[objects]]
-name = "water"
-shape = { type = "box", center = [0.0, 0.0, 0.0], size = [1.0, 1.0, 1.0] }
-material = { type = "dielectric", ior = 1.33, priority = 1 }
-[[objects]]
-name = "glass"
-shape = { type = "box", center = [0.3, 0.0, 0.0], size = [1.0, 2.0, 2.0] }
-material = { type = "dielectric", ior = 1.5, priority = 2 }
-"#;
-        let scene = load_scene_str(
-            "t.toml",
-            text,
-            std::path::Path::new("."),
-            &BuildOptions::default(),
-        )
-        .unwrap();
+        let scene = crate::dielectric::water_in_glass("");
         let ray = Ray::new(Vec3A::new(0.0, 0.1, 0.3), Vec3A::X);
         let mut c = Counters::default();
         let run = |c: &mut Counters, n: usize| {
