@@ -281,16 +281,22 @@ pub fn skip_ranges(scene: &RenderScene) -> &[(u32, u32)] {
 /// that lies wholly inside or outside its ball (concentric shells never
 /// meet). `true` when unsure: a wider test only skips less.
 fn surfaces_may_meet(scene: &RenderScene, a: u32, b: u32) -> bool {
-    use crate::scene::{shapes::Analytic, Shape};
-    let (sa, sb) = (&scene.solids[a as usize], &scene.solids[b as usize]);
-    let (ba, bb) = (sa.aabb, sb.aabb);
+    let (ba, bb) = (scene.solids[a as usize].aabb, scene.solids[b as usize].aabb);
     let scale =
         ba.0.abs()
             .max(ba.1.abs())
             .max(bb.0.abs())
             .max(bb.1.abs())
             .max_element();
-    let tol = 1e-4 * (1.0 + scale);
+    surfaces_may_come_within(scene, a, b, 1e-4 * (1.0 + scale))
+}
+
+/// May the surfaces of solids `a` and `b` come within `tol` of each other?
+/// As [`surfaces_may_meet`] with its tolerance given.
+pub(crate) fn surfaces_may_come_within(scene: &RenderScene, a: u32, b: u32, tol: f64) -> bool {
+    use crate::scene::{shapes::Analytic, Shape};
+    let (sa, sb) = (&scene.solids[a as usize], &scene.solids[b as usize]);
+    let (ba, bb) = (sa.aabb, sb.aabb);
     if !((ba.0 - tol).cmple(bb.1).all() && (bb.0 - tol).cmple(ba.1).all()) {
         return false;
     }

@@ -31,10 +31,11 @@
 //! rounding, where point-in-solid is a coin toss.
 //!
 //! The paper's toggle strategy is left as the paper has it.
-use super::filter::{near_edge, Coincident, NearSolids, TrueHit};
+use super::filter::{near_edge, surfaces_may_come_within, Coincident, NearSolids, TrueHit};
 use super::InteriorList;
 use crate::counters::Counters;
 use crate::ray::{crossing_window, Hit, Ray};
+use crate::scene::model::Neighbours;
 use crate::scene::{RenderScene, Shape};
 use glam::DVec3;
 
@@ -52,11 +53,51 @@ fn neighbourhood(ray: &Ray, t: f32) -> f64 {
     4.0 * crossing_window(ray.org, ray.dir, t) as f64 * ray.dir.length() as f64
 }
 
+/// Per solid, the other solids whose surfaces may come within a thousandth
+/// of the scene's size of its own (bounds, and exact tests for spheres:
+/// `filter::surfaces_may_come_within`); computed on first use.
+fn neighbours(scene: &RenderScene) -> &Neighbours {
+    scene.neighbours.get_or_init(|| {
+        let scale = scene
+            .solids
+            .iter()
+            .map(|s| s.aabb.0.abs().max(s.aabb.1.abs()).max_element())
+            .fold(0.0, f64::max);
+        let tol = 1e-3 * (1.0 + scale);
+        let n = scene.solids.len() as u32;
+        let of = (0..n)
+            .map(|a| {
+                (0..n)
+                    .filter(|&b| b != a && surfaces_may_come_within(scene, a, b, tol))
+                    .collect()
+            })
+            .collect();
+        Neighbours { tol, of }
+    })
+}
+
 /// Calls `f(solid)` for every solid other than `own` whose surface may pass
 /// within `tol` of `p` (its bounds, dilated, hold `p` and its distance test
-/// says so); stops at the first `false`.
+/// says so); stops at the first `false`. For a hit on a solid, only that
+/// solid's neighbours can qualify (concentric shells have none), unless
+/// `tol` is beyond the neighbour table's.
 #[inline]
 fn for_each_near(scene: &RenderScene, own: Option<u32>, p: DVec3, tol: f64, mut f: impl FnMut(u32) -> bool) {
+    if let Some(o) = own {
+        let nb = neighbours(scene);
+        // Twice: `p` is on the solid's surface only to rounding.
+        if 2.0 * tol <= nb.tol {
+            let (lo, hi) = (p - tol, p + tol);
+            for &i in &nb.of[o as usize] {
+                let b = scene.solids[i as usize].aabb;
+                if hi.cmpge(b.0).all() && lo.cmple(b.1).all() && scene.surface_may_be_near(i, p, tol) && !f(i)
+                {
+                    return;
+                }
+            }
+            return;
+        }
+    }
     scene.solid_boxes.meeting(p, tol, |i| {
         Some(i) == own || !scene.surface_may_be_near(i, p, tol) || f(i)
     });
@@ -106,10 +147,11 @@ pub(crate) fn look_ahead(
     let p = at(ray, h.t);
     let mut near = NearSolids::NONE;
     near.own_edge = own_mesh_edge(scene, &h);
-    let past = at(ray, h.t + crossing_window(ray.org, ray.dir, h.t));
     let coincident = &mut th.coincident;
     for_each_near(scene, own, p, neighbourhood(ray, h.t), |s| {
         near.push(s);
+        // Computed here: most hits have no neighbour near.
+        let past = at(ray, h.t + crossing_window(ray.org, ray.dir, h.t));
         let inside = scene.solid_contains(s, past);
         let claimed = coincident.entering_of(s).unwrap_or_else(|| list.contains(s));
         if inside != claimed {

@@ -233,6 +233,9 @@ pub struct RenderScene {
     /// The solids' bounds, for finding the solids near a point
     /// (`dielectric::settle`).
     pub(crate) solid_boxes: SolidBoxes,
+    /// Per solid, the other solids whose surfaces may come near its own,
+    /// and how near (`dielectric::settle`, computed on first use).
+    pub(crate) neighbours: std::sync::OnceLock<Neighbours>,
     /// The lowest solid rank (`u32::MAX` without solids): a ray whose top
     /// solid has it can meet no false hit. `u32::MAX` also when a solid whose
     /// bounds meet that solid's has no distance test (`surface_may_be_near`
@@ -288,6 +291,14 @@ impl SolidBoxes {
             }
         }
     }
+}
+
+/// Per solid, the other solids whose surfaces may pass within `tol` of its
+/// own (`of[s]`, in order).
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Neighbours {
+    pub(crate) tol: f64,
+    pub(crate) of: Vec<Vec<u32>>,
 }
 
 /// Point-in-solid classification of each solid (independent of Embree).

@@ -198,6 +198,7 @@ impl Builder<'_> {
             has_overlap: up.has_overlap,
             mesh_solids: Vec::new(),
             solid_boxes: Default::default(),
+            neighbours: Default::default(),
             bottom_rank: u32::MAX,
             warnings,
             containment: up.containment,
