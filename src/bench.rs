@@ -346,6 +346,13 @@ pub struct NestedBenchOptions {
     pub threads: usize,
     /// Scene names (without `.toml`).
     pub scenes: Vec<String>,
+    /// Strategies to run (the ratio table needs all four; with fewer, each
+    /// run's speed is listed instead). For profiling one strategy alone.
+    pub strategies: Vec<NestedStrategy>,
+    /// Run the trace-only mode.
+    pub trace: bool,
+    /// Run the render mode.
+    pub render_mode: bool,
 }
 
 impl Default for NestedBenchOptions {
@@ -361,6 +368,14 @@ impl Default for NestedBenchOptions {
                 .chain(REFERENCE_SCENES.iter())
                 .map(|s| s.to_string())
                 .collect(),
+            strategies: vec![
+                NestedStrategy::Filter,
+                NestedStrategy::Recast,
+                NestedStrategy::Toggle,
+                NestedStrategy::Off,
+            ],
+            trace: true,
+            render_mode: true,
         }
     }
 }
@@ -375,12 +390,12 @@ impl Default for NestedBenchOptions {
 /// build; a render or trace error.
 pub fn nested(opts: &NestedBenchOptions, mut progress: impl FnMut(&str)) -> Result<Vec<NestedRun>> {
     at_least_one_rep(opts.reps)?;
-    let strategies = [
-        NestedStrategy::Filter,
-        NestedStrategy::Recast,
-        NestedStrategy::Toggle,
-        NestedStrategy::Off,
-    ];
+    if opts.strategies.is_empty() || !(opts.trace || opts.render_mode) {
+        return Err(crate::Error::Invalid(
+            "bench nested: at least one strategy and one mode (trace, render)".into(),
+        ));
+    }
+    let strategies = &opts.strategies[..];
     let mut runs = Vec::new();
     for name in &opts.scenes {
         let path = opts.scenes_dir.join(format!("{name}.toml"));
@@ -403,12 +418,12 @@ pub fn nested(opts: &NestedBenchOptions, mut progress: impl FnMut(&str)) -> Resu
             // caches (on a scene where all four run the same plain query,
             // the first one measured 1.3 % slower every time).
             let order = |k: usize| (k + rep) % strategies.len();
-            for k in (0..strategies.len()).map(order) {
+            for k in (0..strategies.len()).map(order).filter(|_| opts.trace) {
                 let (t, c) = trace_only(&scene, strategies[k], &rays)?;
                 trace_t[k].push(t);
                 trace_c[k] = c;
             }
-            for k in (0..strategies.len()).map(order) {
+            for k in (0..strategies.len()).map(order).filter(|_| opts.render_mode) {
                 let s = strategies[k];
                 let r = render(
                     &scene,
@@ -424,26 +439,37 @@ pub fn nested(opts: &NestedBenchOptions, mut progress: impl FnMut(&str)) -> Resu
             }
         }
         // The paper's statistic, from one extra pass with the list updates timed.
-        let (timed, update_s, updates) =
-            dielectric::time_list_updates(|| trace_only(&scene, NestedStrategy::Filter, &rays));
-        timed?;
-        let update_s = (update_s - updates as f64 * clock_pair_s()).max(0.0);
+        let update_s = if opts.trace && strategies.contains(&NestedStrategy::Filter) {
+            let (timed, update_s, updates) =
+                dielectric::time_list_updates(|| trace_only(&scene, NestedStrategy::Filter, &rays));
+            timed?;
+            (update_s - updates as f64 * clock_pair_s()).max(0.0)
+        } else {
+            0.0
+        };
         for (k, s) in strategies.iter().enumerate() {
-            let wall = median(trace_t[k].clone());
-            runs.push(NestedRun {
-                scene: name.clone(),
-                strategy: s.name().into(),
-                mode: "trace".into(),
-                rays_per_s: rays.len() as f64 / wall,
-                false_hits_per_ray: trace_c[k].false_hits as f64 / rays.len() as f64,
-                wall_s: wall,
-                median_of: opts.reps,
-                spread_s: spread(&trace_t[k]),
-                rays: rays.len() as u64,
-                samples_per_s: None,
-                walls: trace_t[k].clone(),
-                list_update_share: (*s == NestedStrategy::Filter).then(|| update_s / wall),
-            });
+            if !opts.trace {
+                // Render mode only: below.
+            } else {
+                let wall = median(trace_t[k].clone());
+                runs.push(NestedRun {
+                    scene: name.clone(),
+                    strategy: s.name().into(),
+                    mode: "trace".into(),
+                    rays_per_s: rays.len() as f64 / wall,
+                    false_hits_per_ray: trace_c[k].false_hits as f64 / rays.len() as f64,
+                    wall_s: wall,
+                    median_of: opts.reps,
+                    spread_s: spread(&trace_t[k]),
+                    rays: rays.len() as u64,
+                    samples_per_s: None,
+                    walls: trace_t[k].clone(),
+                    list_update_share: (*s == NestedStrategy::Filter).then(|| update_s / wall),
+                });
+            }
+            if !opts.render_mode {
+                continue;
+            }
             let wall = median(render_t[k].clone());
             let st = render_stats[k].expect("at least one repeat");
             runs.push(NestedRun {
@@ -506,6 +532,17 @@ pub fn nested_ratios(runs: &[NestedRun]) -> String {
             let (Some(f), Some(rc), Some(tg), Some(off)) =
                 (get("filter"), get("recast"), get("toggle"), get("off"))
             else {
+                // Fewer strategies than the ratios need: their speeds alone.
+                for r in runs.iter().filter(|r| r.scene == s && r.mode == mode) {
+                    out.push_str(&format!(
+                        "{s:<23} {mode:<7} {:<7} {:>8.3} Mrays/s, median of {} ({:.4}-{:.4} s)\n",
+                        r.strategy,
+                        r.rays_per_s / 1e6,
+                        r.median_of,
+                        r.spread_s[0],
+                        r.spread_s[1]
+                    ));
+                }
                 continue;
             };
             out.push_str(&format!(

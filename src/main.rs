@@ -329,6 +329,13 @@ struct BenchNestedArgs {
     scenes: Vec<String>,
     #[arg(long, default_value = "scenes")]
     scenes_dir: PathBuf,
+    /// Only these strategies (filter, recast, toggle, off); the ratio table
+    /// needs all four, with fewer each run's speed is listed (for profiling).
+    #[arg(long, value_delimiter = ',')]
+    strategies: Vec<snell::dielectric::NestedStrategy>,
+    /// Only this mode: `trace` (the fixed ray set, no shading) or `render`.
+    #[arg(long, value_parser = ["trace", "render"])]
+    mode: Option<String>,
 }
 
 // `snell bench render`.
@@ -930,6 +937,13 @@ fn bench_nested(a: BenchNestedArgs) -> Result<()> {
     };
     if !a.scenes.is_empty() {
         opts.scenes = a.scenes;
+    }
+    if !a.strategies.is_empty() {
+        opts.strategies = a.strategies;
+    }
+    if let Some(m) = &a.mode {
+        opts.trace = m == "trace";
+        opts.render_mode = m == "render";
     }
     let runs = snell::bench::nested(&opts, |m| eprintln!("{m}"))?;
     say!("{}", snell::bench::nested_ratios(&runs).trim_end());

@@ -402,6 +402,7 @@ fn nested(o: &ReportOptions, z: &Sizes, log: &mut dyn FnMut(&str)) -> Result<Sec
             render: z.nested_render,
             threads: rayon::current_num_threads(),
             scenes: NESTED_SCENES.iter().map(|s| s.to_string()).collect(),
+            ..Default::default()
         },
         |m| log(&format!("nested: {m}")),
     )?;

@@ -328,6 +328,7 @@ fn filtered(
     let skip = super::filter::skip_ranges(scene);
     RECORDS.with_borrow_mut(|rec| {
         let p0 = list.top_rank().unwrap_or(0);
+        let (mask, below) = ray_mask(scene, p0);
         let mut filter;
         let mut r = *ray;
         let hit = loop {
@@ -336,7 +337,9 @@ fn filtered(
                 ranges: skip,
                 key: p0,
             };
-            let hit = scene.embree.intersect_filtered_skipping(&r, &mut filter, skip)?;
+            let hit = scene
+                .embree
+                .intersect_filtered_masked(&r, &mut filter, skip, mask)?;
             c.filter_calls += filter.calls as u64;
             if filter.overflow {
                 break None;
@@ -362,6 +365,7 @@ fn filtered(
                         }
                     }
                     apply_rejected(list, &mut others[..k], limit, win);
+                    c.false_hits += settle_masked(scene, &scene.masked_solids[..below], &r, Some(h.t), list);
                     r.tnear = recast_tnear(&r, h.t);
                     c.queries += 1;
                 }
@@ -381,6 +385,7 @@ fn filtered(
         let win = filter.window(if t_hit.is_finite() { t_hit } else { 0.0 });
         let limit = t_hit + win;
         c.false_hits += apply_rejected(list, &mut filter.rec.rejected[..n], limit, win) as u64;
+        c.false_hits += settle_masked(scene, &scene.masked_solids[..below], &r, hit.map(|h| h.t), list);
         if let (Some(t0), Some((s, k))) = (clock, filter.rec.update_timer.as_mut()) {
             *s += t0.elapsed().as_secs_f64();
             *k += 1;
@@ -400,6 +405,68 @@ fn filtered(
             TrueHit { hit, coincident }
         }))
     })
+}
+
+/// The ray mask of a filtered query by a ray whose list's top rank is `p0`,
+/// and how many of `scene.masked_solids` (sorted by rank) it leaves out:
+/// those ranked below `p0`. Their hits would all be false (rank < P0), so
+/// the query need not see them at all ([`settle_masked`] gives the list
+/// their membership instead). Every other geometry has mask bit 31.
+#[inline]
+fn ray_mask(scene: &RenderScene, p0: u32) -> (u32, usize) {
+    let below = scene
+        .masked_solids
+        .partition_point(|&s| scene.solids[s as usize].rank < p0);
+    if below == 0 {
+        return (u32::MAX, 0);
+    }
+    // Bit r for every rank r >= p0 (a masked solid's bit is its rank < 31).
+    (1 << 31 | u32::MAX.checked_shl(p0).unwrap_or(0), below)
+}
+
+/// A filtered query that left the analytic solids `masked` (all ranked
+/// below its P0) out by its ray mask crossed none of their surfaces as far
+/// as the list knows: give the list their membership just past `t` on `ray`
+/// (one crossing window on, where the filter would have applied their
+/// crossings up to) by point-in-solid; past a miss (`None`) the ray is
+/// outside every bounded solid. Returns the number of memberships changed
+/// (counted as false hits: one per solid whose side changed, not per
+/// crossing).
+///
+/// Departure from the paper: Schmidt & Budge find the false hits one by
+/// one; a solid that cannot be the answer and has an exact point-in-solid
+/// test need not be intersected at all: where the ray ends up decides.
+#[inline]
+fn settle_masked(
+    scene: &RenderScene,
+    masked: &[u32],
+    ray: &Ray,
+    t: Option<f32>,
+    list: &mut InteriorList,
+) -> u64 {
+    if masked.is_empty() {
+        return 0;
+    }
+    let q = t.map(|t| {
+        let t = t + window(ray, t);
+        ray.org.as_dvec3() + ray.dir.as_dvec3() * t as f64
+    });
+    let mut changed = 0;
+    for &s in masked {
+        let solid = &scene.solids[s as usize];
+        let inside = q.is_some_and(|q| {
+            q.cmpge(solid.aabb.0).all() && q.cmple(solid.aabb.1).all() && scene.solid_contains(s, q)
+        });
+        if inside != list.contains(s) {
+            changed += 1;
+            if inside {
+                list.insert(s, solid.rank);
+            } else {
+                list.remove(s);
+            }
+        }
+    }
+    changed
 }
 
 /// Run `f` with the filter strategy's application of false hits to interior

@@ -178,6 +178,15 @@ impl Device {
         })
     }
 
+    /// Does this Embree build test ray masks against geometry masks
+    /// (`RTC_DEVICE_PROPERTY_RAY_MASK_SUPPORTED`; a compile-time option of
+    /// Embree, on in Debian's)?
+    pub fn ray_masks(&self) -> bool {
+        self.property(sys::RTC_DEVICE_PROPERTY_RAY_MASK_SUPPORTED)
+            .map(|v| v != 0)
+            .unwrap_or(false)
+    }
+
     /// Query a device property (`rtcGetDeviceProperty`; `prop` is an
     /// `RTCDeviceProperty` value), e.g. to provoke and test error reporting
     /// with an invalid property id.

@@ -186,6 +186,18 @@ impl SceneBuilder {
     /// # Errors
     /// [`EmbreeError::Embree`] when Embree refuses the geometry.
     pub fn add_user(&mut self, shape: Box<dyn UserShape>) -> Result<u32, EmbreeError> {
+        self.add_user_masked(shape, u32::MAX)
+    }
+
+    /// [`add_user`](Self::add_user) with a geometry mask: a query whose ray
+    /// mask shares no bit with `mask` does not see the shape (Embree tests
+    /// the masks before calling the shape's intersect callback). Needs
+    /// [`Device::ray_masks`]; every other geometry keeps Embree's default
+    /// mask, all bits set.
+    ///
+    /// # Errors
+    /// As [`add_user`](Self::add_user).
+    pub fn add_user_masked(&mut self, shape: Box<dyn UserShape>, mask: u32) -> Result<u32, EmbreeError> {
         let data = Box::new(UserGeom { shape });
         let count = data.shape.prim_count();
         // SAFETY: valid device.
@@ -201,6 +213,9 @@ impl SceneBuilder {
             sys::rtcSetGeometryBoundsFunction(geom, Some(user_bounds), ptr::null_mut());
             sys::rtcSetGeometryIntersectFunction(geom, Some(user_intersect));
             sys::rtcSetGeometryOccludedFunction(geom, Some(user_occluded));
+            if mask != u32::MAX {
+                sys::rtcSetGeometryMask(geom, mask);
+            }
         }
         self.user.push(data);
         self.attach(geom)
@@ -360,6 +375,23 @@ impl Scene {
         filter: &mut F,
         skip: SkipRanges<'_>,
     ) -> Result<Option<Hit>, EmbreeError> {
+        self.intersect_filtered_masked(ray, filter, skip, u32::MAX)
+    }
+
+    /// [`intersect_filtered_skipping`](Self::intersect_filtered_skipping)
+    /// with a ray mask: geometries whose mask shares no bit with `mask`
+    /// are not seen at all (see [`SceneBuilder::add_user_masked`]).
+    ///
+    /// # Errors
+    /// As [`intersect_filtered`](Self::intersect_filtered).
+    #[inline]
+    pub fn intersect_filtered_masked<F: HitFilter>(
+        &self,
+        ray: &Ray,
+        filter: &mut F,
+        skip: SkipRanges<'_>,
+        mask: u32,
+    ) -> Result<Option<Hit>, EmbreeError> {
         if !self.context_filter {
             return Err(EmbreeError::NoContextFilterFlag);
         }
@@ -368,6 +400,7 @@ impl Scene {
         }
         let mut ctx = FilterContext::new(filter, skip);
         let mut rh = to_rayhit(ray);
+        rh.ray.mask = mask;
         // SAFETY: `as_raw` points at the #[repr(C)] FilterContext (its `base`
         // first), which outlives the call, so the trampoline's cast back is
         // valid; the skip ranges it points at are borrowed for the call.
@@ -504,6 +537,41 @@ mod tests {
         f.0.sort_unstable();
         f.0.dedup();
         assert_eq!(f.0, vec![0, 1, 2, 3]);
+    }
+
+    #[test]
+    fn a_ray_mask_leaves_masked_shapes_unseen() {
+        // Geometry 0: analytic plane at z = 2 with mask bit 0; 1: analytic
+        // plane at z = 4 with the default mask (all bits).
+        let d = Device::new("").unwrap();
+        assert!(d.ray_masks(), "Debian's Embree is built with ray masks");
+        let flags = SceneFlags {
+            context_filter: true,
+            robust: false,
+        };
+        let mut b = SceneBuilder::new(&d, flags, BuildQuality::Medium).unwrap();
+        assert_eq!(b.add_user_masked(Box::new(Plane(2.0)), 1).unwrap(), 0);
+        assert_eq!(b.add_user(Box::new(Plane(4.0))).unwrap(), 1);
+        let s = b.commit().unwrap();
+        let ray = Ray::new(V3::new(0.1, 0.2, 0.0), V3::Z);
+        for (mask, want, seen) in [(u32::MAX, 0, vec![0]), (1 << 31, 1, vec![1]), (1, 0, vec![0])] {
+            let mut f = RejectAll(Vec::new());
+            let h = s
+                .intersect_filtered_masked(&ray, &mut f, SkipRanges::NONE, mask)
+                .unwrap();
+            assert_eq!(h, None, "the filter rejects all");
+            f.0.dedup();
+            // The known-wrong expectation would be [0, 1] for mask 1 << 31.
+            assert_eq!(f.0[0], want, "mask {mask:#x}: nearest seen");
+            assert!(
+                seen.iter().all(|g| f.0.contains(g)),
+                "mask {mask:#x}: saw {:?}",
+                f.0
+            );
+            if mask == 1 << 31 {
+                assert!(!f.0.contains(&0), "the masked plane was seen: {:?}", f.0);
+            }
+        }
     }
 
     #[test]

@@ -226,6 +226,10 @@ pub struct RenderScene {
     /// True when some solids may overlap (bounds intersect): only then can a
     /// false hit happen and only then is a filter installed.
     pub has_overlap: bool,
+    /// Analytic solids left out of filtered queries below their rank by
+    /// Embree ray masks (geometry mask bit = rank), sorted by rank: a ray
+    /// with top rank P0 settles those ranked below P0 by point-in-solid.
+    pub(crate) masked_solids: Vec<u32>,
     /// Indices of the solids that are closed meshes, with their bounds: the
     /// only solids whose entry Embree can leak (a ray through a vertex) and
     /// whose hits near an edge may be touches (`dielectric::trace`).

@@ -196,6 +196,7 @@ impl Builder<'_> {
             ambient_ior: ambient as f32,
             camera_interior: Vec::new(),
             has_overlap: up.has_overlap,
+            masked_solids: up.masked_solids,
             mesh_solids: Vec::new(),
             solid_boxes: Default::default(),
             neighbours: Default::default(),

@@ -14,6 +14,7 @@ pub(super) struct Uploaded {
     pub rank_by_geom: Vec<u32>,
     pub solid_by_geom: Vec<Option<u32>>,
     pub has_overlap: bool,
+    pub masked_solids: Vec<u32>,
 }
 
 impl Builder<'_> {
@@ -51,6 +52,12 @@ impl Builder<'_> {
             robust: self.opts.robust.unwrap_or(has_solids),
         };
         let device = Device::new("")?;
+        // Analytic solids of rank < 31 with an exact point-in-solid test get
+        // geometry mask bit `rank`; a filtered query then leaves those ranked
+        // below its P0 out of the traversal by its ray mask, and settles them
+        // by point-in-solid instead (`dielectric::trace`).
+        let use_masks = has_overlap && device.ray_masks();
+        let mut masked_solids = Vec::new();
         let mut eb = SceneBuilder::new(&device, flags, self.opts.quality)?;
         let mut geoms = Vec::with_capacity(pending.len());
         let mut solids = Vec::new();
@@ -60,7 +67,19 @@ impl Builder<'_> {
         for (i, p) in pending.into_iter().enumerate() {
             let id = match &p.shape {
                 Shape::Mesh(m) => eb.add_triangles(&m.positions, &m.indices)?,
-                Shape::Analytic(a) => eb.add_user(Box::new(*a))?,
+                Shape::Analytic(a) => {
+                    let maskable = use_masks
+                        && rank_of[i] < 31
+                        && p.solid
+                            .as_ref()
+                            .is_some_and(|s| matches!(&s.containment, Containment::Analytic(c) if c.contains(glam::DVec3::ZERO).is_some()));
+                    if maskable {
+                        masked_solids.push((rank_of[i], solids.len() as u32));
+                        eb.add_user_masked(Box::new(*a), 1 << rank_of[i])?
+                    } else {
+                        eb.add_user(Box::new(*a))?
+                    }
+                }
             };
             debug_assert_eq!(id as usize, geoms.len());
             let mut material = p.material;
@@ -99,6 +118,10 @@ impl Builder<'_> {
             rank_by_geom,
             solid_by_geom,
             has_overlap,
+            masked_solids: {
+                masked_solids.sort_unstable();
+                masked_solids.into_iter().map(|(_, s)| s).collect()
+            },
         })
     }
 }
