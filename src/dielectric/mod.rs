@@ -6,7 +6,9 @@
 //!   the highest rank in the list at the ray origin, the first true hit is the
 //!   nearest hit on any object of rank ≥ P0, so the filter is stateless and
 //!   traversal order does not matter. Rejected hits are recorded and applied to
-//!   the list after the query, in t order, de-duplicated.
+//!   the list after the query, in t order, de-duplicated. Analytic solids
+//!   ranked below P0 are left out of the query by Embree ray masks and
+//!   settled by point-in-solid past the true hit instead.
 //! - [`NestedStrategy::Recast`]: the paper's method. Nearest hit; if false,
 //!   update the list and cast again from just past it.
 //! - [`NestedStrategy::Toggle`]: `Recast` with the paper's toggle in place of
