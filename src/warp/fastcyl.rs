@@ -1021,6 +1021,12 @@ impl CylinderWarper {
     }
 }
 
+/// A polish evaluates only the residual next (no Jacobian) when the
+/// quadratic prediction of the next residual is below this many
+/// tolerances; if it falls short, one chord step with the last Jacobian
+/// follows.
+const CONFIRM_BELOW: f64 = 1e3;
+
 /// Newton steps a polish may take.
 const POLISH_STEPS: usize = 6;
 
@@ -1045,6 +1051,15 @@ struct Polish {
     lo: f64,
     hi: f64,
     state: PolishState,
+    /// The residual before the last step (∞ before the first).
+    prev_norm: f64,
+    /// The next evaluation is predicted to confirm convergence.
+    confirm: bool,
+    /// The Jacobian of the last full evaluation (for one chord step when a
+    /// confirmation falls short).
+    jac: [[f64; 2]; 2],
+    /// The chord step was taken.
+    chord: bool,
 }
 
 #[derive(Clone, Copy, PartialEq)]
@@ -1073,6 +1088,10 @@ impl Polish {
             lo: bracket.0.min(bracket.1) - width,
             hi: bracket.0.max(bracket.1) + width,
             state: PolishState::Running,
+            prev_norm: f64::INFINITY,
+            confirm: false,
+            jac: [[0.0; 2]; 2],
+            chord: false,
         }
     }
 
@@ -1083,18 +1102,52 @@ impl Polish {
         if self.state != PolishState::Running {
             return false;
         }
+        if self.confirm {
+            // The last step was predicted to converge: the residual alone
+            // (`resid`), and the Jacobian only if it did not.
+            self.confirm = false;
+            let Some(r) = c.resid(self.fam, e, p, dv, self.b, self.beta, in_hollow) else {
+                self.state = PolishState::Failed;
+                return false;
+            };
+            let norm = r[0].abs().max(r[1].abs());
+            if norm <= self.tol {
+                self.finish_at_root();
+                return false;
+            }
+            if !self.chord && norm <= 0.1 * self.prev_norm {
+                // Not yet, but converging: one chord step with the last
+                // Jacobian (at most one per polish), then confirm again.
+                self.chord = true;
+                self.confirm = true;
+                let j = self.jac;
+                return self.newton_step(r, j);
+            }
+        }
         let Some((r, j)) = c.resid_jac(self.fam, e, p, dv, self.b, self.beta, in_hollow) else {
             self.state = PolishState::Failed;
             return false;
         };
-        if r[0].abs().max(r[1].abs()) <= self.tol {
-            self.state = if (self.lo..=self.hi).contains(&self.b) {
-                PolishState::Done
-            } else {
-                PolishState::Failed
-            };
+        let norm = r[0].abs().max(r[1].abs());
+        if norm <= self.tol {
+            self.finish_at_root();
             return false;
         }
+        // Quadratic convergence predicts the next residual as
+        // norm·(norm / previous)²; well below the tolerance, the next
+        // evaluation is a confirmation and needs no Jacobian. Only the
+        // cost depends on this guess: convergence is always judged on the
+        // residual itself.
+        self.confirm = self.prev_norm.is_finite()
+            && norm * norm * norm <= CONFIRM_BELOW * self.tol * self.prev_norm * self.prev_norm;
+        self.prev_norm = norm;
+        self.jac = j;
+        self.newton_step(r, j)
+    }
+
+    /// The step −J⁻¹·r; false (failed) on a singular J or a β out of range.
+    #[inline]
+    fn newton_step(&mut self, r: [f64; 2], j: [[f64; 2]; 2]) -> bool {
         let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
         if det == 0.0 || !det.is_finite() {
             self.state = PolishState::Failed;
@@ -1107,6 +1160,16 @@ impl Polish {
             return false;
         }
         true
+    }
+
+    /// The residual is within the tolerance: done if `b` is near the
+    /// bracket (this bracket's root, not a neighbour's).
+    fn finish_at_root(&mut self) {
+        self.state = if (self.lo..=self.hi).contains(&self.b) {
+            PolishState::Done
+        } else {
+            PolishState::Failed
+        };
     }
 
     /// The solved (b, β), if the polish converged.
