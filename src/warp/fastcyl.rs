@@ -88,8 +88,8 @@ enum Seg {
         neg: bool,
     },
     /// Entries `lo..hi` of one sign with |g| above the tolerance for every
-    /// target whose target is ahead of them, which some targets may not
-    /// be: only the first and last are evaluated (`Scanner`: such a
+    /// target of the cell, some of which may not be ahead of some of these
+    /// rays: only the first and last are evaluated (`Scanner`: such a
     /// stretch makes the same candidates from its two ends).
     Ends {
         lo: u32,
@@ -755,8 +755,8 @@ impl CylinderWarper {
     }
 
     /// Builds the inverse table for `targets`: one scan plan per (β bin,
-    /// cell of `CELL`² in the 2-D target plane, family) that some target
-    /// falls in (see `Plans`).
+    /// cell of `CELL`² in the 2-D target plane, family) that at least
+    /// `min_targets` of them fall in (see `Plans`).
     fn build_plans(&mut self, targets: &[DVec3], min_targets: usize) {
         use rayon::prelude::*;
         let located: Vec<(DVec2, usize)> = targets
@@ -846,16 +846,27 @@ impl CylinderWarper {
         let (h0, h1) = ((near - e).length(), (far - e).length());
         let b0 = self.beta_lo + bin as f64 * BIN - 1e-9;
         let b1 = self.beta_lo + (bin + 1) as f64 * BIN + 1e-9;
-        let amax = b0.abs().max(b1.abs()).min(0.999_999);
+        let amax = b0.abs().max(b1.abs());
         let amin = if b0 <= 0.0 && b1 >= 0.0 {
             0.0
         } else {
             b0.abs().min(b1.abs())
         };
-        (
-            h0 / (1.0 - amin * amin).sqrt() * (1.0 - 1e-9),
-            h1 / (1.0 - amax * amax).sqrt() * (1.0 + 1e-9),
-        )
+        // Near |β0| = 1 (a target almost straight along the axis from the
+        // eye) 1 − β0² loses its relative precision: there the bounds are
+        // dist ≥ h (always true) and no upper bound (the plan then
+        // evaluates every entry per target).
+        let dmin = if amin > 0.999 {
+            h0 * (1.0 - 1e-9)
+        } else {
+            h0 / (1.0 - amin * amin).sqrt() * (1.0 - 1e-9)
+        };
+        let dmax = if amax > 0.999 {
+            f64::INFINITY
+        } else {
+            h1 / (1.0 - amax * amax).sqrt() * (1.0 + 1e-9)
+        };
+        (dmin, dmax)
     }
 
     /// All images of `target` (as `HollowCylinder::images`).
@@ -1405,6 +1416,17 @@ mod plan_tests {
                     }
                 })
                 .collect();
+            // And some almost straight above and below the eye (|β0| near 1,
+            // where `dist_range` gives up its upper bound).
+            let mut targets = targets;
+            targets.extend((0..40).map(|i| {
+                let s = if i % 2 == 0 { 1.0 } else { -1.0 };
+                eye + DVec3::new(
+                    0.01 * (i / 2) as f64,
+                    s * (6.0 + 0.05 * i as f64),
+                    -0.02 * (i / 2) as f64,
+                )
+            }));
             let mut w = CylinderWarper::for_targets(c, eye, &targets).unwrap();
             // A plan for every target's cell, however few it holds.
             w.build_plans(&targets, 1);
