@@ -17,6 +17,9 @@
 //!
 //! SNELL_BENCH_QUICK=1: a short run (smaller sizes, fewer repetitions).
 //! SNELL_BENCH_ONLY=solvers|cylinder|frames|pipeline:SCENE|rays:SCENE: one part.
+//! SNELL_BENCH_REPS=N: N repetitions instead of 5 (3 quick).
+//! SNELL_BENCH_NO_PARITY=1 (with `cylinder`): time only the warp's call
+//! (`images_into` without parity), e.g. for callgrind counts.
 use glam::{DVec3, Vec3A};
 use rayon::prelude::*;
 use snell::camera::Camera;
@@ -40,6 +43,12 @@ fn only() -> Option<String> {
 }
 
 fn reps() -> usize {
+    if let Some(n) = std::env::var("SNELL_BENCH_REPS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+    {
+        return n;
+    }
     if quick() {
         3
     } else {
@@ -252,6 +261,11 @@ fn cylinder_solver(sum: &mut Summary, eye: DVec3) {
             })
             .sum();
         tf.push(t.elapsed().as_secs_f64());
+        if std::env::var("SNELL_BENCH_NO_PARITY").is_ok() {
+            // Instruction counts of the warp's call alone (callgrind).
+            tp.push(0.0);
+            continue;
+        }
         let t = Instant::now();
         let _: usize = pts
             .par_iter()

@@ -701,6 +701,31 @@ impl HollowCylinder {
         Some(([g, climb - dv], [[g_b, g_beta], [climb_b, climb_beta]]))
     }
 
+    /// The residuals of `resid_jac` without the Jacobian (the closed-form
+    /// path alone, about half the work): `[g, climb − dv]`, or `None` where
+    /// `resid_jac` gives `None`. For the fast solver's confirming
+    /// evaluation.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn resid(
+        &self,
+        fam: Family,
+        e: DVec2,
+        p: DVec2,
+        dv: f64,
+        b: f64,
+        beta: f64,
+        in_hollow: bool,
+    ) -> Option<[f64; 2]> {
+        let path = self.path(fam, e, b, beta, in_hollow)?;
+        let rel = p - path.origin;
+        let along = rel.dot(path.dir);
+        if along <= 0.0 {
+            return None;
+        }
+        let climb = beta * ((path.air + along) / path.ma + path.glass / path.mg);
+        Some([path.dir.perp_dot(rel), climb - dv])
+    }
+
     /// Signed distance of the target `p` from the final 2-D ray of `fam` for
     /// (b, β), or `None` if the family does not apply or `p` is behind the ray.
     fn signed_miss(

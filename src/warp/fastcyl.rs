@@ -65,6 +65,153 @@ struct Block {
     eac: f64,
 }
 
+/// Side of a cell of the inverse table in the 2-D target plane (metres).
+const CELL: f64 = 0.25;
+
+/// Targets a (bin, cell) must hold to get a plan: a plan costs about as
+/// much as scanning three or four targets (callgrind, bench plane).
+const PLAN_MIN_TARGETS: usize = 4;
+
+/// At most this many (bin, cell) slots in the inverse table's grid (beyond
+/// it the targets are scanned without plans).
+const MAX_SLOTS: usize = 1 << 23;
+
+/// One step of a cell's scan plan (`Table::plan`): entries `lo..hi` quiet
+/// (all valid, of one sign, |g| above the tolerance) for every target of
+/// the cell, a run of entries invalid for all of them (from entry `k`), or
+/// entries to evaluate per target.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Seg {
+    Quiet {
+        lo: u32,
+        hi: u32,
+        neg: bool,
+    },
+    /// Entries `lo..hi` of one sign with |g| above the tolerance for every
+    /// target of the cell, some of which may not be ahead of some of these
+    /// rays: only the first and last are evaluated (`Scanner`: such a
+    /// stretch makes the same candidates from its two ends).
+    Ends {
+        lo: u32,
+        hi: u32,
+    },
+    Gap(u32),
+    Eval {
+        lo: u32,
+        hi: u32,
+    },
+}
+
+/// How an entry stands for every target of a cell (`Table::plan`).
+#[derive(Clone, Copy, PartialEq)]
+enum Class {
+    /// |g| above the tolerance and of one sign (`neg`) for every target;
+    /// `valid`: every target is also ahead of the ray (otherwise some may
+    /// not be).
+    Far { neg: bool, valid: bool },
+    /// No target is ahead of the ray (or a gap entry).
+    Invalid,
+    /// Anything else: evaluated per target.
+    Unknown,
+}
+
+/// Run-length coding of the entries' classes into a plan's segments.
+struct Runs<'a> {
+    segs: &'a mut Vec<Seg>,
+    class: Class,
+    lo: usize,
+}
+
+impl Runs<'_> {
+    /// Entry `k` (ascending; a block's first entry stands for the block) is
+    /// of `class`. `Far` entries of one sign join one run whatever their
+    /// validity.
+    #[inline]
+    fn set(&mut self, k: usize, class: Class) {
+        match (self.class, class) {
+            (Class::Far { neg: a, valid: va }, Class::Far { neg: b, valid: vb }) if a == b && k > 0 => {
+                self.class = Class::Far {
+                    neg: a,
+                    valid: va && vb,
+                };
+            }
+            (x, y) if x == y && k > 0 => {}
+            _ => {
+                self.close(k);
+                self.class = class;
+            }
+        }
+    }
+
+    /// Ends the current run before entry `k` (`k = n` after the last entry).
+    fn close(&mut self, k: usize) {
+        let (lo, hi) = (self.lo as u32, k as u32);
+        if hi > lo {
+            match self.class {
+                Class::Invalid => self.segs.push(Seg::Gap(lo)),
+                Class::Far { neg, valid: true } if hi - lo >= 2 => self.segs.push(Seg::Quiet { lo, hi, neg }),
+                Class::Far { .. } if hi - lo >= 3 => self.segs.push(Seg::Ends { lo, hi }),
+                _ => match self.segs.last_mut() {
+                    Some(Seg::Eval { hi: h, .. }) if *h == lo => *h = hi,
+                    _ => self.segs.push(Seg::Eval { lo, hi }),
+                },
+            }
+        }
+        self.lo = k;
+    }
+}
+
+/// Each family's range of a plan's segments.
+type Spans = [(u32, u32); 4];
+
+/// The inverse table: per (β bin, cell of the 2-D target plane) that the
+/// warper's targets occupy, each family's scan plan. A target's images are
+/// fixed by three numbers (its 2-D position and its height, i.e. its β
+/// bin); within a cell of the plane and a bin, most table entries keep
+/// their sign and stay far from the target for every target, so the plan
+/// lists only the entries near a root or a family edge, which are then
+/// evaluated per target; the rest are settled once per cell. Same
+/// candidates as the full scan (`Table::plan`), so the same image count
+/// and the same first guesses.
+struct Plans {
+    /// Lower corner of cell (0, 0).
+    origin: DVec2,
+    nx: usize,
+    ny: usize,
+    /// [bin][iy][ix] → index into `spans`, `u32::MAX` for none.
+    slot: Vec<u32>,
+    /// Per plan, each family's range of `segs`.
+    spans: Vec<Spans>,
+    segs: Vec<Seg>,
+}
+
+impl Plans {
+    #[inline]
+    fn slot_of(&self, bin: usize, p: DVec2) -> Option<usize> {
+        // The cell's floor, by truncation as in `locate`.
+        let fx = (p.x - self.origin.x) / CELL;
+        let fy = (p.y - self.origin.y) / CELL;
+        if !(fx >= 0.0 && fy >= 0.0 && (fx as usize) < self.nx && (fy as usize) < self.ny) {
+            return None;
+        }
+        Some((bin * self.ny + fy as usize) * self.nx + fx as usize)
+    }
+
+    /// The cell's corners, widened by 1e-9 for the rounding of `slot_of`.
+    fn cell_box(&self, ix: usize, iy: usize) -> [DVec2; 2] {
+        let lo = self.origin + DVec2::new(ix as f64, iy as f64) * CELL;
+        let pad = DVec2::splat(1e-9 * (1.0 + lo.abs().max_element()));
+        [lo - pad, lo + DVec2::splat(CELL) + pad]
+    }
+
+    /// The plans of the cell holding `p` in bin `bin`, if built.
+    #[inline]
+    fn find(&self, bin: usize, p: DVec2) -> Option<(&Plans, &Spans)> {
+        let i = *self.slot.get(self.slot_of(bin, p)?)?;
+        (i != u32::MAX).then(|| (self, &self.spans[i as usize]))
+    }
+}
+
 impl Table {
     /// The bounded scan: a block whose entries all have the same sign of g
     /// and |g| above the edge tolerance (by its bounds) can hold no
@@ -121,6 +268,152 @@ impl Table {
         }
         sc.finish();
         quiet
+    }
+
+    /// The scan by a cell's plan (`plan`): the same candidates as
+    /// `candidates_into` for a target in the cell.
+    fn candidates_plan(
+        &self,
+        p: DVec2,
+        edge_tol: f64,
+        along_min: f64,
+        segs: &[Seg],
+        out: &mut Vec<Candidate>,
+    ) {
+        let mut sc = Scanner::new(edge_tol, out);
+        for seg in segs {
+            match *seg {
+                Seg::Quiet { lo, hi, neg } => {
+                    sc.quiet(lo as usize, hi as usize, if neg { -1.0 } else { 1.0 })
+                }
+                Seg::Gap(k) => sc.push(k as usize, None),
+                Seg::Ends { lo, hi } => {
+                    for k in [lo as usize, hi as usize - 1] {
+                        let along = self.gy[k] * p.x - self.gx[k] * p.y - self.ac[k];
+                        sc.push(
+                            k,
+                            (along > along_min).then(|| self.gx[k] * p.x + self.gy[k] * p.y - self.gc[k]),
+                        );
+                    }
+                }
+                Seg::Eval { lo, hi } => {
+                    let (lo, hi) = (lo as usize, hi as usize);
+                    let rows = self.gx[lo..hi]
+                        .iter()
+                        .zip(&self.gy[lo..hi])
+                        .zip(&self.gc[lo..hi])
+                        .zip(&self.ac[lo..hi]);
+                    for (k, (((&gx, &gy), &gc), &ac)) in (lo..hi).zip(rows) {
+                        let along = gy * p.x - gx * p.y - ac;
+                        sc.push(k, (along > along_min).then_some(gx * p.x + gy * p.y - gc));
+                    }
+                }
+            }
+        }
+        sc.finish();
+    }
+
+    /// The scan plan of this table for every target whose 2-D position is
+    /// in `cell` (corners, inclusive) and whose distance from the eye is in
+    /// `[dmin, dmax]` (so its edge tolerance is at most `0.5·BIN·dmax` and
+    /// its `along_min = −0.02·dist` in `[−0.02·dmax, −0.02·dmin]`, as
+    /// `images_opts` sets them). Over the cell each entry's g and `along`
+    /// lie within their values at the cell's centre ± the linear forms'
+    /// spread over the half-widths (plus the rounding margin of the
+    /// blocks, `1e-12·(sum of |terms| + 1)`), and each block's bounds
+    /// likewise. An entry (or a whole block) is
+    /// - quiet of one sign when it is surely valid (`along` above
+    ///   `−0.02·dmin`) and |g| surely above `0.5·BIN·dmax`: runs of two or
+    ///   more become one `Seg::Quiet` (`Scanner::quiet` gives the same
+    ///   candidates as pushing them);
+    /// - of one sign with |g| surely above the tolerance but perhaps not
+    ///   valid for every target: a run of such entries (quiet ones of the
+    ///   same sign included) is a `Seg::Ends`, whose first and last entries
+    ///   are evaluated per target (the stretch of `Scanner`'s argument:
+    ///   its valid entries are all of one sign and above the tolerance);
+    /// - surely invalid (`along` at most `−0.02·dmax`, or a gap entry):
+    ///   a run of them is one `Seg::Gap` (after the first `None` the
+    ///   scanner's state no longer changes);
+    /// - otherwise evaluated per target (`Seg::Eval`).
+    ///
+    /// Whole blocks are classed by their bounds first (as the per-target
+    /// scan does); only the entries of a block whose g is not settled are
+    /// classed one by one.
+    ///
+    /// So the plan finds the full scan's candidates for every target the
+    /// cell and distance range hold (tested against `scan_candidates`).
+    fn plan(&self, cell: [DVec2; 2], dmin: f64, dmax: f64, segs: &mut Vec<Seg>) {
+        let n = self.b.len();
+        let [c0, c1] = cell;
+        let mid = (c0 + c1) * 0.5;
+        let half = (c1 - c0) * 0.5;
+        let (ax, ay) = (c0.x.abs().max(c1.x.abs()), c0.y.abs().max(c1.y.abs()));
+        let tol = 0.5 * BIN * dmax * (1.0 + 1e-9);
+        let valid_above = -0.02 * dmin * (1.0 - 1e-9);
+        let invalid_below = -0.02 * dmax * (1.0 + 1e-9);
+        let mut runs = Runs {
+            segs,
+            class: Class::Unknown,
+            lo: 0,
+        };
+        for (j, bl) in self.blocks.iter().enumerate() {
+            let (lo, hi) = (j * BLOCK, ((j + 1) * BLOCK).min(n));
+            let m = bl.gx * mid.x + bl.gy * mid.y - bl.gc;
+            let mr = bl.gx.abs() * half.x
+                + bl.gy.abs() * half.y
+                + 1e-12 * (bl.gx.abs() * ax + bl.gy.abs() * ay + bl.gc.abs() + 1.0)
+                + bl.ex * ax
+                + bl.ey * ay
+                + bl.ec;
+            let am = bl.gy * mid.x - bl.gx * mid.y - bl.ac;
+            let ar = bl.gy.abs() * half.x
+                + bl.gx.abs() * half.y
+                + 1e-12 * (bl.gy.abs() * ax + bl.gx.abs() * ay + bl.ac.abs() + 1.0)
+                + bl.ey * ax
+                + bl.ex * ay
+                + bl.eac;
+            if m.abs() - mr > tol {
+                // Every entry of one sign, far from every target; whether
+                // the targets are ahead may be settled too.
+                let class = if am + ar <= invalid_below {
+                    Class::Invalid
+                } else {
+                    Class::Far {
+                        neg: m < 0.0,
+                        valid: am - ar > valid_above,
+                    }
+                };
+                runs.set(lo, class);
+                continue;
+            }
+            for k in lo..hi {
+                let (gx, gy, gc, ac) = (self.gx[k], self.gy[k], self.gc[k], self.ac[k]);
+                let class = if gx.is_nan() {
+                    Class::Invalid
+                } else {
+                    let g = gx * mid.x + gy * mid.y - gc;
+                    let gr = gx.abs() * half.x
+                        + gy.abs() * half.y
+                        + 1e-12 * (gx.abs() * ax + gy.abs() * ay + gc.abs() + 1.0);
+                    let a = gy * mid.x - gx * mid.y - ac;
+                    let ar = gy.abs() * half.x
+                        + gx.abs() * half.y
+                        + 1e-12 * (gy.abs() * ax + gx.abs() * ay + ac.abs() + 1.0);
+                    if a + ar <= invalid_below {
+                        Class::Invalid
+                    } else if g.abs() - gr > tol {
+                        Class::Far {
+                            neg: g < 0.0,
+                            valid: a - ar > valid_above,
+                        }
+                    } else {
+                        Class::Unknown
+                    }
+                };
+                runs.set(k, class);
+            }
+        }
+        runs.close(n);
     }
 
     fn finish_blocks(&mut self) {
@@ -308,6 +601,9 @@ pub struct CylinderWarper {
     beta_lo: f64,
     /// [bin][family].
     tables: Vec<[Table; 4]>,
+    /// The inverse table: scan plans for the cells of target space the
+    /// targets of `for_targets` fall in (none for `new`).
+    plans: Option<Plans>,
 }
 
 const FAMILIES: [Family; 4] = [Family::Through4, Family::Tir2, Family::Wall2, Family::Hollow2];
@@ -345,7 +641,9 @@ impl CylinderWarper {
         if lo > hi {
             (lo, hi) = (0.0, 0.0);
         }
-        Self::build(cyl, eye, lo, hi, hollow, outside)
+        let mut w = Self::build(cyl, eye, lo, hi, hollow, outside)?;
+        w.build_plans(targets, PLAN_MIN_TARGETS);
+        Ok(w)
     }
 
     fn build(
@@ -435,7 +733,140 @@ impl CylinderWarper {
             outside,
             beta_lo: lo,
             tables,
+            plans: None,
         })
+    }
+
+    /// Where a target falls: its 2-D position, height above the eye,
+    /// distance from the eye and β bin (`None` outside the tabulated
+    /// range). The solver and the inverse table use this one function, so
+    /// that a target always meets the plan of the cell it was located in.
+    #[inline]
+    fn locate(&self, target: DVec3) -> (DVec2, f64, f64, Option<usize>) {
+        let (p, pv) = self.cyl.to2(target);
+        let dist = (target - self.eye).length();
+        let dv = pv - self.ev;
+        let beta0 = dv / dist;
+        // floor() by truncation where it is the same (x ≥ 0; a NaN fails):
+        // the baseline x86-64 has no rounding instruction, floor is a call.
+        let x = (beta0 - self.beta_lo) / BIN;
+        let bin = (x >= 0.0 && (x as usize) < self.tables.len()).then_some(x as usize);
+        (p, dv, dist, bin)
+    }
+
+    /// Builds the inverse table for `targets`: one scan plan per (β bin,
+    /// cell of `CELL`² in the 2-D target plane, family) that at least
+    /// `min_targets` of them fall in (see `Plans`).
+    fn build_plans(&mut self, targets: &[DVec3], min_targets: usize) {
+        use rayon::prelude::*;
+        let located: Vec<(DVec2, usize)> = targets
+            .iter()
+            .filter_map(|&t| {
+                let (p, _, dist, bin) = self.locate(t);
+                (dist > 0.0 && p.is_finite()).then_some((p, bin?))
+            })
+            .collect();
+        if located.is_empty() {
+            return;
+        }
+        let (mut lo, mut hi) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
+        for &(p, _) in &located {
+            lo = lo.min(p);
+            hi = hi.max(p);
+        }
+        let nx = ((hi.x - lo.x) / CELL).floor() as usize + 1;
+        let ny = ((hi.y - lo.y) / CELL).floor() as usize + 1;
+        let bins = self.tables.len();
+        if nx.saturating_mul(ny).saturating_mul(bins) > MAX_SLOTS {
+            return;
+        }
+        let mut plans = Plans {
+            origin: lo,
+            nx,
+            ny,
+            slot: vec![0; nx * ny * bins],
+            spans: Vec::new(),
+            segs: Vec::new(),
+        };
+        // Only cells holding at least `min_targets` targets get a plan
+        // (`slot` counts them first).
+        for &(p, bin) in &located {
+            if let Some(k) = plans.slot_of(bin, p) {
+                plans.slot[k] += 1;
+            }
+        }
+        let keys: Vec<usize> = (0..plans.slot.len())
+            .filter(|&k| plans.slot[k] as usize >= min_targets)
+            .collect();
+        plans.slot.fill(u32::MAX);
+        let built: Vec<(Vec<Seg>, Spans)> = keys
+            .par_iter()
+            .map(|&key| {
+                let (bin, iy, ix) = (key / (nx * ny), (key / nx) % ny, key % nx);
+                let cell = plans.cell_box(ix, iy);
+                let (dmin, dmax) = self.dist_range(bin, cell);
+                let mut segs = Vec::new();
+                let spans = self.tables[bin].each_ref().map(|t| {
+                    let start = segs.len() as u32;
+                    t.plan(cell, dmin, dmax, &mut segs);
+                    (start, segs.len() as u32)
+                });
+                (segs, spans)
+            })
+            .collect();
+        for (&key, (segs, spans)) in keys.iter().zip(built) {
+            plans.slot[key] = plans.spans.len() as u32;
+            let base = plans.segs.len() as u32;
+            plans.segs.extend(segs);
+            plans.spans.push(spans.map(|(a, b)| (a + base, b + base)));
+        }
+        self.plans = Some(plans);
+    }
+
+    /// Bounds of the distance from the eye of any target whose 2-D position
+    /// is in `cell` and whose straight elevation is in β bin `bin`:
+    /// dist = |p − e| / √(1 − β0²). Widened by 1e-9 (relative) for the
+    /// rounding of `locate` (a few ulps).
+    fn dist_range(&self, bin: usize, cell: [DVec2; 2]) -> (f64, f64) {
+        let [c0, c1] = cell;
+        let e = self.e;
+        let near = e.clamp(c0, c1);
+        let far = DVec2::new(
+            if (e.x - c0.x).abs() > (e.x - c1.x).abs() {
+                c0.x
+            } else {
+                c1.x
+            },
+            if (e.y - c0.y).abs() > (e.y - c1.y).abs() {
+                c0.y
+            } else {
+                c1.y
+            },
+        );
+        let (h0, h1) = ((near - e).length(), (far - e).length());
+        let b0 = self.beta_lo + bin as f64 * BIN - 1e-9;
+        let b1 = self.beta_lo + (bin + 1) as f64 * BIN + 1e-9;
+        let amax = b0.abs().max(b1.abs());
+        let amin = if b0 <= 0.0 && b1 >= 0.0 {
+            0.0
+        } else {
+            b0.abs().min(b1.abs())
+        };
+        // Near |β0| = 1 (a target almost straight along the axis from the
+        // eye) 1 − β0² loses its relative precision: there the bounds are
+        // dist ≥ h (always true) and no upper bound (the plan then
+        // evaluates every entry per target).
+        let dmin = if amin > 0.999 {
+            h0 * (1.0 - 1e-9)
+        } else {
+            h0 / (1.0 - amin * amin).sqrt() * (1.0 - 1e-9)
+        };
+        let dmax = if amax > 0.999 {
+            f64::INFINITY
+        } else {
+            h1 / (1.0 - amax * amax).sqrt() * (1.0 + 1e-9)
+        };
+        (dmin, dmax)
     }
 
     /// All images of `target` (as `HollowCylinder::images`).
@@ -466,27 +897,26 @@ impl CylinderWarper {
 
     fn images_opts(&self, target: DVec3, parity: bool, out: &mut Vec<CylImage>) -> Result<(), CylStatus> {
         let c = &self.cyl;
-        let (e, ev) = (self.e, self.ev);
-        let (p, pv) = c.to2(target);
+        let e = self.e;
+        let (p, dv, dist, bin) = self.locate(target);
         let rp = p.length();
         if rp > c.inner_radius && rp < c.outer_radius {
             return Err(CylStatus::InsideGlass);
         }
         let in_hollow = rp <= c.inner_radius;
-        let dist = (target - self.eye).length();
-        let dv = pv - ev;
         if let Some(direct) = c.direct_image_2d(e, p, self.eye, target, dist) {
             out.push(direct);
         }
         let beta0 = dv / dist;
-        let bin = ((beta0 - self.beta_lo) / BIN).floor();
         let tabulated = if in_hollow { self.hollow } else { self.outside };
-        if bin < 0.0 || bin as usize >= self.tables.len() || !tabulated {
+        let Some(bin) = bin.filter(|_| tabulated) else {
             // Outside the tabulated range or kinds: the robust path.
             *out = c.images(self.eye, target)?;
             return Ok(());
-        }
-        let table = &self.tables[bin as usize];
+        };
+        let table = &self.tables[bin];
+        // The cell's scan plans, if the inverse table has them.
+        let plan = self.plans.as_ref().and_then(|pl| pl.find(bin, p));
         // The candidate and job buffers are the thread's, reused across
         // calls (no allocation per target).
         let mut cands = CANDS.with(|c| c.take());
@@ -511,7 +941,21 @@ impl CylinderWarper {
             let gk = |k: usize| t.gx[k] * p.x + t.gy[k] * p.y - t.gc[k];
             let ak = |k: usize| t.gy[k] * p.x - t.gx[k] * p.y - t.ac[k];
             cands.clear();
-            t.candidates_into(p, edge_tol, along_min, &mut cands);
+            match plan {
+                Some((pl, spans)) => {
+                    let (a, b) = spans[fi];
+                    t.candidates_plan(
+                        p,
+                        edge_tol,
+                        along_min,
+                        &pl.segs[a as usize..b as usize],
+                        &mut cands,
+                    );
+                }
+                None => {
+                    t.candidates_into(p, edge_tol, along_min, &mut cands);
+                }
+            }
             for &cand in &cands {
                 jobs.push(match cand {
                     Candidate::Bracket(k0, k1) => {
@@ -588,6 +1032,12 @@ impl CylinderWarper {
     }
 }
 
+/// A polish evaluates only the residual next (no Jacobian) when the
+/// quadratic prediction of the next residual is below this many
+/// tolerances; if it falls short, one chord step with the last Jacobian
+/// follows.
+const CONFIRM_BELOW: f64 = 1e3;
+
 /// Newton steps a polish may take.
 const POLISH_STEPS: usize = 6;
 
@@ -612,6 +1062,15 @@ struct Polish {
     lo: f64,
     hi: f64,
     state: PolishState,
+    /// The residual before the last step (∞ before the first).
+    prev_norm: f64,
+    /// The next evaluation is predicted to confirm convergence.
+    confirm: bool,
+    /// The Jacobian of the last full evaluation (for one chord step when a
+    /// confirmation falls short).
+    jac: [[f64; 2]; 2],
+    /// The chord step was taken.
+    chord: bool,
 }
 
 #[derive(Clone, Copy, PartialEq)]
@@ -640,6 +1099,10 @@ impl Polish {
             lo: bracket.0.min(bracket.1) - width,
             hi: bracket.0.max(bracket.1) + width,
             state: PolishState::Running,
+            prev_norm: f64::INFINITY,
+            confirm: false,
+            jac: [[0.0; 2]; 2],
+            chord: false,
         }
     }
 
@@ -650,18 +1113,52 @@ impl Polish {
         if self.state != PolishState::Running {
             return false;
         }
+        if self.confirm {
+            // The last step was predicted to converge: the residual alone
+            // (`resid`), and the Jacobian only if it did not.
+            self.confirm = false;
+            let Some(r) = c.resid(self.fam, e, p, dv, self.b, self.beta, in_hollow) else {
+                self.state = PolishState::Failed;
+                return false;
+            };
+            let norm = r[0].abs().max(r[1].abs());
+            if norm <= self.tol {
+                self.finish_at_root();
+                return false;
+            }
+            if !self.chord && norm <= 0.1 * self.prev_norm {
+                // Not yet, but converging: one chord step with the last
+                // Jacobian (at most one per polish), then confirm again.
+                self.chord = true;
+                self.confirm = true;
+                let j = self.jac;
+                return self.newton_step(r, j);
+            }
+        }
         let Some((r, j)) = c.resid_jac(self.fam, e, p, dv, self.b, self.beta, in_hollow) else {
             self.state = PolishState::Failed;
             return false;
         };
-        if r[0].abs().max(r[1].abs()) <= self.tol {
-            self.state = if (self.lo..=self.hi).contains(&self.b) {
-                PolishState::Done
-            } else {
-                PolishState::Failed
-            };
+        let norm = r[0].abs().max(r[1].abs());
+        if norm <= self.tol {
+            self.finish_at_root();
             return false;
         }
+        // Quadratic convergence predicts the next residual as
+        // norm·(norm / previous)²; well below the tolerance, the next
+        // evaluation is a confirmation and needs no Jacobian. Only the
+        // cost depends on this guess: convergence is always judged on the
+        // residual itself.
+        self.confirm = self.prev_norm.is_finite()
+            && norm * norm * norm <= CONFIRM_BELOW * self.tol * self.prev_norm * self.prev_norm;
+        self.prev_norm = norm;
+        self.jac = j;
+        self.newton_step(r, j)
+    }
+
+    /// The step −J⁻¹·r; false (failed) on a singular J or a β out of range.
+    #[inline]
+    fn newton_step(&mut self, r: [f64; 2], j: [[f64; 2]; 2]) -> bool {
         let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
         if det == 0.0 || !det.is_finite() {
             self.state = PolishState::Failed;
@@ -674,6 +1171,16 @@ impl Polish {
             return false;
         }
         true
+    }
+
+    /// The residual is within the tolerance: done if `b` is near the
+    /// bracket (this bracket's root, not a neighbour's).
+    fn finish_at_root(&mut self) {
+        self.state = if (self.lo..=self.hi).contains(&self.b) {
+            PolishState::Done
+        } else {
+            PolishState::Failed
+        };
     }
 
     /// The solved (b, β), if the polish converged.
@@ -772,8 +1279,12 @@ mod target_tests {
             })
             .collect();
         let all = CylinderWarper::new(c, eye, -0.7, 0.7).unwrap();
-        let only = CylinderWarper::for_targets(c, eye, &outside).unwrap();
+        let mut only = CylinderWarper::for_targets(c, eye, &outside).unwrap();
         assert!(only.outside && !only.hollow);
+        // The inverse table's plans for every target's cell (the images
+        // must be the same with them as with the scan of `all`).
+        only.build_plans(&outside, 1);
+        assert!(only.plans.as_ref().is_some_and(|p| !p.spans.is_empty()));
         let skipped: usize = only.tables.iter().map(|t| t[3].b.len()).sum();
         assert_eq!(skipped, 0, "hollow2 tables built for targets outside");
         let mut images = 0;
@@ -854,6 +1365,136 @@ mod scan_tests {
                 "{total} {skipped} {quiet}"
             );
             eprintln!("r={inner}: {quiet} quiet blocks of {skipped}");
+        }
+    }
+}
+
+#[cfg(test)]
+mod plan_tests {
+    use super::*;
+    use crate::warp::cylinder::scan_candidates;
+
+    struct Lcg(u64);
+    impl Lcg {
+        fn next(&mut self) -> f64 {
+            self.0 = self
+                .0
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (self.0 >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
+    /// The inverse table's plans find exactly the full scan's candidates
+    /// (every table entry, `scan_candidates`), hence the same image count
+    /// and first guesses, on random targets around the tube (beside it,
+    /// behind it, in the hollow, near its outer wall) for every family, with
+    /// the tolerances `images_opts` uses. A known-wrong plan, built as if
+    /// the cell were its centre point (no spread of g over the cell), loses
+    /// or invents candidates for some of the same targets.
+    #[test]
+    fn plans_give_the_full_scans_candidates() {
+        let mut rng = Lcg(0x1b5);
+        let eye = DVec3::new(0.3, 0.25, 4.0);
+        for inner in [0.8, 0.5] {
+            let c = HollowCylinder::try_new(DVec3::ZERO, DVec3::Y, 1.0, inner, 1.5).unwrap();
+            let targets: Vec<DVec3> = (0..3000)
+                .map(|i| match i % 3 {
+                    0 => DVec3::new(
+                        -5.0 + 10.0 * rng.next(),
+                        -3.0 + 6.0 * rng.next(),
+                        -3.0 - 2.0 * rng.next(),
+                    ),
+                    1 => DVec3::new(
+                        -4.0 + 8.0 * rng.next(),
+                        -2.0 + 4.0 * rng.next(),
+                        -3.0 + 6.0 * rng.next(),
+                    ),
+                    _ => {
+                        let (a, r) = (std::f64::consts::TAU * rng.next(), 1.3 * rng.next());
+                        DVec3::new(r * a.cos(), -1.0 + 2.0 * rng.next(), r * a.sin())
+                    }
+                })
+                .collect();
+            // And some almost straight above and below the eye (|β0| near 1,
+            // where `dist_range` gives up its upper bound).
+            let mut targets = targets;
+            targets.extend((0..40).map(|i| {
+                let s = if i % 2 == 0 { 1.0 } else { -1.0 };
+                eye + DVec3::new(
+                    0.01 * (i / 2) as f64,
+                    s * (6.0 + 0.05 * i as f64),
+                    -0.02 * (i / 2) as f64,
+                )
+            }));
+            let mut w = CylinderWarper::for_targets(c, eye, &targets).unwrap();
+            // A plan for every target's cell, however few it holds.
+            w.build_plans(&targets, 1);
+            let plans = w.plans.as_ref().expect("plans for these targets");
+            let (mut compared, mut planned, mut wrong_differs) = (0usize, 0usize, 0usize);
+            let (mut evaluated, mut entries) = (0usize, 0usize);
+            for &target in &targets {
+                let (p, _, dist, bin) = w.locate(target);
+                let rp = p.length();
+                if rp > inner && rp < 1.0 || (target - eye).length() < 0.2 {
+                    continue;
+                }
+                let Some(bin) = bin else { continue };
+                let Some((pl, spans)) = plans.find(bin, p) else {
+                    continue;
+                };
+                planned += 1;
+                let (tol, along_min) = (0.5 * BIN * dist, -0.02 * dist);
+                let key = plans.slot_of(bin, p).unwrap();
+                let (ix, iy) = (key % plans.nx, (key / plans.nx) % plans.ny);
+                let cell = plans.cell_box(ix, iy);
+                let (dmin, dmax) = w.dist_range(bin, cell);
+                assert!(
+                    dist >= dmin && dist <= dmax,
+                    "{target}: {dist} not in {dmin}..{dmax}"
+                );
+                for (fi, t) in w.tables[bin].iter().enumerate() {
+                    if t.b.is_empty() {
+                        continue;
+                    }
+                    let full = scan_candidates(
+                        &t.b,
+                        |k| {
+                            let along = t.gy[k] * p.x - t.gx[k] * p.y - t.ac[k];
+                            (along > along_min).then(|| t.gx[k] * p.x + t.gy[k] * p.y - t.gc[k])
+                        },
+                        tol,
+                    );
+                    let (a, b) = spans[fi];
+                    let segs = &pl.segs[a as usize..b as usize];
+                    let mut fast = Vec::new();
+                    t.candidates_plan(p, tol, along_min, segs, &mut fast);
+                    assert_eq!(full, fast, "r={inner} {target} family {fi}: {segs:?}");
+                    compared += 1;
+                    entries += t.b.len();
+                    evaluated += segs
+                        .iter()
+                        .map(|s| match *s {
+                            Seg::Eval { lo, hi } => (hi - lo) as usize,
+                            Seg::Ends { .. } => 2,
+                            _ => 0,
+                        })
+                        .sum::<usize>();
+                    // The known-wrong variant: the cell taken as its centre.
+                    let mid = (cell[0] + cell[1]) * 0.5;
+                    let mut wrong_segs = Vec::new();
+                    t.plan([mid, mid], dist, dist, &mut wrong_segs);
+                    let mut wrong = Vec::new();
+                    t.candidates_plan(p, tol, along_min, &wrong_segs, &mut wrong);
+                    wrong_differs += usize::from(wrong != full);
+                }
+            }
+            eprintln!(
+                "r={inner}: {planned} targets with plans, {compared} family scans equal; entries evaluated {evaluated} of {entries}; the wrong plan differs in {wrong_differs}"
+            );
+            assert!(planned > 2500 && compared > 4000, "{planned} {compared}");
+            assert!(evaluated * 5 < entries, "{evaluated} of {entries}");
+            assert!(wrong_differs > 0, "the wrong plan was never caught");
         }
     }
 }
