@@ -407,13 +407,19 @@ impl RenderScene {
     /// coordinates, whatever the ray's length, which bounds `offset_origin`.
     pub fn surface_point(&self, ray: &Ray, hit: &Hit) -> SurfacePoint {
         let scene = self;
-        let p = ray.org + ray.dir * hit.t;
         let rec = &scene.geoms[hit.geom_id as usize];
         match &rec.shape {
             Shape::Mesh(m) => {
                 let p = m.point(hit.prim_id, hit.u, hit.v);
                 let ng = hit.ng.normalize_or(V3::Y);
-                let (ns, uv) = m.shading(hit.prim_id, hit.u, hit.v);
+                // Texture coordinates only where a texture reads them (the
+                // glass meshes' hits never do).
+                let ns = m.shading_normal(hit.prim_id, hit.u, hit.v);
+                let uv = if rec.needs_uv() {
+                    m.shading(hit.prim_id, hit.u, hit.v).1
+                } else {
+                    [0.0, 0.0]
+                };
                 let ns = match ns {
                     Some(n) if n.dot(ng) > 0.0 => n,
                     Some(n) => -n,
@@ -422,6 +428,7 @@ impl RenderScene {
                 SurfacePoint { p, ng, ns, uv }
             }
             Shape::Analytic(a) => {
+                let p = ray.org + ray.dir * hit.t;
                 let pd = a.project(hit.prim_id, p.as_dvec3());
                 let p = pd.as_vec3a();
                 let n = a.normal(hit.prim_id, pd);
@@ -465,13 +472,21 @@ impl RenderScene {
     }
 
     /// A light chosen uniformly and a point on it, seen from `p` (`None` when the sample cannot reach `p`).
+    #[inline]
     pub fn sample_light(&self, p: V3, rng: &mut Rng) -> Option<LightSample> {
         let scene = self;
         let n = scene.lights.len();
         if n == 0 {
             return None;
         }
-        let idx = ((rng.uniform() * n as f32) as usize).min(n - 1);
+        // One light (every shipped scene): the choice is light 0 whatever
+        // the draw, which is still made (the path's later numbers stay put).
+        let u0 = rng.uniform();
+        let idx = if n == 1 {
+            0
+        } else {
+            ((u0 * n as f32) as usize).min(n - 1)
+        };
         let (u1, u2) = (rng.uniform(), rng.uniform());
         let nf = n as f32;
         match &scene.lights[idx] {
