@@ -432,7 +432,9 @@ impl PathState {
     /// medium's absorption before the cast): emission, the next-event
     /// connection (returned as a shadow ray to resolve before the next
     /// segment, in order), the next ray and Russian roulette. `false`: the
-    /// path has ended.
+    /// path has ended. (Forced inline: one call per segment, in the lane
+    /// loop and in `path`.)
+    #[inline(always)]
     fn advance(
         &mut self,
         tr: Tracer<'_>,
@@ -716,16 +718,18 @@ pub fn path_lanes<const N: usize, P: RayPacket<N>>(
                 }
                 None => None,
             };
-            let (sh, go) = match known {
+            let (seg, cast_coincident, coincident);
+            match known {
                 Some(hit) => {
-                    let seg = known_segment(&p.ray, hit, st);
-                    p.advance(tr, sigma, &seg, &NO_COINCIDENT, &mut rngs[i], st)
+                    seg = known_segment(&p.ray, hit, st);
+                    coincident = &NO_COINCIDENT;
                 }
                 None => {
-                    let (seg, coincident) = cast(tr, &p.ray, &mut p.list, st)?;
-                    p.advance(tr, sigma, &seg, &coincident, &mut rngs[i], st)
+                    (seg, cast_coincident) = cast(tr, &p.ray, &mut p.list, st)?;
+                    coincident = &cast_coincident;
                 }
-            };
+            }
+            let (sh, go) = p.advance(tr, sigma, &seg, coincident, &mut rngs[i], st);
             if let Some(sh) = sh {
                 shadow.set_ray(i, &sh.ray);
                 pending[i] = Some(sh.contrib);
