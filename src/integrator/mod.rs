@@ -175,7 +175,7 @@ fn unoccluded(scene: &RenderScene, from: V3, side: V3, wi: V3, dist: f32, st: &m
 /// unless the light is above both normals (`n` shading, `ng` geometric, both
 /// on the light's side; a shading normal can lean past the surface) and its
 /// straight connection avoids the gradient-index medium. With its cosine at `p`.
-#[inline]
+#[inline(always)]
 fn light_candidate(
     scene: &RenderScene,
     p: V3,

@@ -416,13 +416,15 @@ impl RenderScene {
     /// (pbrt's approach): from the barycentrics in f64 for triangles, by exact
     /// projection for analytic shapes. Its error is then a few ulps of its own
     /// coordinates, whatever the ray's length, which bounds `offset_origin`.
+    /// (Forced inline: once per hit, into the lane loop.)
+    #[inline(always)]
     pub fn surface_point(&self, ray: &Ray, hit: &Hit) -> SurfacePoint {
         let scene = self;
         let rec = &scene.geoms[hit.geom_id as usize];
         match &rec.shape {
             Shape::Mesh(m) => {
                 let p = m.point(hit.prim_id, hit.u, hit.v);
-                let ng = hit.ng.normalize_or(V3::Y);
+                let ng = super::shapes::normalize_or(hit.ng, V3::Y);
                 // Texture coordinates only where a texture reads them (the
                 // glass meshes' hits never do).
                 let ns = m.shading_normal(hit.prim_id, hit.u, hit.v);

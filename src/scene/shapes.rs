@@ -8,6 +8,31 @@
 use crate::embree::{Bounds, Candidate, Candidates, UserShape};
 use glam::{DVec3, Vec3A as V3};
 
+/// `v.normalize_or(fallback)`, bit for bit: glam's test of the reciprocal
+/// length (`is_finite() && > 0`) done on its bits (positive, finite, not
+/// zero), which LLVM otherwise lowers to a dozen integer instructions of
+/// float classification per call (once or twice per hit).
+#[inline(always)]
+pub(crate) fn normalize_or(v: V3, fallback: V3) -> V3 {
+    let rcp = v.length_recip();
+    if rcp.to_bits().wrapping_sub(1) < 0x7f7f_ffff {
+        v * rcp
+    } else {
+        fallback
+    }
+}
+
+/// [`normalize_or`] in f64 (`DVec3::normalize_or`, bit for bit).
+#[inline(always)]
+fn normalize_or_f64(v: DVec3, fallback: DVec3) -> DVec3 {
+    let rcp = v.length_recip();
+    if rcp.to_bits().wrapping_sub(1) < 0x7fef_ffff_ffff_ffff {
+        v * rcp
+    } else {
+        fallback
+    }
+}
+
 /// Ray–sphere crossings in f64 (the f32 quadratic loses too much at grazing).
 #[inline]
 fn sphere_ts(c: DVec3, r: f64, o: DVec3, d: DVec3) -> Option<(f64, f64)> {
@@ -260,11 +285,11 @@ impl Analytic {
     #[inline]
     pub fn normal(&self, prim: u32, p: DVec3) -> DVec3 {
         match *self {
-            Analytic::Sphere { center, .. } => (p - center).normalize_or(DVec3::Y),
+            Analytic::Sphere { center, .. } => normalize_or_f64(p - center, DVec3::Y),
             Analytic::Cylinder { p0, axis, inward, .. } => match prim {
                 0 => {
                     let q = p - p0;
-                    let radial = (q - axis * q.dot(axis)).normalize_or(DVec3::X);
+                    let radial = normalize_or_f64(q - axis * q.dot(axis), DVec3::X);
                     if inward {
                         -radial
                     } else {
@@ -276,7 +301,7 @@ impl Analytic {
             },
             Analytic::Tube { p0, axis, .. } => {
                 let q = p - p0;
-                let radial = (q - axis * q.dot(axis)).normalize_or(DVec3::X);
+                let radial = normalize_or_f64(q - axis * q.dot(axis), DVec3::X);
                 match prim {
                     0 => radial,
                     1 => -radial,
@@ -544,7 +569,7 @@ impl Mesh {
         let tri = self.indices[prim as usize];
         let w = 1.0 - u - v;
         let [a, b, c] = tri.map(|i| V3::from(ns[i as usize]));
-        Some((a * w + b * u + c * v).normalize_or_zero()).filter(|n| n.length_squared() > 0.5)
+        Some(normalize_or(a * w + b * u + c * v, V3::ZERO)).filter(|n| n.length_squared() > 0.5)
     }
 
     /// The point at barycentrics (u, v) of triangle `prim`, in f64 then rounded.
