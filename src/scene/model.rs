@@ -485,7 +485,8 @@ impl RenderScene {
     }
 
     /// A light chosen uniformly and a point on it, seen from `p` (`None` when the sample cannot reach `p`).
-    #[inline]
+    /// (Forced inline: once per diffuse hit, into the lane loop.)
+    #[inline(always)]
     pub fn sample_light(&self, p: V3, rng: &mut Rng) -> Option<LightSample> {
         let scene = self;
         let n = scene.lights.len();
