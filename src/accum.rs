@@ -66,7 +66,16 @@ pub const FIXED_BITS: i32 = 48;
 const FIXED_CLAMP: f64 = (1u64 << 54) as f64;
 
 /// A sample value in fixed point (NaN and infinities count as 0).
+#[inline]
 pub fn to_fixed(v: f32) -> i128 {
+    // Every sample of magnitude in [2^-25, 2^14): v · 2^48 is an integer
+    // (v's ulp is at least 2^-48) below 2^62, so the rounding below would
+    // find no fraction: the product converted as it is, without the finite
+    // test, the clamp and the rounding branches (the same value).
+    let a = v.abs();
+    if (2.0f32.powi(-25)..16384.0).contains(&a) {
+        return ((v as f64) * 2f64.powi(FIXED_BITS)) as i64 as i128;
+    }
     if !v.is_finite() {
         return 0;
     }
@@ -142,6 +151,16 @@ mod tests {
             -7e3,
             1.5e18,
             -2e16,
+            // The edges of the exact-product path.
+            2f32.powi(-25),
+            -2f32.powi(-25),
+            f32::from_bits(2f32.powi(-25).to_bits() - 1),
+            -f32::from_bits(2f32.powi(-25).to_bits() - 1),
+            f32::from_bits(16384f32.to_bits() - 1),
+            -f32::from_bits(16384f32.to_bits() - 1),
+            16384.0,
+            -16384.0,
+            32767.5,
         ];
         vals.extend(
             (0..20000).map(|_| (rng.uniform() - 0.5) * 10f32.powi((rng.uniform() * 30.0) as i32 - 20)),
@@ -149,6 +168,9 @@ mod tests {
         for v in vals {
             let slow = ((v as f64).clamp(-FIXED_CLAMP, FIXED_CLAMP) * 2f64.powi(FIXED_BITS)).round() as i128;
             assert_eq!(to_fixed(v), slow, "{v}");
+        }
+        for v in [f32::INFINITY, f32::NEG_INFINITY, f32::NAN] {
+            assert_eq!(to_fixed(v), 0, "{v}");
         }
     }
 }

@@ -29,11 +29,14 @@ impl Ray {
     /// aborts): finite origin and direction, 0 <= tnear, tnear <= tfar, no NaN.
     #[inline]
     pub fn is_valid(&self) -> bool {
-        self.org.is_finite()
-            && self.dir.is_finite()
-            && self.tnear >= 0.0
-            && self.tnear.is_finite()
-            && !self.tfar.is_nan()
+        // One mask test for both vectors; `tnear` finite and >= 0 is one
+        // test of its bits (+0 up to the largest finite, or -0: LLVM turned
+        // the two float tests into a dozen integer ones), and `tnear <= tfar`
+        // is false for a NaN `tfar`. The same answer as the six tests one by
+        // one, at a third of the instructions per packet lane.
+        let b = self.tnear.to_bits();
+        (self.org.is_finite_mask() & self.dir.is_finite_mask()).all()
+            && (b < 0x7f80_0000 || b == 0x8000_0000)
             && self.tnear <= self.tfar
     }
 
@@ -172,8 +175,10 @@ pub fn window_coefficients(org: V3, dir: V3) -> (f32, f32) {
 }
 
 /// [`crossing_window`] in f64, for analytic shapes that solve in f64: two
-/// roots closer than this are one tangent touch.
-#[inline]
+/// roots closer than this are one tangent touch. (Forced inline: the
+/// analytic shapes' callbacks call it per ray and primitive, and it was a
+/// call of its own there, 2% of cylinder_refraction.)
+#[inline(always)]
 pub fn crossing_window_f64(org: DVec3, dir: DVec3, t: f64) -> f64 {
     let dl = dir.length();
     2.0 * OFFSET_ULPS as f64 * f32::EPSILON as f64 * (org.abs().max_element() + t.abs() * dl + 0.5) / dl

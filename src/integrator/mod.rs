@@ -71,6 +71,7 @@ impl<'a> Tracer<'a> {
 /// The mirror direction of unit-ish `d` about the shading normal `n`; when
 /// the shading normal pushes it below the surface (`incident_side` is the
 /// geometric normal on the side `d` came from), about the geometric normal.
+#[inline]
 fn reflected(d: DVec3, n: DVec3, incident_side: V3) -> V3 {
     let wi = optics::reflect(d, n).normalize().as_vec3a();
     if wi.dot(incident_side) > 0.0 {
@@ -85,6 +86,7 @@ fn reflected(d: DVec3, n: DVec3, incident_side: V3) -> V3 {
 /// The refracted direction of `d` through the shading normal `n` from index
 /// `n1` to `n2` (`None`: total internal reflection); when the shading
 /// normal leaves it on the incident side, through the geometric normal.
+#[inline]
 fn refracted(d: DVec3, n: DVec3, incident_side: V3, n1: f32, n2: f32) -> Option<V3> {
     let t = optics::refract(d, n, n1 as f64, n2 as f64)?
         .normalize()
@@ -150,6 +152,7 @@ pub mod ray_log {
 /// The shadow ray from `from` (offset to the side `side`) along `wi` for
 /// `dist`, counted and logged; `None` when the connection is too short to
 /// hold anything (then it is unoccluded without a query).
+#[inline]
 fn shadow_ray(from: V3, side: V3, wi: V3, dist: f32, st: &mut Counters) -> Option<Ray> {
     st.shadow_rays += 1;
     let o = offset_origin(from, side);
@@ -172,6 +175,7 @@ fn unoccluded(scene: &RenderScene, from: V3, side: V3, wi: V3, dist: f32, st: &m
 /// unless the light is above both normals (`n` shading, `ng` geometric, both
 /// on the light's side; a shading normal can lean past the surface) and its
 /// straight connection avoids the gradient-index medium. With its cosine at `p`.
+#[inline(always)]
 fn light_candidate(
     scene: &RenderScene,
     p: V3,
@@ -200,13 +204,14 @@ fn light_seen(
 
 /// One path segment: the first true hit (if any) and the straight chord it
 /// lies on, the direction the ray arrives with and the distance travelled.
+/// The solid surfaces coincident with the hit travel beside it (a
+/// [`dielectric::Coincident`] from [`cast`], or [`NO_COINCIDENT`] for a
+/// plain query): a segment is built per path and per bounce, and carrying
+/// the 112-byte record in it cost a copy of it per segment (callgrind: 53
+/// instructions per plain segment in `known_segment`).
 struct Segment {
     /// The first true hit.
     hit: Option<crate::ray::Hit>,
-    /// Solid surfaces coincident with the hit (none for a plain query). Kept
-    /// beside the hit rather than in an `Option<TrueHit>`, whose packed
-    /// layout made every copy of a segment stall on its odd-offset stores.
-    coincident: dielectric::Coincident,
     /// The straight ray (a chord inside a medium) the hit was found on.
     chord: Ray,
     /// Unit direction at the end (the tangent of the curved path at the hit,
@@ -222,14 +227,17 @@ struct Segment {
     entered_medium: bool,
 }
 
+/// The coincident surfaces of a plain query's hit (none).
+static NO_COINCIDENT: dielectric::Coincident = dielectric::Coincident::NONE;
+
 impl Segment {
     /// A straight segment (no medium) along `ray` ending at `hit`.
-    fn straight(ray: &Ray, hit: Option<crate::ray::Hit>, coincident: dielectric::Coincident) -> Segment {
+    #[inline]
+    fn straight(ray: &Ray, hit: Option<crate::ray::Hit>) -> Segment {
         Segment {
             // From where the ray starts (tnear: a ray continued on its line).
             length: hit.map(|h| h.t - ray.tnear).unwrap_or(f32::INFINITY),
             hit,
-            coincident,
             chord: *ray,
             dir: ray.dir,
             failed: false,
@@ -265,13 +273,18 @@ fn meets_medium(scene: &RenderScene, p: V3, wi: V3, dist: f32) -> bool {
 
 /// Cast `ray`, through the gradient-index medium as chords when the scene has
 /// one (straight outside its bounds at no extra cost), else straight.
-fn cast(tr: Tracer<'_>, ray: &Ray, list: &mut InteriorList, st: &mut Counters) -> Result<Segment> {
+fn cast(
+    tr: Tracer<'_>,
+    ray: &Ray,
+    list: &mut InteriorList,
+    st: &mut Counters,
+) -> Result<(Segment, dielectric::Coincident)> {
     let scene = tr.scene;
     let Some(med) = &scene.medium else {
         ray_log::record(|| ray_log::Logged::Nearest(*ray));
         return Ok(match dielectric::trace(scene, tr.strategy, ray, list, st)? {
-            Some(th) => Segment::straight(ray, Some(th.hit), th.coincident),
-            None => Segment::straight(ray, None, dielectric::Coincident::NONE),
+            Some(th) => (Segment::straight(ray, Some(th.hit)), th.coincident),
+            None => (Segment::straight(ray, None), dielectric::Coincident::NONE),
         });
     };
     let mut curved = med.start_ray(ray.org.as_dvec3(), ray.dir.as_dvec3());
@@ -295,15 +308,17 @@ fn cast(tr: Tracer<'_>, ray: &Ray, list: &mut InteriorList, st: &mut Counters) -
             continue;
         }
         if curved.failure().is_some() || chord.length.is_nan() || chord.length < 0.0 {
-            return Ok(Segment {
-                hit: None,
-                coincident: dielectric::Coincident::NONE,
-                chord: *ray,
-                dir: ray.dir,
-                length: travelled as f32,
-                failed: true,
-                entered_medium,
-            });
+            return Ok((
+                Segment {
+                    hit: None,
+                    chord: *ray,
+                    dir: ray.dir,
+                    length: travelled as f32,
+                    failed: true,
+                    entered_medium,
+                },
+                dielectric::Coincident::NONE,
+            ));
         }
         let mut r = Ray::new(chord.origin.as_vec3a(), chord.dir.as_vec3a());
         if chord.length.is_finite() {
@@ -320,38 +335,44 @@ fn cast(tr: Tracer<'_>, ray: &Ray, list: &mut InteriorList, st: &mut Counters) -
                 p.as_dvec3(),
                 (th.hit.ng.normalize_or(V3::Y)).as_dvec3(),
             );
-            return Ok(Segment {
-                hit: Some(th.hit),
-                coincident: th.coincident,
-                chord: r,
-                dir: (tangent.normalize()).as_vec3a(),
-                length: (travelled + th.hit.t as f64) as f32,
-                failed: false,
-                entered_medium,
-            });
+            return Ok((
+                Segment {
+                    hit: Some(th.hit),
+                    chord: r,
+                    dir: (tangent.normalize()).as_vec3a(),
+                    length: (travelled + th.hit.t as f64) as f32,
+                    failed: false,
+                    entered_medium,
+                },
+                th.coincident,
+            ));
         }
         if !chord.length.is_finite() {
-            return Ok(Segment {
-                hit: None,
-                coincident: dielectric::Coincident::NONE,
-                chord: r,
-                dir: r.dir,
-                length: f32::INFINITY,
-                failed: false,
-                entered_medium,
-            });
+            return Ok((
+                Segment {
+                    hit: None,
+                    chord: r,
+                    dir: r.dir,
+                    length: f32::INFINITY,
+                    failed: false,
+                    entered_medium,
+                },
+                dielectric::Coincident::NONE,
+            ));
         }
         travelled += chord.length;
     }
-    Ok(Segment {
-        hit: None,
-        coincident: dielectric::Coincident::NONE,
-        chord: *ray,
-        dir: ray.dir,
-        length: travelled as f32,
-        failed: true,
-        entered_medium: true,
-    })
+    Ok((
+        Segment {
+            hit: None,
+            chord: *ray,
+            dir: ray.dir,
+            length: travelled as f32,
+            failed: true,
+            entered_medium: true,
+        },
+        dielectric::Coincident::NONE,
+    ))
 }
 
 /// Radiance along a camera ray (unit `dir`), with `list` the interior list at the camera.
@@ -411,12 +432,15 @@ impl PathState {
     /// medium's absorption before the cast): emission, the next-event
     /// connection (returned as a shadow ray to resolve before the next
     /// segment, in order), the next ray and Russian roulette. `false`: the
-    /// path has ended.
+    /// path has ended. (Forced inline: one call per segment, in the lane
+    /// loop and in `path`.)
+    #[inline(always)]
     fn advance(
         &mut self,
         tr: Tracer<'_>,
         sigma: Option<V3>,
         seg: &Segment,
+        coincident: &dielectric::Coincident,
         rng: &mut Rng,
         st: &mut Counters,
     ) -> (Option<PendingShadow>, bool) {
@@ -426,7 +450,6 @@ impl PathState {
             st.grin_failures += 1;
             return (None, false);
         }
-        let coincident = &seg.coincident;
         let Some(hit) = &seg.hit else {
             if sigma.is_none() {
                 self.l += self.beta * scene.environment.eval(seg.dir);
@@ -485,6 +508,14 @@ impl PathState {
                         None => self.l += contrib,
                         Some(ray) => shadow = Some(PendingShadow { ray, contrib }),
                     }
+                }
+                // A black reflectance (cylinder_refraction's emitting plane)
+                // ends the path below (zero throughput): its direction is
+                // not sampled. Only where nothing else reads it: a finite
+                // throughput (so that it becomes exactly 0) and no solids
+                // for the child ray to settle (which would count them).
+                if albedo == V3::ZERO && self.beta.is_finite() && coincident.near.is_empty() {
+                    return (shadow, false);
                 }
                 let wi = cosine_hemisphere(n, rng.uniform(), rng.uniform());
                 if ng.dot(wi) <= 0.0 {
@@ -581,8 +612,8 @@ fn path(
     loop {
         st.segments += 1;
         let sigma = tr.medium(&p.list);
-        let seg = cast(tr, &p.ray, &mut p.list, st)?;
-        let (shadow, go) = p.advance(tr, sigma, &seg, rng, st);
+        let (seg, coincident) = cast(tr, &p.ray, &mut p.list, st)?;
+        let (shadow, go) = p.advance(tr, sigma, &seg, &coincident, rng, st);
         if let Some(sh) = shadow {
             if !tr.scene.embree.occluded(&sh.ray) {
                 p.l += sh.contrib;
@@ -597,10 +628,11 @@ fn path(
 
 /// The segment of `ray` whose plain query answered `hit`, counted and logged
 /// as `cast` would have.
+#[inline]
 fn known_segment(ray: &Ray, hit: Option<crate::ray::Hit>, st: &mut Counters) -> Segment {
     ray_log::record(|| ray_log::Logged::Nearest(*ray));
     st.queries += 1;
-    Segment::straight(ray, hit, dielectric::Coincident::NONE)
+    Segment::straight(ray, hit)
 }
 
 /// The two Embree packets [`path_lanes`] fills (nearest-hit segments and
@@ -635,6 +667,8 @@ pub fn path_lanes<const N: usize, P: RayPacket<N>>(
 ) -> Result<[V3; N]> {
     let n = cams.len().min(N);
     debug_assert!(path_lanes_apply(tr) && rngs.len() >= n && sts.len() >= n);
+    // Lane `i < n` indexes these without a bounds check.
+    let (rngs, sts) = (&mut rngs[..n], &mut sts[..n]);
     let scene = tr.scene;
     let mut paths: [Option<PathState>; N] = std::array::from_fn(|_| None);
     for (slot, &(o, d)) in paths.iter_mut().zip(cams) {
@@ -664,7 +698,10 @@ pub fn path_lanes<const N: usize, P: RayPacket<N>>(
             let st = &mut sts[i];
             st.segments += 1;
             let sigma = tr.medium(&p.list);
-            let seg = match plain[i] {
+            // The packet's answer, when it is the segment's (built in place
+            // and shaded right here: a segment moved out of a `match` was
+            // copied twice per lane).
+            let known = match plain[i] {
                 Some(check) => {
                     let hit = near.hit(i);
                     if check
@@ -674,14 +711,25 @@ pub fn path_lanes<const N: usize, P: RayPacket<N>>(
                         // packet's query was made (counted); `trace` redoes
                         // it and continues past.
                         st.queries += 1;
-                        cast(tr, &p.ray, &mut p.list, st)?
+                        None
                     } else {
-                        known_segment(&p.ray, hit, st)
+                        Some(hit)
                     }
                 }
-                None => cast(tr, &p.ray, &mut p.list, st)?,
+                None => None,
             };
-            let (sh, go) = p.advance(tr, sigma, &seg, &mut rngs[i], st);
+            let (seg, cast_coincident, coincident);
+            match known {
+                Some(hit) => {
+                    seg = known_segment(&p.ray, hit, st);
+                    coincident = &NO_COINCIDENT;
+                }
+                None => {
+                    (seg, cast_coincident) = cast(tr, &p.ray, &mut p.list, st)?;
+                    coincident = &cast_coincident;
+                }
+            }
+            let (sh, go) = p.advance(tr, sigma, &seg, coincident, &mut rngs[i], st);
             if let Some(sh) = sh {
                 shadow.set_ray(i, &sh.ray);
                 pending[i] = Some(sh.contrib);
@@ -724,12 +772,11 @@ fn whitted(
     let ray = Ray::new(org, dir);
     let sigma = tr.medium(&list);
     // The same (curved through a medium) cast as the path tracer.
-    let seg = cast(tr, &ray, &mut list, st)?;
+    let (seg, coincident) = cast(tr, &ray, &mut list, st)?;
     if seg.failed {
         st.grin_failures += 1;
         return Ok(V3::ZERO);
     }
-    let coincident = seg.coincident;
     let Some(hit) = seg.hit else {
         return Ok(if sigma.is_some() {
             V3::ZERO

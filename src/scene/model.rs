@@ -402,6 +402,17 @@ pub struct LightSample {
     pub delta: bool,
 }
 
+/// `x / nf` (`nf` = `n` as f32, the number of lights): `x` itself for one
+/// light (exact: x / 1 = x), without the division's latency per sample.
+#[inline(always)]
+fn per_light(x: f32, n: usize, nf: f32) -> f32 {
+    if n == 1 {
+        x
+    } else {
+        x / nf
+    }
+}
+
 impl RenderScene {
     /// Hit point and normals for `hit` along `ray` (unit direction).
     ///
@@ -409,15 +420,23 @@ impl RenderScene {
     /// (pbrt's approach): from the barycentrics in f64 for triangles, by exact
     /// projection for analytic shapes. Its error is then a few ulps of its own
     /// coordinates, whatever the ray's length, which bounds `offset_origin`.
+    /// (Forced inline: once per hit, into the lane loop.)
+    #[inline(always)]
     pub fn surface_point(&self, ray: &Ray, hit: &Hit) -> SurfacePoint {
         let scene = self;
-        let p = ray.org + ray.dir * hit.t;
         let rec = &scene.geoms[hit.geom_id as usize];
         match &rec.shape {
             Shape::Mesh(m) => {
                 let p = m.point(hit.prim_id, hit.u, hit.v);
-                let ng = hit.ng.normalize_or(V3::Y);
-                let (ns, uv) = m.shading(hit.prim_id, hit.u, hit.v);
+                let ng = super::shapes::normalize_or(hit.ng, V3::Y);
+                // Texture coordinates only where a texture reads them (the
+                // glass meshes' hits never do).
+                let ns = m.shading_normal(hit.prim_id, hit.u, hit.v);
+                let uv = if rec.needs_uv() {
+                    m.shading(hit.prim_id, hit.u, hit.v).1
+                } else {
+                    [0.0, 0.0]
+                };
                 let ns = match ns {
                     Some(n) if n.dot(ng) > 0.0 => n,
                     Some(n) => -n,
@@ -426,6 +445,7 @@ impl RenderScene {
                 SurfacePoint { p, ng, ns, uv }
             }
             Shape::Analytic(a) => {
+                let p = ray.org + ray.dir * hit.t;
                 let pd = a.project(hit.prim_id, p.as_dvec3());
                 let p = pd.as_vec3a();
                 let n = a.normal(hit.prim_id, pd);
@@ -469,13 +489,22 @@ impl RenderScene {
     }
 
     /// A light chosen uniformly and a point on it, seen from `p` (`None` when the sample cannot reach `p`).
+    /// (Forced inline: once per diffuse hit, into the lane loop.)
+    #[inline(always)]
     pub fn sample_light(&self, p: V3, rng: &mut Rng) -> Option<LightSample> {
         let scene = self;
         let n = scene.lights.len();
         if n == 0 {
             return None;
         }
-        let idx = ((rng.uniform() * n as f32) as usize).min(n - 1);
+        // One light (every shipped scene): the choice is light 0 whatever
+        // the draw, which is still made (the path's later numbers stay put).
+        let u0 = rng.uniform();
+        let idx = if n == 1 {
+            0
+        } else {
+            ((u0 * n as f32) as usize).min(n - 1)
+        };
         let (u1, u2) = (rng.uniform(), rng.uniform());
         let nf = n as f32;
         match &scene.lights[idx] {
@@ -517,7 +546,7 @@ impl RenderScene {
                     wi,
                     dist,
                     li: *radiance,
-                    pdf: dist * dist / (area * cos_l) / nf,
+                    pdf: per_light(dist * dist / (area * cos_l), n, nf),
                     delta: false,
                 })
             }
@@ -543,7 +572,7 @@ impl RenderScene {
                     wi,
                     dist,
                     li: *radiance,
-                    pdf: 1.0 / (2.0 * PI * (1.0 - cos_max)) / nf,
+                    pdf: per_light(1.0 / (2.0 * PI * (1.0 - cos_max)), n, nf),
                     delta: false,
                 })
             }

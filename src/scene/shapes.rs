@@ -8,6 +8,31 @@
 use crate::embree::{Bounds, Candidate, Candidates, UserShape};
 use glam::{DVec3, Vec3A as V3};
 
+/// `v.normalize_or(fallback)`, bit for bit: glam's test of the reciprocal
+/// length (`is_finite() && > 0`) done on its bits (positive, finite, not
+/// zero), which LLVM otherwise lowers to a dozen integer instructions of
+/// float classification per call (once or twice per hit).
+#[inline(always)]
+pub(crate) fn normalize_or(v: V3, fallback: V3) -> V3 {
+    let rcp = v.length_recip();
+    if rcp.to_bits().wrapping_sub(1) < 0x7f7f_ffff {
+        v * rcp
+    } else {
+        fallback
+    }
+}
+
+/// [`normalize_or`] in f64 (`DVec3::normalize_or`, bit for bit).
+#[inline(always)]
+fn normalize_or_f64(v: DVec3, fallback: DVec3) -> DVec3 {
+    let rcp = v.length_recip();
+    if rcp.to_bits().wrapping_sub(1) < 0x7fef_ffff_ffff_ffff {
+        v * rcp
+    } else {
+        fallback
+    }
+}
+
 /// Ray–sphere crossings in f64 (the f32 quadratic loses too much at grazing).
 #[inline]
 fn sphere_ts(c: DVec3, r: f64, o: DVec3, d: DVec3) -> Option<(f64, f64)> {
@@ -104,40 +129,40 @@ pub enum Analytic {
 }
 
 impl Analytic {
-    /// Crossings of the ray with the infinite cylinder around (p0, axis), clipped to [0, h].
+    /// Crossings of the ray with the infinite cylinder around (p0, axis),
+    /// clipped to [0, h]: `emit(t, radial)` for each, nearer root first.
+    /// (Handed over one by one rather than as an array of options, which
+    /// `intersect` then copied and unpacked: callgrind, cylinder_refraction.)
     #[inline(always)]
-    fn cyl(p0: DVec3, axis: DVec3, h: f64, r: f64, o: DVec3, d: DVec3) -> [Option<(f64, DVec3)>; 2] {
-        let mut out = [None; 2];
+    fn cyl(p0: DVec3, axis: DVec3, h: f64, r: f64, o: DVec3, d: DVec3, mut emit: impl FnMut(f64, DVec3)) {
         let op = o - p0;
         let d_perp = d - axis * d.dot(axis);
         let o_perp = op - axis * op.dot(axis);
         let a = d_perp.length_squared();
         if a == 0.0 {
-            return out;
+            return;
         }
         let b = o_perp.dot(d_perp);
         let lo = o_perp.length();
         let c = (lo - r) * (lo + r);
         let disc = b * b - a * c;
         if disc < 0.0 {
-            return out;
+            return;
         }
         let s = disc.sqrt();
         let q = if b > 0.0 { -(b + s) } else { -b + s };
         let ts = if q == 0.0 { [0.0, 0.0] } else { [q / a, c / q] };
         // Tangent to the cylinder: not a crossing.
         if is_touch(ts[0], ts[1], o, d) {
-            return out;
+            return;
         }
-        for (k, t) in ts.into_iter().enumerate() {
+        for t in ts {
             let p = op + d * t;
             let y = p.dot(axis);
             if (0.0..=h).contains(&y) {
-                let radial = p - axis * y;
-                out[k] = Some((t, radial));
+                emit(t, p - axis * y);
             }
         }
-        out
     }
 
     #[inline]
@@ -260,11 +285,11 @@ impl Analytic {
     #[inline]
     pub fn normal(&self, prim: u32, p: DVec3) -> DVec3 {
         match *self {
-            Analytic::Sphere { center, .. } => (p - center).normalize_or(DVec3::Y),
+            Analytic::Sphere { center, .. } => normalize_or_f64(p - center, DVec3::Y),
             Analytic::Cylinder { p0, axis, inward, .. } => match prim {
                 0 => {
                     let q = p - p0;
-                    let radial = (q - axis * q.dot(axis)).normalize_or(DVec3::X);
+                    let radial = normalize_or_f64(q - axis * q.dot(axis), DVec3::X);
                     if inward {
                         -radial
                     } else {
@@ -276,7 +301,7 @@ impl Analytic {
             },
             Analytic::Tube { p0, axis, .. } => {
                 let q = p - p0;
-                let radial = (q - axis * q.dot(axis)).normalize_or(DVec3::X);
+                let radial = normalize_or_f64(q - axis * q.dot(axis), DVec3::X);
                 match prim {
                     0 => radial,
                     1 => -radial,
@@ -450,11 +475,9 @@ impl UserShape for Analytic {
                 inward,
                 ..
             } => match prim {
-                0 => {
-                    for (t, radial) in Self::cyl(p0, axis, height, radius, o, d).into_iter().flatten() {
-                        push(t, if inward { -radial } else { radial });
-                    }
-                }
+                0 => Self::cyl(p0, axis, height, radius, o, d, |t, radial| {
+                    push(t, if inward { -radial } else { radial })
+                }),
                 1 => {
                     if let Some(t) = Self::disk(p0, axis, radius, 0.0, o, d) {
                         push(t, -axis);
@@ -473,16 +496,8 @@ impl UserShape for Analytic {
                 outer,
                 inner,
             } => match prim {
-                0 => {
-                    for (t, radial) in Self::cyl(p0, axis, height, outer, o, d).into_iter().flatten() {
-                        push(t, radial);
-                    }
-                }
-                1 => {
-                    for (t, radial) in Self::cyl(p0, axis, height, inner, o, d).into_iter().flatten() {
-                        push(t, -radial);
-                    }
-                }
+                0 => Self::cyl(p0, axis, height, outer, o, d, &mut push),
+                1 => Self::cyl(p0, axis, height, inner, o, d, |t, radial| push(t, -radial)),
                 2 => {
                     if let Some(t) = Self::disk(p0, axis, outer, inner, o, d) {
                         push(t, -axis);
@@ -546,7 +561,19 @@ impl Mesh {
         (n.filter(|n| n.length_squared() > 0.5), uv)
     }
 
+    /// The shading normal of [`Self::shading`] alone (without the texture
+    /// coordinates).
+    #[inline(always)]
+    pub fn shading_normal(&self, prim: u32, u: f32, v: f32) -> Option<V3> {
+        let ns = self.normals.as_ref()?;
+        let tri = self.indices[prim as usize];
+        let w = 1.0 - u - v;
+        let [a, b, c] = tri.map(|i| V3::from(ns[i as usize]));
+        Some(normalize_or(a * w + b * u + c * v, V3::ZERO)).filter(|n| n.length_squared() > 0.5)
+    }
+
     /// The point at barycentrics (u, v) of triangle `prim`, in f64 then rounded.
+    #[inline]
     pub fn point(&self, prim: u32, u: f32, v: f32) -> V3 {
         let tri = self.indices[prim as usize];
         let (u, v) = (u.clamp(0.0, 1.0) as f64, v.clamp(0.0, 1.0) as f64);

@@ -152,6 +152,7 @@ impl Texture {
     /// The linear RGB value at world-space point `p` (read by the checker) with
     /// surface coordinates `uv` (read by image textures; v = 0 at the image's
     /// bottom row).
+    #[inline]
     pub fn eval(&self, p: V3, uv: [f32; 2]) -> V3 {
         match self {
             Texture::Constant(c) => *c,
@@ -163,10 +164,13 @@ impl Texture {
             } => {
                 // Checker in world coordinates, evaluated in f64 so squares stay
                 // exact far from the origin.
+                let p = p.to_array();
                 let a = floor_i64(p[axes[0]] as f64 * *inv_size as f64);
                 let b = floor_i64(p[axes[1]] as f64 * *inv_size as f64);
                 // Parities separately: a and b saturate at ±i64::MAX far out.
-                if (a.rem_euclid(2) + b.rem_euclid(2)) % 2 == 0 {
+                // (`x & 1` is `x.rem_euclid(2)` for every i64, so the sum of
+                // the two is even iff their low bits agree.)
+                if (a ^ b) & 1 == 0 {
                     *c0
                 } else {
                     *c1
