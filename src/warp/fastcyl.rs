@@ -1369,14 +1369,13 @@ mod scan_tests {
     }
 }
 
+/// A small deterministic generator for the tests (no dependency, same
+/// targets every run).
 #[cfg(test)]
-mod plan_tests {
-    use super::*;
-    use crate::warp::cylinder::scan_candidates;
-
-    struct Lcg(u64);
+mod test_rng {
+    pub(super) struct Lcg(pub(super) u64);
     impl Lcg {
-        fn next(&mut self) -> f64 {
+        pub(super) fn next(&mut self) -> f64 {
             self.0 = self
                 .0
                 .wrapping_mul(6364136223846793005)
@@ -1384,6 +1383,13 @@ mod plan_tests {
             (self.0 >> 11) as f64 / (1u64 << 53) as f64
         }
     }
+}
+
+#[cfg(test)]
+mod plan_tests {
+    use super::test_rng::Lcg;
+    use super::*;
+    use crate::warp::cylinder::scan_candidates;
 
     /// The inverse table's plans find exactly the full scan's candidates
     /// (every table entry, `scan_candidates`), hence the same image count
@@ -1608,17 +1614,7 @@ mod random_tests {
     use super::*;
     use crate::warp::WarpGlass;
 
-    /// A small deterministic generator (no dependency, same targets every run).
-    struct Lcg(u64);
-    impl Lcg {
-        fn next(&mut self) -> f64 {
-            self.0 = self
-                .0
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (self.0 >> 11) as f64 / (1u64 << 53) as f64
-        }
-    }
+    use super::test_rng::Lcg;
 
     /// No image lost against the robust sampler on random targets: half
     /// anywhere around the tube (behind it, beside it, in the hollow), half
