@@ -406,7 +406,11 @@ pub fn nested(opts: &NestedBenchOptions, mut progress: impl FnMut(&str)) -> Resu
             .with_resolution(opts.render.0, opts.render.1)?
             .with_spp(opts.render.2)
             .with_seed(1);
-        let rays = path_rays(&scene, opts.trace_grid.0, opts.trace_grid.1)?;
+        let rays = if opts.trace {
+            path_rays(&scene, opts.trace_grid.0, opts.trace_grid.1)?
+        } else {
+            Vec::new()
+        };
         progress(&format!("{name}: {} trace rays", rays.len()));
         let mut trace_t = vec![vec![]; strategies.len()];
         let mut trace_c = vec![Counters::default(); strategies.len()];
@@ -448,9 +452,7 @@ pub fn nested(opts: &NestedBenchOptions, mut progress: impl FnMut(&str)) -> Resu
             0.0
         };
         for (k, s) in strategies.iter().enumerate() {
-            if !opts.trace {
-                // Render mode only: below.
-            } else {
+            if opts.trace {
                 let wall = median(trace_t[k].clone());
                 runs.push(NestedRun {
                     scene: name.clone(),

@@ -231,6 +231,19 @@ struct Segment {
 static NO_COINCIDENT: dielectric::Coincident = dielectric::Coincident::NONE;
 
 impl Segment {
+    /// The curved-ray integrator failed after `travelled` along the path
+    /// that started as `ray`: no hit, the path ends black.
+    fn failed(ray: &Ray, travelled: f64, entered_medium: bool) -> Segment {
+        Segment {
+            hit: None,
+            chord: *ray,
+            dir: ray.dir,
+            length: travelled as f32,
+            failed: true,
+            entered_medium,
+        }
+    }
+
     /// A straight segment (no medium) along `ray` ending at `hit`.
     #[inline]
     fn straight(ray: &Ray, hit: Option<crate::ray::Hit>) -> Segment {
@@ -309,14 +322,7 @@ fn cast(
         }
         if curved.failure().is_some() || chord.length.is_nan() || chord.length < 0.0 {
             return Ok((
-                Segment {
-                    hit: None,
-                    chord: *ray,
-                    dir: ray.dir,
-                    length: travelled as f32,
-                    failed: true,
-                    entered_medium,
-                },
+                Segment::failed(ray, travelled, entered_medium),
                 dielectric::Coincident::NONE,
             ));
         }
@@ -363,14 +369,7 @@ fn cast(
         travelled += chord.length;
     }
     Ok((
-        Segment {
-            hit: None,
-            chord: *ray,
-            dir: ray.dir,
-            length: travelled as f32,
-            failed: true,
-            entered_medium: true,
-        },
+        Segment::failed(ray, travelled, true),
         dielectric::Coincident::NONE,
     ))
 }

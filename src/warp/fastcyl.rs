@@ -255,19 +255,27 @@ impl Table {
                     sc.push(hi - 1, (ak(hi - 1) > along_min).then(|| gk(hi - 1)));
                 }
             } else {
-                let rows = self.gx[lo..hi]
-                    .iter()
-                    .zip(&self.gy[lo..hi])
-                    .zip(&self.gc[lo..hi])
-                    .zip(&self.ac[lo..hi]);
-                for (k, (((&gx, &gy), &gc), &ac)) in (lo..hi).zip(rows) {
-                    let along = gy * p.x - gx * p.y - ac;
-                    sc.push(k, (along > along_min).then_some(gx * p.x + gy * p.y - gc));
-                }
+                self.eval_into(&mut sc, lo, hi, p, along_min);
             }
         }
         sc.finish();
         quiet
+    }
+
+    /// Evaluate the entries `lo..hi` for the target `p` into `sc`: g where
+    /// the target is ahead of the entry's ray (`along > along_min`), a gap
+    /// where it is not.
+    #[inline]
+    fn eval_into(&self, sc: &mut Scanner<'_>, lo: usize, hi: usize, p: DVec2, along_min: f64) {
+        let rows = self.gx[lo..hi]
+            .iter()
+            .zip(&self.gy[lo..hi])
+            .zip(&self.gc[lo..hi])
+            .zip(&self.ac[lo..hi]);
+        for (k, (((&gx, &gy), &gc), &ac)) in (lo..hi).zip(rows) {
+            let along = gy * p.x - gx * p.y - ac;
+            sc.push(k, (along > along_min).then_some(gx * p.x + gy * p.y - gc));
+        }
     }
 
     /// The scan by a cell's plan (`plan`): the same candidates as
@@ -288,26 +296,11 @@ impl Table {
                 }
                 Seg::Gap(k) => sc.push(k as usize, None),
                 Seg::Ends { lo, hi } => {
-                    for k in [lo as usize, hi as usize - 1] {
-                        let along = self.gy[k] * p.x - self.gx[k] * p.y - self.ac[k];
-                        sc.push(
-                            k,
-                            (along > along_min).then(|| self.gx[k] * p.x + self.gy[k] * p.y - self.gc[k]),
-                        );
-                    }
-                }
-                Seg::Eval { lo, hi } => {
                     let (lo, hi) = (lo as usize, hi as usize);
-                    let rows = self.gx[lo..hi]
-                        .iter()
-                        .zip(&self.gy[lo..hi])
-                        .zip(&self.gc[lo..hi])
-                        .zip(&self.ac[lo..hi]);
-                    for (k, (((&gx, &gy), &gc), &ac)) in (lo..hi).zip(rows) {
-                        let along = gy * p.x - gx * p.y - ac;
-                        sc.push(k, (along > along_min).then_some(gx * p.x + gy * p.y - gc));
-                    }
+                    self.eval_into(&mut sc, lo, lo + 1, p, along_min);
+                    self.eval_into(&mut sc, hi - 1, hi, p, along_min);
                 }
+                Seg::Eval { lo, hi } => self.eval_into(&mut sc, lo as usize, hi as usize, p, along_min),
             }
         }
         sc.finish();
