@@ -296,31 +296,50 @@ fn surfaces_may_meet(scene: &RenderScene, a: u32, b: u32) -> bool {
 pub(crate) fn surfaces_may_come_within(scene: &RenderScene, a: u32, b: u32, tol: f64) -> bool {
     use crate::scene::{shapes::Analytic, Shape};
     let (sa, sb) = (&scene.solids[a as usize], &scene.solids[b as usize]);
-    let (ba, bb) = (sa.aabb, sb.aabb);
-    if !((ba.0 - tol).cmple(bb.1).all() && (bb.0 - tol).cmple(ba.1).all()) {
-        return false;
-    }
     let sphere = |s: &crate::scene::Solid| match &scene.geoms[s.geom as usize].shape {
         Shape::Analytic(Analytic::Sphere { center, radius }) => Some((*center, *radius)),
         _ => None,
-    };
-    // A sphere's surface misses every point of `bx` when the box lies in its
-    // ball (farthest corner nearer than r - tol) or outside it (nearest
-    // point farther than r + tol).
-    let misses = |(c, r): (glam::DVec3, f64), bx: (glam::DVec3, glam::DVec3)| {
-        let far = (bx.0 - c).abs().max((bx.1 - c).abs()).length();
-        let near = (c.clamp(bx.0, bx.1) - c).length();
-        far < r - tol || near > r + tol
     };
     match (sphere(sa), sphere(sb)) {
         // Two spheres' surfaces meet iff |ra - rb| <= |ca - cb| <= ra + rb.
         (Some((ca, ra)), Some((cb, rb))) => {
             let d = (ca - cb).length();
-            (ra - rb).abs() - tol <= d && d <= ra + rb + tol
+            boxes_within(sa.aabb, sb.aabb, tol) && (ra - rb).abs() - tol <= d && d <= ra + rb + tol
         }
-        (Some(sp), None) => !misses(sp, bb),
-        (None, Some(sp)) => !misses(sp, ba),
-        (None, None) => true,
+        _ => {
+            surface_may_come_within_box(scene, b, sa.aabb, tol)
+                && surface_may_come_within_box(scene, a, sb.aabb, tol)
+        }
+    }
+}
+
+/// Do boxes `a` and `b` come within `tol` of each other (per axis)?
+fn boxes_within(a: (glam::DVec3, glam::DVec3), b: (glam::DVec3, glam::DVec3), tol: f64) -> bool {
+    (a.0 - tol).cmple(b.1).all() && (b.0 - tol).cmple(a.1).all()
+}
+
+/// May the surface of solid `s` come within `tol` of some point of the box
+/// `bx`? Its bounds must; a sphere's surface also misses a box that lies
+/// wholly inside or outside its ball (farthest corner nearer than r - tol,
+/// or nearest point farther than r + tol). `true` when unsure.
+pub(crate) fn surface_may_come_within_box(
+    scene: &RenderScene,
+    s: u32,
+    bx: (glam::DVec3, glam::DVec3),
+    tol: f64,
+) -> bool {
+    use crate::scene::{shapes::Analytic, Shape};
+    let solid = &scene.solids[s as usize];
+    if !boxes_within(solid.aabb, bx, tol) {
+        return false;
+    }
+    match &scene.geoms[solid.geom as usize].shape {
+        Shape::Analytic(Analytic::Sphere { center: c, radius: r }) => {
+            let far = (bx.0 - *c).abs().max((bx.1 - *c).abs()).length();
+            let near = (c.clamp(bx.0, bx.1) - *c).length();
+            !(far < r - tol || near > r + tol)
+        }
+        _ => true,
     }
 }
 

@@ -243,13 +243,6 @@ pub fn trace(
                 }
             }
         }
-        NestedStrategy::Filter if list.top_rank() == Some(scene.bottom_rank) => {
-            match nothing_ranks_below(scene, ray, list, c) {
-                // No other surface is near its hit: nothing to look ahead for.
-                Some(h) => return Ok(h),
-                None => filtered(scene, ray, list, c)?,
-            }
-        }
         NestedStrategy::Filter => filtered(scene, ray, list, c)?,
         NestedStrategy::Recast => plain(recast(scene, ray, list, c, false)?),
         // The paper's method as the paper has it.
@@ -262,52 +255,6 @@ pub fn trace(
         look_ahead(scene, ray, th, list, c);
     }
     Ok(th)
-}
-
-/// A ray inside solids of which the top one has the scene's lowest rank
-/// meets no false hit, so one plain query finds its first true hit: `Some`
-/// with it, unless the hit may touch a mesh edge or another solid's surface
-/// may pass through the hit point (a coincident crossing, which only the
-/// filter records): `None`, and the filter decides (the plain query counted
-/// as one more query). Spheres, closed cylinders and tubes are tested by
-/// distance; a mesh solid whose bounds hold the point always sends the ray
-/// to the filter.
-fn nothing_ranks_below(
-    scene: &RenderScene,
-    ray: &Ray,
-    list: &InteriorList,
-    c: &mut Counters,
-) -> Option<Option<TrueHit>> {
-    let Some(h) = scene.embree.intersect(ray) else {
-        return Some(None);
-    };
-    if !scene.mesh_solids.is_empty() && near_edge(h.u, h.v) {
-        c.queries += 1;
-        return None;
-    }
-    let own = scene.solid_by_geom[h.geom_id as usize];
-    let d = ray.dir.as_dvec3();
-    let p = ray.org.as_dvec3() + d * h.t as f64;
-    // Four times the filter's coincidence window, as a distance.
-    let tol = 4.0 * window(ray, h.t) as f64 * d.length();
-    let lo = p - tol;
-    let hi = p + tol;
-    for (i, s) in scene.solids.iter().enumerate() {
-        let i = i as u32;
-        if Some(i) != own
-            && hi.cmpge(s.aabb.0).all()
-            && lo.cmple(s.aabb.1).all()
-            && scene.surface_may_be_near(i, p, tol)
-        {
-            c.queries += 1;
-            return None;
-        }
-    }
-    c.max_list_depth = c.max_list_depth.max(list.len() as u64);
-    Some(Some(TrueHit {
-        hit: h,
-        coincident: Coincident::NONE,
-    }))
 }
 
 /// [`trace`] with the false-hit filter, for a ray inside `list` (not empty).
@@ -323,12 +270,17 @@ fn filtered(
             coincident: Coincident::NONE,
         })
     };
+    let p0 = list.top_rank().unwrap_or(0);
+    let (mask, below) = ray_mask(scene, p0);
+    if p0 <= scene.lowest_unmasked_rank {
+        if let Some(th) = masked_plain(scene, ray, list, c, mask, below) {
+            return Ok(th);
+        }
+    }
     // Hits the filter need not see (non-solids; solids that cannot be false
     // for this P0 nor coincide with another accepted solid).
     let skip = super::filter::skip_ranges(scene);
     RECORDS.with_borrow_mut(|rec| {
-        let p0 = list.top_rank().unwrap_or(0);
-        let (mask, below) = ray_mask(scene, p0);
         let mut filter;
         let mut r = *ray;
         let hit = loop {
@@ -405,6 +357,66 @@ fn filtered(
             TrueHit { hit, coincident }
         }))
     })
+}
+
+/// [`filtered`] for a ray that can see no solid ranked below its P0 once
+/// the ray mask `mask` leaves out the `below` first of
+/// `scene.masked_solids` (every solid below P0 is one of them): no hit can
+/// be false, so one plain query with the mask finds the true hit, and the
+/// masked solids are settled as `filtered` settles them. `None` when the
+/// hit is a touch of a mesh solid at an edge or vertex (the plain query
+/// counted as one more query): the filter decides there, as it records the
+/// surfaces the touch point lies on. Other solids' surfaces coincident with
+/// the hit, which the filter records, are found by `settle::look_ahead`.
+#[inline]
+fn masked_plain(
+    scene: &RenderScene,
+    ray: &Ray,
+    list: &mut InteriorList,
+    c: &mut Counters,
+    mask: u32,
+    below: usize,
+) -> Option<Option<TrueHit>> {
+    let hit = scene.embree.intersect_masked(ray, mask);
+    if let Some(h) = &hit {
+        if is_touch(scene, ray, h, list) {
+            c.queries += 1;
+            return None;
+        }
+    }
+    if below > 0 {
+        let (changed, dt) =
+            time_update(|| settle_masked(scene, &scene.masked_solids[..below], ray, hit.map(|h| h.t), list));
+        c.false_hits += changed;
+        if let Some(dt) = dt {
+            RECORDS.with_borrow_mut(|rec| {
+                if let Some((s, k)) = rec.update_timer.as_mut() {
+                    *s += dt;
+                    *k += 1;
+                }
+            });
+        }
+    }
+    c.max_list_depth = c.max_list_depth.max(list.len() as u64);
+    if list.spilled() {
+        c.list_spills += 1;
+    }
+    Some(hit.map(|hit| TrueHit {
+        hit,
+        coincident: Coincident::NONE,
+    }))
+}
+
+/// Run `f`, timed when [`time_list_updates`] asked for it on this thread
+/// (the seconds it took).
+#[inline]
+fn time_update<R>(f: impl FnOnce() -> R) -> (R, Option<f64>) {
+    if !RECORDS.with_borrow(|rec| rec.update_timer.is_some()) {
+        return (f(), None);
+    }
+    let t0 = std::time::Instant::now();
+    let out = f();
+    (out, Some(t0.elapsed().as_secs_f64()))
 }
 
 /// The ray mask of a filtered query by a ray whose list's top rank is `p0`,
@@ -626,7 +638,7 @@ mod tests {
     }
 
     #[test]
-    fn inside_the_lowest_solid_a_plain_query_answers_unless_a_surface_meets_the_hit() {
+    fn inside_the_lowest_solid_a_plain_query_answers_and_the_look_ahead_finds_a_surface_at_the_hit() {
         // Sphere a (the lowest rank) overlaps sphere b; they meet on the
         // circle x = 0.75, radius sqrt(0.4375).
         let text = r#"
@@ -650,7 +662,6 @@ material = { type = "dielectric", ior = 1.5, priority = 2 }
             &BuildOptions::default(),
         )
         .unwrap();
-        assert_eq!(scene.bottom_rank, scene.solids[0].rank);
         let org = Vec3A::new(-0.5, 0.0, 0.0);
         let mut c = Counters::default();
         // Away from b: one plain query, no filter call.
@@ -666,8 +677,9 @@ material = { type = "dielectric", ior = 1.5, priority = 2 }
         .unwrap();
         assert!((h.hit.t - 0.5).abs() < 1e-5);
         assert_eq!((c.queries, c.filter_calls), (1, 0));
-        // Through the circle where a's exit is b's entry: the filter decides,
-        // and the hit carries the other sphere's crossing.
+        // Through the circle where a's exit is b's entry: still one plain
+        // query (nothing ranks below a), and the look-ahead gives the hit
+        // the other sphere's crossing.
         let on_circle = Vec3A::new(0.75, 0.4375f32.sqrt(), 0.0);
         let mut list = InteriorList::from_solids(&scene.solids, &[0]);
         let h = trace(
@@ -680,7 +692,16 @@ material = { type = "dielectric", ior = 1.5, priority = 2 }
         .unwrap()
         .unwrap();
         assert!((h.hit.t - 1.0).abs() < 1e-5);
-        assert!(c.filter_calls > 0, "the filter ran");
-        assert_eq!(h.coincident.as_slice().len(), 1, "{:?}", h.coincident);
+        assert_eq!((c.queries, c.filter_calls), (2, 0));
+        // The hit is on one sphere; the other's crossing comes with it: a's
+        // exit (rank 0) or b's entry (rank 1).
+        let hit_solid = scene.solid_by_geom[h.hit.geom_id as usize];
+        let other = if hit_solid == Some(0) {
+            (1, 1, true)
+        } else {
+            (0, 0, false)
+        };
+        assert_eq!(h.coincident.as_slice(), &[other], "{:?}", h.coincident);
+        assert_eq!(c.settled, 1, "found by the look-ahead");
     }
 }

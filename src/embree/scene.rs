@@ -321,12 +321,21 @@ impl Scene {
 
     /// Nearest hit along `ray` in `[tnear, tfar]`, no filter. An invalid ray
     /// ([`Ray::is_valid`]) is a miss.
+    #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        self.intersect_masked(ray, u32::MAX)
+    }
+
+    /// [`intersect`](Self::intersect) with a ray mask: geometries whose mask
+    /// shares no bit with `mask` are not seen at all (see
+    /// [`SceneBuilder::add_user_masked`]).
+    pub fn intersect_masked(&self, ray: &Ray, mask: u32) -> Option<Hit> {
         if !ray.is_valid() {
             return None; // an invalid ray would abort the process inside Embree
         }
         let mut ctx = init_context(None);
         let mut rh = to_rayhit(ray);
+        rh.ray.mask = mask;
         // SAFETY: committed scene; `ctx` and `rh` are valid, properly initialised
         // and (RTCRayHit is 16-byte aligned by its bindgen definition) aligned.
         unsafe { sys::rtcIntersect1(self.raw, &mut ctx, &mut rh) };

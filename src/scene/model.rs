@@ -230,6 +230,11 @@ pub struct RenderScene {
     /// Embree ray masks (geometry mask bit = rank), sorted by rank: a ray
     /// with top rank P0 settles those ranked below P0 by point-in-solid.
     pub(crate) masked_solids: Vec<u32>,
+    /// The lowest rank of a solid not in `masked_solids` (`u32::MAX` when
+    /// there is none): a ray whose top rank is at most this can see no solid
+    /// ranked below it once the masked ones are left out, so no hit of its
+    /// query can be false.
+    pub(crate) lowest_unmasked_rank: u32,
     /// Indices of the solids that are closed meshes, with their bounds: the
     /// only solids whose entry Embree can leak (a ray through a vertex) and
     /// whose hits near an edge may be touches (`dielectric::trace`).
@@ -237,14 +242,9 @@ pub struct RenderScene {
     /// The solids' bounds, for finding the solids near a point
     /// (`dielectric::settle`).
     pub(crate) solid_boxes: SolidBoxes,
-    /// Per solid, the other solids whose surfaces may come near its own,
-    /// and how near (`dielectric::settle`, computed on first use).
+    /// Per geometry, the solids whose surfaces may come near its own, and
+    /// how near (`dielectric::settle`, computed on first use).
     pub(crate) neighbours: std::sync::OnceLock<Neighbours>,
-    /// The lowest solid rank (`u32::MAX` without solids): a ray whose top
-    /// solid has it can meet no false hit. `u32::MAX` also when a solid whose
-    /// bounds meet that solid's has no distance test (`surface_may_be_near`
-    /// is `true` for it everywhere): its rays always need the filter.
-    pub(crate) bottom_rank: u32,
     /// The gradient-index medium, if any: rays inside its bounds are cast as chords.
     pub medium: Option<crate::media::Medium>,
     /// The analytic warp glass (`[warp]`), if any; its geometry is also in
@@ -297,12 +297,18 @@ impl SolidBoxes {
     }
 }
 
-/// Per solid, the other solids whose surfaces may pass within `tol` of its
-/// own (`of[s]`, in order).
+/// Per geometry (geomID), the solids other than its own whose surfaces may
+/// pass within `tol` of its surface (`of[g]`, in order). A geometry that is
+/// no solid (a ground, a backdrop) has its neighbours too: most hits are on
+/// those, and most have none.
 #[derive(Debug, Clone, Default)]
 pub(crate) struct Neighbours {
     pub(crate) tol: f64,
     pub(crate) of: Vec<Vec<u32>>,
+    /// Per mesh geometry with neighbours, per triangle: may a neighbour's
+    /// surface come within `tol` of that triangle? (`None`: not known per
+    /// primitive, as for analytic shapes.)
+    pub(crate) near_prims: Vec<Option<Vec<bool>>>,
 }
 
 /// Point-in-solid classification of each solid (independent of Embree).
@@ -329,14 +335,6 @@ impl RenderScene {
         match &self.containment[s as usize] {
             Containment::Analytic(a) => a.surface_near(p, tol).unwrap_or(true),
             Containment::Mesh(m) => m.surface_near(p, tol),
-        }
-    }
-
-    /// Does solid `s` have an exact `surface_may_be_near`?
-    pub(crate) fn has_distance_test(&self, s: u32) -> bool {
-        match &self.containment[s as usize] {
-            Containment::Analytic(a) => a.surface_near(DVec3::ZERO, 0.0).is_some(),
-            Containment::Mesh(_) => true,
         }
     }
 

@@ -200,10 +200,15 @@ impl Builder<'_> {
             mesh_solids: Vec::new(),
             solid_boxes: Default::default(),
             neighbours: Default::default(),
-            bottom_rank: u32::MAX,
+            lowest_unmasked_rank: u32::MAX,
             warnings,
             containment: up.containment,
         };
+        scene.lowest_unmasked_rank = (0..scene.solids.len() as u32)
+            .filter(|i| !scene.masked_solids.contains(i))
+            .map(|i| scene.solids[i as usize].rank)
+            .min()
+            .unwrap_or(u32::MAX);
         scene.solid_boxes = crate::scene::model::SolidBoxes::new(scene.solids.iter().map(|s| s.aabb));
         scene.mesh_solids = scene
             .solids
@@ -212,18 +217,6 @@ impl Builder<'_> {
             .filter(|(_, s)| matches!(scene.geoms[s.geom as usize].shape, crate::scene::Shape::Mesh(_)))
             .map(|(i, s)| (i as u32, s.aabb))
             .collect();
-        if let Some((b, bs)) = scene.solids.iter().enumerate().min_by_key(|(_, s)| s.rank) {
-            let pad = 1e-4 * (1.0 + bs.aabb.0.abs().max(bs.aabb.1.abs()).max_element());
-            let testable = scene.solids.iter().enumerate().all(|(i, o)| {
-                i == b
-                    || (o.aabb.0 - pad).cmpgt(bs.aabb.1).any()
-                    || (o.aabb.1 + pad).cmplt(bs.aabb.0).any()
-                    || scene.has_distance_test(i as u32)
-            });
-            if testable {
-                scene.bottom_rank = bs.rank;
-            }
-        }
         scene.camera_interior = self.camera_interior(&d.camera, &scene, position)?;
         Ok(scene)
     }
