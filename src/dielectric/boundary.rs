@@ -111,10 +111,9 @@ pub fn boundary(
     coincident: &Coincident,
     list: &mut InteriorList,
 ) -> Option<Boundary> {
-    let coincident = coincident.as_slice();
     // Solid surfaces coincident with the true hit are crossed with it.
     let with_coincident = |mut l: InteriorList| {
-        for &(c, rank, entering) in coincident {
+        for (c, rank, entering) in coincident.iter() {
             if entering {
                 l.insert(c, rank)
             } else {

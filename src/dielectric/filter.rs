@@ -345,13 +345,20 @@ pub(crate) fn surface_may_come_within_box(
 
 /// Solid crossings at the same point as a true hit (coincident faces), beyond
 /// the true hit's own solid: (solid, rank, entering).
+///
+/// Compact (80 bytes, a [`TrueHit`] 128) because every hit carries one: at
+/// 160 bytes a `TrueHit` was copied by `memcpy` calls, 1% of a nested trace
+/// pass (callgrind); at 128 the copies are inline.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Coincident {
-    items: [(u32, u32, bool); NEAR_CAPACITY],
-    len: usize,
+    /// (solid, rank) of each crossing.
+    items: [(u32, u32); NEAR_CAPACITY],
+    /// Bit i: crossing i enters its solid.
+    entering: u8,
+    len: u8,
+    touched_len: u8,
     /// Solids both entered and left at the point (a touch): no crossing.
     touched: [u32; NEAR_CAPACITY],
-    touched_len: usize,
     /// Solids whose surface passes near the hit, settled for the child ray
     /// by point-in-solid (`dielectric::settle_child`).
     pub(crate) near: NearSolids,
@@ -363,57 +370,87 @@ impl Coincident {
     /// (whose small stores stalled the wide loads of the copies after them:
     /// perf, 2.5% of three_spheres).
     pub const NONE: Coincident = Coincident {
-        items: [(0, 0, false); NEAR_CAPACITY],
+        items: [(0, 0); NEAR_CAPACITY],
+        entering: 0,
         len: 0,
-        touched: [0; NEAR_CAPACITY],
         touched_len: 0,
+        touched: [0; NEAR_CAPACITY],
         near: NearSolids::NONE,
     };
 
     /// The crossings: (solid, rank, entering).
-    pub fn as_slice(&self) -> &[(u32, u32, bool)] {
-        &self.items[..self.len]
+    pub fn iter(&self) -> impl Iterator<Item = (u32, u32, bool)> + '_ {
+        self.items[..self.len as usize]
+            .iter()
+            .enumerate()
+            .map(|(i, &(s, r))| (s, r, self.entering & (1 << i) != 0))
     }
+
+    /// Number of crossings.
+    pub fn len(&self) -> usize {
+        self.len as usize
+    }
+
+    /// No crossings?
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    fn position(&self, solid: u32) -> Option<usize> {
+        self.items[..self.len as usize].iter().position(|c| c.0 == solid)
+    }
+
+    fn set_entering(&mut self, i: usize, entering: bool) {
+        self.entering = (self.entering & !(1 << i)) | ((entering as u8) << i);
+    }
+
     /// Add a report. A duplicate of one direction counts once; reports of
     /// both directions of one solid cancel, as in `apply_rejected` (a ray
     /// through the circle where two spheres meet can graze the second one:
     /// the entry alone left it in the list after the ray had left it).
     pub(crate) fn push(&mut self, solid: u32, rank: u32, entering: bool) {
-        if self.touched[..self.touched_len].contains(&solid) {
+        if self.touched[..self.touched_len as usize].contains(&solid) {
             return;
         }
-        if let Some(i) = self.as_slice().iter().position(|c| c.0 == solid) {
-            if self.items[i].2 != entering {
-                self.items[i] = self.items[self.len - 1];
+        if let Some(i) = self.position(solid) {
+            if (self.entering & (1 << i) != 0) != entering {
+                let last = self.len as usize - 1;
+                self.items[i] = self.items[last];
+                let last_entering = self.entering & (1 << last) != 0;
+                self.set_entering(i, last_entering);
+                self.set_entering(last, false);
                 self.len -= 1;
-                if self.touched_len < NEAR_CAPACITY {
-                    self.touched[self.touched_len] = solid;
+                if (self.touched_len as usize) < NEAR_CAPACITY {
+                    self.touched[self.touched_len as usize] = solid;
                     self.touched_len += 1;
                 }
             }
             return;
         }
-        if self.len < NEAR_CAPACITY {
-            self.items[self.len] = (solid, rank, entering);
+        if (self.len as usize) < NEAR_CAPACITY {
+            let i = self.len as usize;
+            self.items[i] = (solid, rank);
+            self.set_entering(i, entering);
             self.len += 1;
         }
     }
 
     /// Whether the crossings enter `solid` (`None`: they do not cross it).
     pub(crate) fn entering_of(&self, solid: u32) -> Option<bool> {
-        self.as_slice().iter().find(|c| c.0 == solid).map(|c| c.2)
+        self.position(solid).map(|i| self.entering & (1 << i) != 0)
     }
 
     /// Make the crossings leave the ray inside `solid` or not, as
     /// point-in-solid decided (`settle::look_ahead`): replaces a report of
     /// the other direction and undoes a touch.
     pub(crate) fn settle(&mut self, solid: u32, rank: u32, entering: bool) {
-        if let Some(i) = self.touched[..self.touched_len].iter().position(|&t| t == solid) {
-            self.touched[i] = self.touched[self.touched_len - 1];
+        let tl = self.touched_len as usize;
+        if let Some(i) = self.touched[..tl].iter().position(|&t| t == solid) {
+            self.touched[i] = self.touched[tl - 1];
             self.touched_len -= 1;
         }
-        match self.as_slice().iter().position(|c| c.0 == solid) {
-            Some(i) => self.items[i].2 = entering,
+        match self.position(solid) {
+            Some(i) => self.set_entering(i, entering),
             None => self.push(solid, rank, entering),
         }
     }
@@ -477,6 +514,35 @@ fn apply_records(list: &mut InteriorList, rejected: &mut [Rejected], t_hit: f32,
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn coincident_crossings_cancel_touch_and_settle_and_a_true_hit_stays_small() {
+        let mut c = Coincident::NONE;
+        c.push(3, 7, true);
+        c.push(5, 9, false);
+        c.push(3, 7, true); // a duplicate of one direction counts once
+        assert_eq!(c.iter().collect::<Vec<_>>(), [(3, 7, true), (5, 9, false)]);
+        // Both directions of solid 3 cancel (a touch); the last crossing
+        // moves into its place with its own direction.
+        c.push(3, 7, false);
+        assert_eq!(c.iter().collect::<Vec<_>>(), [(5, 9, false)]);
+        c.push(3, 7, true); // touched: ignored
+        assert_eq!((c.len(), c.entering_of(3)), (1, None));
+        // Point-in-solid undoes the touch and decides the direction.
+        c.settle(3, 7, true);
+        c.settle(5, 9, true);
+        assert_eq!(c.iter().collect::<Vec<_>>(), [(5, 9, true), (3, 7, true)]);
+        assert_eq!(
+            (c.entering_of(5), c.entering_of(3), c.entering_of(4)),
+            (Some(true), Some(true), None)
+        );
+        // Inline copies, not memcpy calls (see `Coincident`).
+        assert!(
+            std::mem::size_of::<TrueHit>() <= 128,
+            "{}",
+            std::mem::size_of::<TrueHit>()
+        );
+    }
 
     #[test]
     fn skip_ranges_name_non_solids_and_solids_no_accepted_solid_can_meet() {

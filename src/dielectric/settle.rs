@@ -37,7 +37,8 @@ use super::filter::{
 use super::InteriorList;
 use crate::counters::Counters;
 use crate::ray::{crossing_window, Hit, Ray};
-use crate::scene::model::Neighbours;
+use crate::scene::model::{Neighbours, Zone};
+use crate::scene::shapes::Analytic;
 use crate::scene::{RenderScene, Shape};
 use glam::DVec3;
 
@@ -72,27 +73,27 @@ fn neighbours(scene: &RenderScene) -> &Neighbours {
             .geoms
             .iter()
             .enumerate()
-            .map(|(g, rec)| match scene.solid_by_geom[g] {
-                Some(a) => (0..n)
-                    .filter(|&b| b != a && surfaces_may_come_within(scene, a, b, tol))
-                    .collect(),
-                None => {
-                    let bx = match &rec.shape {
-                        Shape::Mesh(m) => m.aabb(),
-                        Shape::Analytic(a) => a.aabb(),
-                    };
-                    (0..n)
-                        .filter(|&b| surface_may_come_within_box(scene, b, bx, tol))
-                        .collect()
-                }
+            .map(|(g, rec)| {
+                let own = scene.solid_by_geom[g];
+                let bx = match &rec.shape {
+                    Shape::Mesh(m) => m.aabb(),
+                    Shape::Analytic(a) => a.aabb(),
+                };
+                (0..n)
+                    .filter(|&b| match own {
+                        Some(a) => b != a && surfaces_may_come_within(scene, a, b, tol),
+                        None => surface_may_come_within_box(scene, b, bx, tol),
+                    })
+                    .filter_map(|b| zone(scene, &rec.shape, bx, b, tol))
+                    .collect()
             })
-            .collect::<Vec<Vec<u32>>>();
+            .collect::<Vec<Vec<Zone>>>();
         let near_prims: Vec<Option<Vec<bool>>> = scene
             .geoms
             .iter()
             .zip(&of)
-            .map(|(rec, nbs)| match &rec.shape {
-                Shape::Mesh(m) if !nbs.is_empty() => {
+            .map(|(rec, zones)| match &rec.shape {
+                Shape::Mesh(m) if !zones.is_empty() => {
                     let mut budget = PIECE_TESTS;
                     Some(
                         m.indices
@@ -102,8 +103,9 @@ fn neighbours(scene: &RenderScene) -> &Neighbours {
                                     let p = m.positions[i as usize];
                                     DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64)
                                 });
-                                nbs.iter()
-                                    .any(|&s| piece_may_be_near(scene, s, v, tol, 0, &mut budget))
+                                zones
+                                    .iter()
+                                    .any(|z| piece_may_be_near(scene, z.solid, v, tol, 0, &mut budget))
                             })
                             .collect(),
                     )
@@ -113,6 +115,94 @@ fn neighbours(scene: &RenderScene) -> &Neighbours {
             .collect();
         Neighbours { tol, of, near_prims }
     })
+}
+
+/// The [`Zone`] of solid `s` on the surface of a geometry of shape `shape`
+/// with bounds `bx`: the points of that surface within `tol` of the
+/// solid's surface lie in both bounds (dilated by `tol`), and, for a
+/// sphere, in its ball (radius + `tol`); on a sphere, near a second
+/// sphere, in the band of the first sphere around the circle where they
+/// meet. `None` when that box is empty.
+fn zone(scene: &RenderScene, shape: &Shape, bx: (DVec3, DVec3), s: u32, tol: f64) -> Option<Zone> {
+    let sphere = |sh: &Shape| match sh {
+        Shape::Analytic(Analytic::Sphere { center, radius }) => Some((*center, *radius)),
+        _ => None,
+    };
+    let solid = &scene.solids[s as usize];
+    let mut b = (
+        (bx.0 - tol).max(solid.aabb.0 - tol),
+        (bx.1 + tol).min(solid.aabb.1 + tol),
+    );
+    let other = sphere(&scene.geoms[solid.geom as usize].shape);
+    let own = sphere(shape);
+    for (c, r) in [other, own].into_iter().flatten() {
+        b = ball_box(c, r + tol, b)?;
+    }
+    if let (Some((cg, rg)), Some((cs, rs))) = (own, other) {
+        b = band_box(cg, rg, cs, rs, tol, b)?;
+    }
+    if !b.0.cmple(b.1).all() {
+        return None;
+    }
+    // Padded by `tol` again: a hit point computed in f32 lies within it of
+    // the true point wherever the table applies (see `for_each_near`).
+    let lo = (b.0 - tol - 1e-6 * (1.0 + b.0.abs()))
+        .to_array()
+        .map(|v| v as f32);
+    let hi = (b.1 + tol + 1e-6 * (1.0 + b.1.abs()))
+        .to_array()
+        .map(|v| v as f32);
+    Some(Zone { solid: s, lo, hi })
+}
+
+/// The box `b` cut down to the bounds of its part inside the ball of centre
+/// `c` and radius `r`; `None` when they do not meet.
+fn ball_box(c: DVec3, r: f64, b: (DVec3, DVec3)) -> Option<(DVec3, DVec3)> {
+    // Per axis, the distance from `c` to the box's extent (0 inside).
+    let gap = (b.0 - c).max(c - b.1).max(DVec3::ZERO);
+    let (mut lo, mut hi) = b;
+    for k in 0..3 {
+        let rest = gap.length_squared() - gap[k] * gap[k];
+        if rest > r * r {
+            return None;
+        }
+        let e = (r * r - rest).sqrt();
+        lo[k] = lo[k].max(c[k] - e);
+        hi[k] = hi[k].min(c[k] + e);
+    }
+    lo.cmple(hi).all().then_some((lo, hi))
+}
+
+/// The box `b` cut down to the band of the sphere (`cg`, `rg`) whose points
+/// lie within `tol` of the sphere (`cs`, `rs`): along the axis a from `cg`
+/// to `cs` (d apart), a point x of the first sphere has
+/// |x − cs|² = rg² + d² − 2d·h with h = (x − cg)·a, so the band is a range
+/// of h, and x = cg + h·a + w with w ⊥ a, |w|² = rg² − h².
+fn band_box(cg: DVec3, rg: f64, cs: DVec3, rs: f64, tol: f64, b: (DVec3, DVec3)) -> Option<(DVec3, DVec3)> {
+    let d = (cs - cg).length();
+    if d <= tol {
+        return Some(b); // (nearly) concentric: the band is all or nothing
+    }
+    let a = (cs - cg) / d;
+    let h_of = |q: f64| (rg * rg + d * d - q * q) / (2.0 * d);
+    let h0 = h_of(rs + tol).max(-rg);
+    let h1 = h_of((rs - tol).max(0.0)).min(rg);
+    if h0 > h1 {
+        return None;
+    }
+    let hmin2 = if h0 <= 0.0 && h1 >= 0.0 {
+        0.0
+    } else {
+        (h0 * h0).min(h1 * h1)
+    };
+    let w = (rg * rg - hmin2).max(0.0).sqrt();
+    let (mut lo, mut hi) = b;
+    for k in 0..3 {
+        let spread = w * (1.0 - a[k] * a[k]).max(0.0).sqrt();
+        lo[k] = lo[k].max(cg[k] + (h0 * a[k]).min(h1 * a[k]) - spread);
+        hi[k] = hi[k].min(cg[k] + (h0 * a[k]).max(h1 * a[k]) + spread);
+    }
+    lo.cmple(hi).all().then_some((lo, hi))
 }
 
 /// Distance tests one mesh's triangles may spend in [`piece_may_be_near`]
@@ -172,10 +262,9 @@ fn for_each_near(
     let nb = neighbours(scene);
     // Twice: `p` is on the surface only to rounding.
     if 2.0 * tol <= nb.tol {
-        let (lo, hi) = (p - tol, p + tol);
-        for &i in &nb.of[geom as usize] {
-            let b = scene.solids[i as usize].aabb;
-            if hi.cmpge(b.0).all() && lo.cmple(b.1).all() && scene.surface_may_be_near(i, p, tol) && !f(i) {
+        let q = [p.x as f32, p.y as f32, p.z as f32];
+        for z in &nb.of[geom as usize] {
+            if z.holds(q) && scene.surface_may_be_near(z.solid, p, tol) && !f(z.solid) {
                 return;
             }
         }
@@ -187,17 +276,23 @@ fn for_each_near(
 }
 
 /// May any solid's surface pass within the look-ahead's neighbourhood of a
-/// hit `h` of `ray`? `false` (most hits, at the cost of a table lookup) when
-/// its geometry has no neighbours, or its triangle has none near, and the
-/// neighbourhood is within the table's tolerance.
+/// hit `h` of `ray`? `false` (most hits, at the cost of a table lookup and
+/// a few box tests) when its geometry has no neighbours, or its triangle has
+/// none near, or the hit lies in none of their zones, and the neighbourhood
+/// is within the table's tolerance.
 #[inline]
 fn may_have_neighbours(scene: &RenderScene, h: &Hit, ray: &Ray) -> bool {
     let nb = neighbours(scene);
     let g = h.geom_id as usize;
-    let table = !nb.of[g].is_empty()
+    let zones = &nb.of[g];
+    let table = !zones.is_empty()
         && nb.near_prims[g]
             .as_ref()
-            .is_none_or(|near| near.get(h.prim_id as usize).copied().unwrap_or(true));
+            .is_none_or(|near| near.get(h.prim_id as usize).copied().unwrap_or(true))
+        && {
+            let p = (ray.org + ray.dir * h.t).to_array();
+            zones.iter().any(|z| z.holds(p))
+        };
     table || 2.0 * neighbourhood(ray, h.t) > nb.tol
 }
 
@@ -333,5 +428,88 @@ fn settle(scene: &RenderScene, near: &NearSolids, child: &Ray, list: &mut Interi
         let d = child.dir.as_dvec3().normalize();
         let probe = q + d * (2e-5 * (1.0 + q.abs().max_element()));
         set(s, scene.solid_contains(s, probe));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{load_scene_str, BuildOptions};
+
+    /// Points on the unit sphere (Fibonacci spiral).
+    fn sphere_points(n: usize) -> impl Iterator<Item = DVec3> {
+        let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+        (0..n).map(move |i| {
+            let y = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
+            let r = (1.0 - y * y).sqrt();
+            let phi = golden * i as f64;
+            DVec3::new(r * phi.cos(), y, r * phi.sin())
+        })
+    }
+
+    #[test]
+    fn zones_hold_every_point_near_the_other_surface_and_few_others() {
+        let text = r#"
+[camera]
+position = [0.0, 0.0, 5.0]
+target = [0.0, 0.0, 0.0]
+fov = 40.0
+[[objects]]
+name = "a"
+shape = { type = "sphere", center = [0.0, 0.0, 0.0], radius = 1.0 }
+material = { type = "dielectric", ior = 1.33, priority = 1 }
+[[objects]]
+name = "b"
+shape = { type = "sphere", center = [1.5, 0.2, 0.0], radius = 0.8 }
+material = { type = "dielectric", ior = 1.5, priority = 2 }
+[[objects]]
+name = "ground"
+shape = { type = "rect", center = [0.0, -1.0, 0.0], normal = [0.0, 1.0, 0.0], u_axis = [1.0, 0.0, 0.0], size = [6.0, 6.0] }
+material = { type = "diffuse", reflectance = [0.5, 0.5, 0.5] }
+"#;
+        let scene = load_scene_str(
+            "t.toml",
+            text,
+            std::path::Path::new("."),
+            &BuildOptions::default(),
+        )
+        .unwrap();
+        let nb = neighbours(&scene);
+        let geom = |name: &str| scene.geoms.iter().position(|g| g.name == name).unwrap();
+        let (ga, gg) = (geom("a"), geom("ground"));
+        let (cb, rb) = (DVec3::new(1.5, 0.2, 0.0), 0.8);
+        let zone_b = nb.of[ga]
+            .iter()
+            .find(|z| z.solid == 1)
+            .expect("b is a's neighbour");
+        let q = |p: DVec3| [p.x as f32, p.y as f32, p.z as f32];
+        let (mut near, mut held, mut held_by_bounds) = (0, 0, 0);
+        let b_box = scene.solids[1].aabb;
+        for x in sphere_points(200_000) {
+            let in_zone = zone_b.holds(q(x));
+            held += in_zone as u32;
+            held_by_bounds += ((x - nb.tol).cmple(b_box.1).all() && (x + nb.tol).cmpge(b_box.0).all()) as u32;
+            if ((x - cb).length() - rb).abs() <= nb.tol {
+                near += 1;
+                assert!(in_zone, "{x} is within {} of b's surface", nb.tol);
+            }
+        }
+        assert!(near > 0);
+        // The box of the band around the circle where they meet (with the cap
+        // beyond it): 4.5% of a's surface, against 14.5% in b's bounds (the
+        // test before zones), which fails this bound.
+        assert!(
+            held * 3 < held_by_bounds,
+            "{held} held, {held_by_bounds} by b's bounds"
+        );
+        // The ground touches a at (0, -1, 0): its zone is a small box there.
+        let ground_a = nb.of[gg]
+            .iter()
+            .find(|z| z.solid == 0)
+            .expect("a is the ground's neighbour");
+        assert!(ground_a.holds(q(DVec3::new(0.0, -1.0, 0.0))));
+        assert!(!ground_a.holds(q(DVec3::new(0.3, -1.0, 0.0))));
+        // b (bottom at y = -0.6) is 0.4 above the ground: no neighbour.
+        assert!(nb.of[gg].iter().all(|z| z.solid != 1));
     }
 }

@@ -701,7 +701,12 @@ material = { type = "dielectric", ior = 1.5, priority = 2 }
         } else {
             (0, 0, false)
         };
-        assert_eq!(h.coincident.as_slice(), &[other], "{:?}", h.coincident);
+        assert_eq!(
+            h.coincident.iter().collect::<Vec<_>>(),
+            [other],
+            "{:?}",
+            h.coincident
+        );
         assert_eq!(c.settled, 1, "found by the look-ahead");
     }
 }

@@ -298,17 +298,41 @@ impl SolidBoxes {
 }
 
 /// Per geometry (geomID), the solids other than its own whose surfaces may
-/// pass within `tol` of its surface (`of[g]`, in order). A geometry that is
+/// pass within `tol` of its surface, each with the box on the geometry's
+/// surface where it may (`of[g]`, in solid order). A geometry that is
 /// no solid (a ground, a backdrop) has its neighbours too: most hits are on
 /// those, and most have none.
 #[derive(Debug, Clone, Default)]
 pub(crate) struct Neighbours {
     pub(crate) tol: f64,
-    pub(crate) of: Vec<Vec<u32>>,
+    pub(crate) of: Vec<Vec<Zone>>,
     /// Per mesh geometry with neighbours, per triangle: may a neighbour's
     /// surface come within `tol` of that triangle? (`None`: not known per
     /// primitive, as for analytic shapes.)
     pub(crate) near_prims: Vec<Option<Vec<bool>>>,
+}
+
+/// Where on a geometry's surface the surface of `solid` may come within the
+/// neighbour table's tolerance: a box, padded by that tolerance again (for
+/// the rounding of a hit point computed in f32) and rounded outward to f32.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Zone {
+    pub(crate) solid: u32,
+    pub(crate) lo: [f32; 3],
+    pub(crate) hi: [f32; 3],
+}
+
+impl Zone {
+    /// Does the box hold `p`?
+    #[inline]
+    pub(crate) fn holds(&self, p: [f32; 3]) -> bool {
+        p[0] >= self.lo[0]
+            && p[0] <= self.hi[0]
+            && p[1] >= self.lo[1]
+            && p[1] <= self.hi[1]
+            && p[2] >= self.lo[2]
+            && p[2] <= self.hi[2]
+    }
 }
 
 /// Point-in-solid classification of each solid (independent of Embree).
