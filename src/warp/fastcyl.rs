@@ -14,7 +14,7 @@
 //! images within a bin's width of a caustic, where the pair exists at the
 //! target's β but not at the bin's (or the reverse).
 use super::cylinder::{Candidate, CylImage, CylStatus, Family, HollowCylinder};
-use super::lanes::{resid_jac4, Consts, LaneIn, LaneOut, LANES};
+use super::lanes::{newton4, Consts, LaneIn, Step, LANES};
 use glam::{DVec2, DVec3};
 
 /// Width of a β bin (the table's β is the bin centre).
@@ -1045,30 +1045,31 @@ impl CylinderWarper {
     /// chains of square roots and divisions of up to four polishes, of any
     /// targets and families). Each polish takes the same steps as alone.
     fn polish_all(&self, jobs: &mut [Job], run: &mut Vec<u32>) {
+        run.clear();
+        run.extend(jobs.iter().enumerate().filter_map(|(i, j)| match j {
+            Job::Bracket(_) => Some(i as u32),
+            Job::Edge(..) => None,
+        }));
         for _ in 0..POLISH_STEPS {
-            run.clear();
-            run.extend(jobs.iter().enumerate().filter_map(|(i, j)| match j {
-                Job::Bracket(pol) if pol.state == PolishState::Running => Some(i as u32),
-                _ => None,
-            }));
             if run.is_empty() {
                 break;
             }
             for grp in run.chunks(LANES) {
                 // A short group repeats its last polish in the spare lanes.
-                let lanes: [LaneIn; LANES] = std::array::from_fn(|l| {
-                    let Job::Bracket(pol) = &jobs[grp[l.min(grp.len() - 1)] as usize] else {
-                        unreachable!("only polishes run")
-                    };
-                    pol.lane()
-                });
-                let outs = resid_jac4(&self.lanes, &lanes);
-                for (&ji, ev) in grp.iter().zip(outs) {
+                let pol = |l: usize| match &jobs[grp[l.min(grp.len() - 1)] as usize] {
+                    Job::Bracket(pol) => pol,
+                    Job::Edge(..) => unreachable!("only polishes run"),
+                };
+                let lanes: [LaneIn; LANES] = std::array::from_fn(|l| pol(l).lane());
+                let tol: [f64; LANES] = std::array::from_fn(|l| pol(l).tol);
+                let steps = newton4(&self.lanes, &lanes, tol);
+                for (&ji, st) in grp.iter().zip(steps) {
                     if let Job::Bracket(pol) = &mut jobs[ji as usize] {
-                        pol.step(ev);
+                        pol.step(st);
                     }
                 }
             }
+            run.retain(|&i| matches!(&jobs[i as usize], Job::Bracket(p) if p.state == PolishState::Running));
         }
     }
 
@@ -1232,35 +1233,14 @@ impl Polish {
         }
     }
 
-    /// One step from the evaluation `ev` at the current point (`resid_jac`:
-    /// the residual and its Jacobian, `None` outside the family): the
-    /// convergence test that ends the polish, or a Newton step.
+    /// One step (`lanes::step`, taken in `newton4`): the convergence test
+    /// that ends the polish, or the next point.
     #[inline]
-    fn step(&mut self, ev: LaneOut) {
-        let Some((r, j)) = ev else {
-            self.state = PolishState::Failed;
-            return;
-        };
-        let norm = r[0].abs().max(r[1].abs());
-        if norm <= self.tol {
-            self.finish_at_root();
-            return;
-        }
-        self.newton_step(r, j);
-    }
-
-    /// The step −J⁻¹·r; failed on a singular J or a β out of range.
-    #[inline]
-    fn newton_step(&mut self, r: [f64; 2], j: [[f64; 2]; 2]) {
-        let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
-        if det == 0.0 || !det.is_finite() {
-            self.state = PolishState::Failed;
-            return;
-        }
-        self.b -= (r[0] * j[1][1] - r[1] * j[0][1]) / det;
-        self.beta -= (j[0][0] * r[1] - j[1][0] * r[0]) / det;
-        if self.beta.is_nan() || self.beta.abs() >= 0.999_999 {
-            self.state = PolishState::Failed;
+    fn step(&mut self, st: Step) {
+        match st {
+            Step::Fail => self.state = PolishState::Failed,
+            Step::Root => self.finish_at_root(),
+            Step::Next(b, beta) => (self.b, self.beta) = (b, beta),
         }
     }
 

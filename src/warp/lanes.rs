@@ -66,6 +66,7 @@ impl Consts {
 /// `resid_jac` of each lane. Every lane's target is outside the hollow
 /// for through4, tir2 and wall2 and inside it for hollow2, as the fast
 /// solver's jobs are. Unused lanes may repeat a used one.
+#[cfg(test)]
 pub(crate) fn resid_jac4(k: &Consts, lanes: &[LaneIn; LANES]) -> [LaneOut; LANES] {
     #[cfg(target_arch = "x86_64")]
     if k.avx2 {
@@ -80,79 +81,213 @@ pub(crate) fn resid_jac4(k: &Consts, lanes: &[LaneIn; LANES]) -> [LaneOut; LANES
     })
 }
 
+/// A Newton step's outcome (`step`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Step {
+    /// Outside the family, a singular Jacobian, or β out of range.
+    Fail,
+    /// The residual is within the tolerance at the current point.
+    Root,
+    /// The next (b, β).
+    Next(f64, f64),
+}
+
+/// One Newton step in (b, β) from `resid_jac`'s answer `ev` at (b, β):
+/// the convergence test (max |r| ≤ tol, the max written as the vector
+/// max computes it, which differs from `f64::max` only for a NaN), then
+/// −J⁻¹·r (failed on a singular J or |β| ≥ 0.999999).
+pub(crate) fn step(ev: LaneOut, b: f64, beta: f64, tol: f64) -> Step {
+    let Some((r, j)) = ev else {
+        return Step::Fail;
+    };
+    let (r0, r1) = (r[0].abs(), r[1].abs());
+    let norm = if r0 > r1 { r0 } else { r1 };
+    if norm <= tol {
+        return Step::Root;
+    }
+    let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
+    if det == 0.0 || !det.is_finite() {
+        return Step::Fail;
+    }
+    let nb = b - (r[0] * j[1][1] - r[1] * j[0][1]) / det;
+    let nbeta = beta - (j[0][0] * r[1] - j[1][0] * r[0]) / det;
+    if nbeta.is_nan() || nbeta.abs() >= 0.999_999 {
+        return Step::Fail;
+    }
+    Step::Next(nb, nbeta)
+}
+
+/// `step` of each lane from its own point, with tolerances `tol`.
+pub(crate) fn newton4(k: &Consts, lanes: &[LaneIn; LANES], tol: [f64; LANES]) -> [Step; LANES] {
+    #[cfg(target_arch = "x86_64")]
+    if k.avx2 {
+        // SAFETY: as in `resid_jac4`.
+        return unsafe { avx::newton4(k, lanes, tol) };
+    }
+    std::array::from_fn(|i| {
+        let l = &lanes[i];
+        let ev = k
+            .cyl
+            .resid_jac(l.fam, k.e, l.p, l.dv, l.b, l.beta, l.fam == Family::Hollow2);
+        step(ev, l.b, l.beta, tol[i])
+    })
+}
+
 #[cfg(target_arch = "x86_64")]
 mod avx {
-    use super::{Consts, DVec2, Family, LaneIn, LaneOut, LANES};
+    use super::{Consts, DVec2, Family, LaneIn, Step, LANES};
     use std::arch::x86_64::*;
+
+    macro_rules! sp {
+        ($x:expr) => {
+            _mm256_set1_pd($x)
+        };
+    }
+    macro_rules! add {
+        ($a:expr, $b:expr) => {
+            _mm256_add_pd($a, $b)
+        };
+    }
+    macro_rules! sub {
+        ($a:expr, $b:expr) => {
+            _mm256_sub_pd($a, $b)
+        };
+    }
+    macro_rules! mul {
+        ($a:expr, $b:expr) => {
+            _mm256_mul_pd($a, $b)
+        };
+    }
+    macro_rules! div {
+        ($a:expr, $b:expr) => {
+            _mm256_div_pd($a, $b)
+        };
+    }
+    macro_rules! sqrt {
+        ($a:expr) => {
+            _mm256_sqrt_pd($a)
+        };
+    }
+    macro_rules! neg {
+        ($a:expr) => {
+            _mm256_xor_pd($a, sp!(-0.0))
+        };
+    }
+    // Comparisons as the scalar code's tests: NGE = !(a >= b) and
+    // NLE = !(a <= b) (true for a NaN), NLT = !(a < b), LT = a < b.
+    macro_rules! cmp {
+        ($op:ident, $a:expr, $b:expr) => {
+            _mm256_cmp_pd::<$op>($a, $b)
+        };
+    }
+    macro_rules! and {
+        ($a:expr, $b:expr) => {
+            _mm256_and_pd($a, $b)
+        };
+    }
+    // m ? a : b, lane by lane.
+    macro_rules! sel {
+        ($m:expr, $a:expr, $b:expr) => {
+            _mm256_blendv_pd($b, $a, $m)
+        };
+    }
+    // The product of unit complex numbers (x, y) (rotations composed).
+    macro_rules! cmul {
+        ($a:expr, $b:expr) => {{
+            let (a, b) = ($a, $b);
+            (
+                sub!(mul!(a.0, b.0), mul!(a.1, b.1)),
+                add!(mul!(a.0, b.1), mul!(a.1, b.0)),
+            )
+        }};
+    }
+
+    /// `resid_jac`'s answer in four lanes: `ok` (all ones where it is
+    /// `Some`), the residual and the Jacobian.
+    struct Eval {
+        ok: __m256d,
+        g: __m256d,
+        r1: __m256d,
+        g_b: __m256d,
+        g_beta: __m256d,
+        climb_b: __m256d,
+        climb_beta: __m256d,
+    }
+
+    /// The lanes of a vector.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn out(v: __m256d) -> [f64; LANES] {
+        // SAFETY: __m256d and [f64; 4] are both 32 bytes of plain data,
+        // every bit pattern valid for both.
+        unsafe { std::mem::transmute::<__m256d, [f64; LANES]>(v) }
+    }
+
+    /// `HollowCylinder::resid_jac` of each lane.
+    #[cfg(test)]
+    #[target_feature(enable = "avx2")]
+    pub(super) fn resid_jac4(k: &Consts, lanes: &[LaneIn; LANES]) -> [super::LaneOut; LANES] {
+        let v = eval(k, lanes);
+        let mask = _mm256_movemask_pd(v.ok);
+        let (g, r1, g_b, g_beta, climb_b, climb_beta) = (
+            out(v.g),
+            out(v.r1),
+            out(v.g_b),
+            out(v.g_beta),
+            out(v.climb_b),
+            out(v.climb_beta),
+        );
+        std::array::from_fn(|i| {
+            (mask & (1 << i) != 0)
+                .then(|| ([g[i], r1[i]], [[g_b[i], g_beta[i]], [climb_b[i], climb_beta[i]]]))
+        })
+    }
+
+    /// `super::step` of each lane (the same operations: bit for bit).
+    #[target_feature(enable = "avx2")]
+    pub(super) fn newton4(k: &Consts, lanes: &[LaneIn; LANES], tol: [f64; LANES]) -> [Step; LANES] {
+        let v = eval(k, lanes);
+        let b = _mm256_setr_pd(lanes[0].b, lanes[1].b, lanes[2].b, lanes[3].b);
+        let beta = _mm256_setr_pd(lanes[0].beta, lanes[1].beta, lanes[2].beta, lanes[3].beta);
+        let tol = _mm256_setr_pd(tol[0], tol[1], tol[2], tol[3]);
+        let (ag, ar1) = (
+            _mm256_andnot_pd(sp!(-0.0), v.g),
+            _mm256_andnot_pd(sp!(-0.0), v.r1),
+        );
+        // `step`'s `if r0 > r1 { r0 } else { r1 }`.
+        let norm = _mm256_max_pd(ag, ar1);
+        let root = _mm256_movemask_pd(cmp!(_CMP_LE_OQ, norm, tol));
+        let det = sub!(mul!(v.g_b, v.climb_beta), mul!(v.g_beta, v.climb_b));
+        let bad_det = _mm256_or_pd(
+            cmp!(_CMP_EQ_OQ, det, sp!(0.0)),
+            cmp!(_CMP_NLT_UQ, _mm256_andnot_pd(sp!(-0.0), det), sp!(f64::INFINITY)),
+        );
+        let nb = sub!(b, div!(sub!(mul!(v.g, v.climb_beta), mul!(v.r1, v.g_beta)), det));
+        let nbeta = sub!(beta, div!(sub!(mul!(v.g_b, v.r1), mul!(v.climb_b, v.g)), det));
+        let bad_beta = cmp!(_CMP_NLT_UQ, _mm256_andnot_pd(sp!(-0.0), nbeta), sp!(0.999_999));
+        let ok = _mm256_movemask_pd(v.ok);
+        let bad = _mm256_movemask_pd(_mm256_or_pd(bad_det, bad_beta));
+        let (nb, nbeta) = (out(nb), out(nbeta));
+        std::array::from_fn(|i| {
+            let bit = 1 << i;
+            if ok & bit == 0 {
+                Step::Fail
+            } else if root & bit != 0 {
+                Step::Root
+            } else if bad & bit != 0 {
+                Step::Fail
+            } else {
+                Step::Next(nb[i], nbeta[i])
+            }
+        })
+    }
 
     /// `HollowCylinder::resid_jac` in four lanes (see there for the
     /// formulas; the names are the same). Intrinsics are safe to call
     /// here (the function enables AVX2); the macros only abbreviate them.
     #[target_feature(enable = "avx2")]
-    pub(super) fn resid_jac4(k: &Consts, lanes: &[LaneIn; LANES]) -> [LaneOut; LANES] {
-        macro_rules! sp {
-            ($x:expr) => {
-                _mm256_set1_pd($x)
-            };
-        }
-        macro_rules! add {
-            ($a:expr, $b:expr) => {
-                _mm256_add_pd($a, $b)
-            };
-        }
-        macro_rules! sub {
-            ($a:expr, $b:expr) => {
-                _mm256_sub_pd($a, $b)
-            };
-        }
-        macro_rules! mul {
-            ($a:expr, $b:expr) => {
-                _mm256_mul_pd($a, $b)
-            };
-        }
-        macro_rules! div {
-            ($a:expr, $b:expr) => {
-                _mm256_div_pd($a, $b)
-            };
-        }
-        macro_rules! sqrt {
-            ($a:expr) => {
-                _mm256_sqrt_pd($a)
-            };
-        }
-        macro_rules! neg {
-            ($a:expr) => {
-                _mm256_xor_pd($a, sp!(-0.0))
-            };
-        }
-        // Comparisons as the scalar code's tests: NGE = !(a >= b) and
-        // NLE = !(a <= b) (true for a NaN), NLT = !(a < b), LT = a < b.
-        macro_rules! cmp {
-            ($op:ident, $a:expr, $b:expr) => {
-                _mm256_cmp_pd::<$op>($a, $b)
-            };
-        }
-        macro_rules! and {
-            ($a:expr, $b:expr) => {
-                _mm256_and_pd($a, $b)
-            };
-        }
-        // m ? a : b, lane by lane.
-        macro_rules! sel {
-            ($m:expr, $a:expr, $b:expr) => {
-                _mm256_blendv_pd($b, $a, $m)
-            };
-        }
-        // The product of unit complex numbers (x, y) (rotations composed).
-        macro_rules! cmul {
-            ($a:expr, $b:expr) => {{
-                let (a, b) = ($a, $b);
-                (
-                    sub!(mul!(a.0, b.0), mul!(a.1, b.1)),
-                    add!(mul!(a.0, b.1), mul!(a.1, b.0)),
-                )
-            }};
-        }
+    #[inline]
+    fn eval(k: &Consts, lanes: &[LaneIn; LANES]) -> Eval {
         let get =
             |f: fn(&LaneIn) -> f64| _mm256_setr_pd(f(&lanes[0]), f(&lanes[1]), f(&lanes[2]), f(&lanes[3]));
         let code = |f: Family| match f {
@@ -341,25 +476,15 @@ mod avx {
                 )
             )
         );
-        let r1 = sub!(climb, dv);
-        let mask = _mm256_movemask_pd(ok);
-        let out = |v: __m256d| -> [f64; LANES] {
-            // SAFETY: __m256d and [f64; 4] are both 32 bytes of plain
-            // data, every bit pattern valid for both.
-            unsafe { std::mem::transmute::<__m256d, [f64; LANES]>(v) }
-        };
-        let (g, r1, g_b, g_beta, climb_b, climb_beta) = (
-            out(g),
-            out(r1),
-            out(g_b),
-            out(g_beta),
-            out(climb_b),
-            out(climb_beta),
-        );
-        std::array::from_fn(|i| {
-            (mask & (1 << i) != 0)
-                .then(|| ([g[i], r1[i]], [[g_b[i], g_beta[i]], [climb_b[i], climb_beta[i]]]))
-        })
+        Eval {
+            ok,
+            g,
+            r1: sub!(climb, dv),
+            g_b,
+            g_beta,
+            climb_b,
+            climb_beta,
+        }
     }
 }
 
@@ -370,7 +495,8 @@ mod tests {
 
     /// Every lane is the scalar `resid_jac`, bit for bit, for every family,
     /// in and out of its domain (the `None`s too), with the families mixed
-    /// across the lanes; on a CPU without AVX2 this compares the scalar
+    /// across the lanes, and so is the Newton step taken from it (`newton4`
+    /// against `step`); on a CPU without AVX2 this compares the scalar
     /// path with itself.
     #[test]
     fn lanes_equal_the_scalar_resid_jac() {
@@ -380,6 +506,7 @@ mod tests {
             let k = Consts::new(&c, eye);
             let fams = [Family::Through4, Family::Tir2, Family::Wall2, Family::Hollow2];
             let (mut some, mut none) = (0, 0);
+            let mut steps = [0; 3];
             for _ in 0..4000 {
                 let lanes: [LaneIn; LANES] = std::array::from_fn(|_| {
                     let fam = fams[(rng.next() * 4.0) as usize % 4];
@@ -405,6 +532,24 @@ mod tests {
                     };
                     assert_eq!(bits(g), bits(&want), "{l:?}");
                     assert_eq!(bits(q), bits(&want), "{l:?}");
+                    // The step from it, in lanes and alone.
+                    let tol = rng.next().powi(8) * 4.0;
+                    let st = newton4(&k, &[*l; LANES], [tol; LANES]);
+                    let alone = step(want, l.b, l.beta, tol);
+                    let sbits = |s: Step| match s {
+                        Step::Next(b, beta) => Some((b.to_bits(), beta.to_bits())),
+                        Step::Root => Some((0, 1)),
+                        Step::Fail => None,
+                    };
+                    assert!(
+                        st.iter().all(|&s| sbits(s) == sbits(alone)),
+                        "{l:?} {st:?} {alone:?}"
+                    );
+                    steps[match alone {
+                        Step::Fail => 0,
+                        Step::Root => 1,
+                        Step::Next(..) => 2,
+                    }] += 1;
                     if want.is_some() {
                         some += 1;
                     } else {
@@ -413,6 +558,7 @@ mod tests {
                 }
             }
             assert!(some > 1000 && none > 1000, "{some} {none}");
+            assert!(steps.iter().all(|&n| n > 100), "{steps:?}");
         }
     }
 }
