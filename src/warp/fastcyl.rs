@@ -888,12 +888,10 @@ impl CylinderWarper {
     /// # Errors
     /// As `HollowCylinder::images` (a target inside the glass).
     pub fn images_into(&self, target: DVec3, parity: bool, out: &mut Vec<CylImage>) -> Result<(), CylStatus> {
+        out.clear();
         let mut res = Ok(());
         self.images_batch(&[target], parity, |_, r| match r {
-            Ok(ims) => {
-                out.clear();
-                out.extend_from_slice(ims);
-            }
+            Ok(ims) => out.extend_from_slice(ims),
             Err(e) => res = Err(e),
         });
         res
