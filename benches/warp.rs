@@ -253,11 +253,13 @@ fn cylinder_solver(sum: &mut Summary, eye: DVec3) {
         let w = CylinderWarper::for_targets(c, eye, &pts).unwrap();
         tt.push(t.elapsed().as_secs_f64());
         let t = Instant::now();
-        // As the renderer calls it: into a buffer reused per thread.
+        // As the renderer calls it: in chunks of 256 targets, batched.
         imgs = pts
-            .par_iter()
-            .map_init(Vec::new, |buf, p| {
-                w.images_into(*p, false, buf).map(|_| buf.len()).unwrap_or(0)
+            .par_chunks(256)
+            .map(|ch| {
+                let mut n = 0;
+                w.images_batch(ch, false, |_, r| n += r.map_or(0, |v| v.len()));
+                n
             })
             .sum();
         tf.push(t.elapsed().as_secs_f64());
@@ -366,6 +368,15 @@ struct FrameFigures {
     refit_rays_s: f64,
     rays_s: f64,
     frame_s: f64,
+    /// A viewer's later frame with refitting copies: warp + refit + rays
+    /// against the refitted copies. For the plate this is every frame after
+    /// the first, camera moving or not: its copies' triangle sets do not
+    /// depend on the eye (tested in `tests/warp_render.rs`), so they always
+    /// refit. For the tube only while the camera stands still (the seams
+    /// move with the eye: the orbit rebuilds every frame).
+    refit_frame_s: f64,
+    /// The comparison of the refitted copies' frame with the exact trace.
+    refit_cmp: Comparison,
     old_frame_s: f64,
     exact_s: f64,
     exact_packets_s: f64,
@@ -379,6 +390,8 @@ impl FrameFigures {
             "scene": scene, "vertices": self.vertices, "width": self.width, "height": self.height,
             "warp_s": self.warp_s, "copies_rebuild_s": self.copies_s, "copies_refit_s": self.refit_s, "rays_refit_copies_s": self.refit_rays_s,
             "rays_s": self.rays_s, "frame_s": self.frame_s, "one_shot_frame_s": self.old_frame_s,
+            "refit_frame_s": self.refit_frame_s, "refit_speedup": self.exact_s / self.refit_frame_s,
+            "refit_px_mean": self.refit_cmp.px_mean, "refit_px_p95": self.refit_cmp.px_p95,
             "exact_s": self.exact_s, "exact_packets_s": self.exact_packets_s,
             "speedup": self.exact_s / self.frame_s, "exact_over_rays": self.exact_s / self.rays_s, "speedup_vs_exact_packets": self.exact_packets_s / self.frame_s,
             "render_1spp_s": self.render_1spp_s,
@@ -405,7 +418,7 @@ fn frame_row(
     let (mut warp, mut copies, mut refit, mut rays, mut old, mut ex, mut exp) =
         (vec![], vec![], vec![], vec![], vec![], vec![], vec![]);
     let mut refit_rays = vec![];
-    let mut cmp = None;
+    let (mut cmp, mut refit_cmp) = (None, None);
     // The viewer's frame buffers, kept across frames (as the copies are):
     // `fb` holds the rebuilt copies' frame, compared with the exact trace.
     let (mut fb, mut fb_refit) = (empty_frame(), empty_frame());
@@ -435,6 +448,7 @@ fn frame_row(
         let e2 = render_exact_packets(&scene, &spec, &prep, &orig);
         exp.push(e2.render_s);
         cmp.get_or_insert_with(|| compare(&scene, &fb, &e).0);
+        refit_cmp.get_or_insert_with(|| compare(&scene, &fb_refit, &e).0);
     }
     let render_1spp_s = if with_render {
         let t = Instant::now();
@@ -452,16 +466,19 @@ fn frame_row(
         None
     };
     let (warp_s, copies_s, rays_s) = (median(warp), median(copies), median(rays));
+    let (refit_s, refit_rays_s) = (median(refit), median(refit_rays));
     Ok(FrameFigures {
         vertices: prep.vertices,
         width: w,
         height: h,
         warp_s,
         copies_s,
-        refit_s: median(refit),
-        refit_rays_s: median(refit_rays),
+        refit_s,
+        refit_rays_s,
         rays_s,
         frame_s: warp_s + copies_s + rays_s,
+        refit_frame_s: warp_s + refit_s + refit_rays_s,
+        refit_cmp: refit_cmp.unwrap(),
         old_frame_s: median(old),
         exact_s: median(ex),
         exact_packets_s: median(exp),
@@ -481,13 +498,13 @@ fn empty_frame() -> Frame {
 }
 
 fn header() {
-    println!("| vertices | film | warp s | copies s (refit s) | rays s (SAH copies) | frame s | fps | one-shot s | exact s | vs exact | exact / rays | exact packets s | vs exact packets | render 1spp s | px mean | px p95 | mismatch |");
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("| vertices | film | warp s | copies s (refit s) | rays s (SAH copies) | frame s | fps | one-shot s | exact s | vs exact | refit frame s (vs exact) | exact / rays | exact packets s | vs exact packets | render 1spp s | px mean | px p95 | mismatch |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
 }
 
 fn print_row(f: &FrameFigures) {
     println!(
-        "| {} | {}x{} | {:.4} | {:.4} ({:.4}) | {:.4} ({:.4}) | {:.4} | {:.1} | {:.4} | {:.4} | {:.2}x | {:.2}x | {:.4} | {:.2}x | {} | {:.4} | {:.3} | {:.2}% |",
+        "| {} | {}x{} | {:.4} | {:.4} ({:.4}) | {:.4} ({:.4}) | {:.4} | {:.1} | {:.4} | {:.4} | {:.2}x | {:.4} ({:.2}x) | {:.2}x | {:.4} | {:.2}x | {} | {:.4} | {:.3} | {:.2}% |",
         f.vertices,
         f.width,
         f.height,
@@ -501,6 +518,8 @@ fn print_row(f: &FrameFigures) {
         f.old_frame_s,
         f.exact_s,
         f.exact_s / f.frame_s,
+        f.refit_frame_s,
+        f.exact_s / f.refit_frame_s,
         f.exact_s / f.rays_s,
         f.exact_packets_s,
         f.exact_packets_s / f.frame_s,
@@ -749,12 +768,17 @@ fn main() -> snell::Result<()> {
         tube.exact_packets_s / tube.frame_s,
         orbit["median_speedup"].as_f64().unwrap_or(0.0)
     );
+    // The plate's headline is a viewer's frame after the first: its
+    // copies refit whether the camera moves or not (`refit_frame_s`); the
+    // rebuilt frame's figure is printed beside it.
     println!(
-        "| warp frame vs exact trace, plate | {:.2}x at {:.4} px mean error, p95 {:.3} px (exact / warp rays alone {:.2}x; vs exact in packets {:.2}x) | >= 4x |",
+        "| warp frame vs exact trace, plate | {:.2}x (refitted copies; rebuilt {:.2}x) at {:.4} px mean error, p95 {:.3} px (exact / warp rays alone {:.2}x; vs exact in packets {:.2}x, rebuilt {:.2}x) | >= 4x |",
+        plate.exact_s / plate.refit_frame_s,
         plate.exact_s / plate.frame_s,
-        plate.cmp.px_mean,
-        plate.cmp.px_p95,
-        plate.exact_s / plate.rays_s,
+        plate.refit_cmp.px_mean,
+        plate.refit_cmp.px_p95,
+        plate.exact_s / plate.refit_rays_s,
+        plate.exact_packets_s / plate.refit_frame_s,
         plate.exact_packets_s / plate.frame_s
     );
     if let Some(p) = json_path {
@@ -776,10 +800,12 @@ fn main() -> snell::Result<()> {
             "tube_1600_speedup_vs_exact_packets": tube.exact_packets_s / tube.frame_s,
             "tube_1600_mean_error_px": tube.cmp.px_mean,
             "tube_1600_p95_error_px": tube.cmp.px_p95,
-            "plate_1600_speedup": plate.exact_s / plate.frame_s,
-            "plate_1600_speedup_vs_exact_packets": plate.exact_packets_s / plate.frame_s,
-            "plate_1600_mean_error_px": plate.cmp.px_mean,
-            "plate_1600_p95_error_px": plate.cmp.px_p95,
+            "plate_1600_speedup": plate.exact_s / plate.refit_frame_s,
+            "plate_1600_speedup_vs_exact_packets": plate.exact_packets_s / plate.refit_frame_s,
+            "plate_1600_speedup_rebuilt": plate.exact_s / plate.frame_s,
+            "plate_1600_speedup_rebuilt_vs_exact_packets": plate.exact_packets_s / plate.frame_s,
+            "plate_1600_mean_error_px": plate.refit_cmp.px_mean,
+            "plate_1600_p95_error_px": plate.refit_cmp.px_p95,
             "orbit": orbit,
             "frames": sum.frames,
         });

@@ -543,6 +543,10 @@ impl HollowCylinder {
     /// dg = −along·dψ − h × do and d along = g·dψ − h·do. Singular at the
     /// family edges (a cos θ → 0): the fast solver uses it away from them
     /// only. Checked against finite differences in the tests.
+    ///
+    /// The fast solver evaluates it four at a time (`lanes::resid_jac4`,
+    /// tested equal to this one bit for bit) where the CPU has AVX2, and
+    /// lane by lane with this one elsewhere.
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn resid_jac(
         &self,
@@ -699,31 +703,6 @@ impl HollowCylinder {
                     + glass_beta / mg
                     + glass * beta / (mg * mg * mg));
         Some(([g, climb - dv], [[g_b, g_beta], [climb_b, climb_beta]]))
-    }
-
-    /// The residuals of `resid_jac` without the Jacobian (the closed-form
-    /// path alone, about half the work): `[g, climb − dv]`, or `None` where
-    /// `resid_jac` gives `None`. For the fast solver's confirming
-    /// evaluation.
-    #[allow(clippy::too_many_arguments)]
-    pub(crate) fn resid(
-        &self,
-        fam: Family,
-        e: DVec2,
-        p: DVec2,
-        dv: f64,
-        b: f64,
-        beta: f64,
-        in_hollow: bool,
-    ) -> Option<[f64; 2]> {
-        let path = self.path(fam, e, b, beta, in_hollow)?;
-        let rel = p - path.origin;
-        let along = rel.dot(path.dir);
-        if along <= 0.0 {
-            return None;
-        }
-        let climb = beta * ((path.air + along) / path.ma + path.glass / path.mg);
-        Some([path.dir.perp_dot(rel), climb - dv])
     }
 
     /// Signed distance of the target `p` from the final 2-D ray of `fam` for

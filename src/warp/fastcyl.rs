@@ -14,6 +14,7 @@
 //! images within a bin's width of a caustic, where the pair exists at the
 //! target's β but not at the bin's (or the reverse).
 use super::cylinder::{Candidate, CylImage, CylStatus, Family, HollowCylinder};
+use super::lanes::{newton4, Consts, LaneIn, Step, LANES};
 use glam::{DVec2, DVec3};
 
 /// Width of a β bin (the table's β is the bin centre).
@@ -597,6 +598,8 @@ pub struct CylinderWarper {
     /// The inverse table: scan plans for the cells of target space the
     /// targets of `for_targets` fall in (none for `new`).
     plans: Option<Plans>,
+    /// The tube and the eye for the four-lane evaluations.
+    lanes: Consts,
 }
 
 const FAMILIES: [Family; 4] = [Family::Through4, Family::Tir2, Family::Wall2, Family::Hollow2];
@@ -727,6 +730,7 @@ impl CylinderWarper {
             beta_lo: lo,
             tables,
             plans: None,
+            lanes: Consts::new(&cyl, e),
         })
     }
 
@@ -885,16 +889,79 @@ impl CylinderWarper {
     /// As `HollowCylinder::images` (a target inside the glass).
     pub fn images_into(&self, target: DVec3, parity: bool, out: &mut Vec<CylImage>) -> Result<(), CylStatus> {
         out.clear();
-        self.images_opts(target, parity, out)
+        let mut res = Ok(());
+        self.images_batch(&[target], parity, |_, r| match r {
+            Ok(ims) => out.extend_from_slice(ims),
+            Err(e) => res = Err(e),
+        });
+        res
     }
 
-    fn images_opts(&self, target: DVec3, parity: bool, out: &mut Vec<CylImage>) -> Result<(), CylStatus> {
+    /// The images of every target of `targets`, handed to `each` with the
+    /// target's index in order (`Err` as `images_into`). Targets are solved
+    /// `BATCH` at a time: their Newton polishes are evaluated four at once
+    /// (`lanes`), so this is the renderer's call; `images_into` is a batch
+    /// of one.
+    pub fn images_batch<F>(&self, targets: &[DVec3], parity: bool, mut each: F)
+    where
+        F: FnMut(usize, Result<&[CylImage], CylStatus>),
+    {
+        let mut sc = SCRATCH.with(|c| c.take());
+        for (ci, chunk) in targets.chunks(BATCH).enumerate() {
+            sc.jobs.clear();
+            sc.ctx.clear();
+            if sc.outs.len() < chunk.len() {
+                sc.outs.resize_with(chunk.len(), Vec::new);
+            }
+            for (i, &target) in chunk.iter().enumerate() {
+                let out = &mut sc.outs[i];
+                out.clear();
+                let ctx = self.prepare(target, out, &mut sc.cands, &mut sc.jobs);
+                sc.ctx.push(ctx);
+            }
+            self.polish_all(&mut sc.jobs, &mut sc.run);
+            let mut start = 0;
+            for (i, ctx) in sc.ctx.iter().enumerate() {
+                let out = &mut sc.outs[i];
+                let res = match *ctx {
+                    Prepared::Done(res) => res,
+                    Prepared::Jobs {
+                        end,
+                        p,
+                        dv,
+                        dist,
+                        beta0,
+                        in_hollow,
+                    } => {
+                        let jobs = &sc.jobs[start..end];
+                        start = end;
+                        self.collect(jobs, p, dv, dist, beta0, in_hollow, parity, out);
+                        Ok(())
+                    }
+                };
+                each(ci * BATCH + i, res.map(|()| &out[..]));
+            }
+        }
+        SCRATCH.with(|c| c.replace(sc));
+    }
+
+    /// A target's first phase: its direct image into `out`, and a polish
+    /// job per bracket (or an edge job) onto `jobs`; or the whole answer
+    /// when the target is inside the glass or answered by the robust
+    /// sampler.
+    fn prepare(
+        &self,
+        target: DVec3,
+        out: &mut Vec<CylImage>,
+        cands: &mut Vec<Candidate>,
+        jobs: &mut Vec<Job>,
+    ) -> Prepared {
         let c = &self.cyl;
         let e = self.e;
         let (p, dv, dist, bin) = self.locate(target);
         let rp = p.length();
         if rp > c.inner_radius && rp < c.outer_radius {
-            return Err(CylStatus::InsideGlass);
+            return Prepared::Done(Err(CylStatus::InsideGlass));
         }
         let in_hollow = rp <= c.inner_radius;
         if let Some(direct) = c.direct_image_2d(e, p, self.eye, target, dist) {
@@ -904,17 +971,11 @@ impl CylinderWarper {
         let tabulated = if in_hollow { self.hollow } else { self.outside };
         let Some(bin) = bin.filter(|_| tabulated) else {
             // Outside the tabulated range or kinds: the robust path.
-            *out = c.images(self.eye, target)?;
-            return Ok(());
+            return Prepared::Done(c.images(self.eye, target).map(|v| *out = v));
         };
         let table = &self.tables[bin];
         // The cell's scan plans, if the inverse table has them.
         let plan = self.plans.as_ref().and_then(|pl| pl.find(bin, p));
-        // The candidate and job buffers are the thread's, reused across
-        // calls (no allocation per target).
-        let mut cands = CANDS.with(|c| c.take());
-        let mut jobs = JOBS.with(|c| c.take());
-        jobs.clear();
         // Edge candidates: a run end whose |g| falls below this. The family
         // edge moves with β, and an image's β can be a bin or two from the
         // table's (0.1·BIN·dist lost 3 tir2 images at the TIR edge in
@@ -937,19 +998,13 @@ impl CylinderWarper {
             match plan {
                 Some((pl, spans)) => {
                     let (a, b) = spans[fi];
-                    t.candidates_plan(
-                        p,
-                        edge_tol,
-                        along_min,
-                        &pl.segs[a as usize..b as usize],
-                        &mut cands,
-                    );
+                    t.candidates_plan(p, edge_tol, along_min, &pl.segs[a as usize..b as usize], cands);
                 }
                 None => {
-                    t.candidates_into(p, edge_tol, along_min, &mut cands);
+                    t.candidates_into(p, edge_tol, along_min, cands);
                 }
             }
-            for &cand in &cands {
+            for &cand in cands.iter() {
                 jobs.push(match cand {
                     Candidate::Bracket(k0, k1) => {
                         // First guesses: b by the secant through the two
@@ -966,29 +1021,72 @@ impl CylinderWarper {
                             let mg = (c.ior * c.ior - beta * beta).sqrt();
                             beta = (dv / (air / ma + glass / mg)).clamp(-0.999, 0.999);
                         }
-                        Job::Bracket(Polish::new(fam, dist, b, beta, (t.b[k0], t.b[k1])))
+                        Job::Bracket(Polish::new(fam, p, dv, dist, b, beta, (t.b[k0], t.b[k1])))
                     }
                     Candidate::Edge(k) => Job::Edge(fam, t.b[k]),
                 });
             }
         }
-        // The brackets' polishes run interleaved, one Newton step of each in
-        // turn: a target's brackets are nearly always in different families
-        // (through4 and tir2), each polish a chain of dependent square roots
-        // and divisions, so the core overlaps the independent chains. Each
-        // polish is the same sequence of steps as alone: same results.
+        Prepared::Jobs {
+            end: jobs.len(),
+            p,
+            dv,
+            dist,
+            beta0,
+            in_hollow,
+        }
+    }
+
+    /// Every running polish of the batch steps once per round, four at a
+    /// time through `lanes::resid_jac4` (a polish's step is one closed-form
+    /// evaluation and one Newton step; the lanes overlap the dependent
+    /// chains of square roots and divisions of up to four polishes, of any
+    /// targets and families). Each polish takes the same steps as alone.
+    fn polish_all(&self, jobs: &mut [Job], run: &mut Vec<u32>) {
+        run.clear();
+        run.extend(jobs.iter().enumerate().filter_map(|(i, j)| match j {
+            Job::Bracket(_) => Some(i as u32),
+            Job::Edge(..) => None,
+        }));
         for _ in 0..POLISH_STEPS {
-            let mut running = false;
-            for job in jobs.iter_mut() {
-                if let Job::Bracket(pol) = job {
-                    running |= pol.step(c, e, p, dv, in_hollow);
-                }
-            }
-            if !running {
+            if run.is_empty() {
                 break;
             }
+            for grp in run.chunks(LANES) {
+                // A short group repeats its last polish in the spare lanes.
+                let pol = |l: usize| match &jobs[grp[l.min(grp.len() - 1)] as usize] {
+                    Job::Bracket(pol) => pol,
+                    Job::Edge(..) => unreachable!("only polishes run"),
+                };
+                let lanes: [LaneIn; LANES] = std::array::from_fn(|l| pol(l).lane());
+                let tol: [f64; LANES] = std::array::from_fn(|l| pol(l).tol);
+                let steps = newton4(&self.lanes, &lanes, tol);
+                for (&ji, st) in grp.iter().zip(steps) {
+                    if let Job::Bracket(pol) = &mut jobs[ji as usize] {
+                        pol.step(st);
+                    }
+                }
+            }
+            run.retain(|&i| matches!(&jobs[i as usize], Job::Bracket(p) if p.state == PolishState::Running));
         }
-        for job in &jobs {
+    }
+
+    /// A target's last phase: each job's image (the polished root, or the
+    /// fallbacks), in job order, onto `out` unless already there.
+    #[allow(clippy::too_many_arguments)]
+    fn collect(
+        &self,
+        jobs: &[Job],
+        p: DVec2,
+        dv: f64,
+        dist: f64,
+        beta0: f64,
+        in_hollow: bool,
+        parity: bool,
+        out: &mut Vec<CylImage>,
+    ) {
+        let (c, e) = (&self.cyl, self.e);
+        for job in jobs {
             let img = match *job {
                 Job::Bracket(ref pol) => {
                     let (fam, b, beta) = (pol.fam, pol.b0, pol.beta0);
@@ -1019,30 +1117,63 @@ impl CylinderWarper {
                 }
             }
         }
-        CANDS.with(|c| c.replace(cands));
-        JOBS.with(|c| c.replace(jobs));
-        Ok(())
     }
 }
 
-/// A polish evaluates only the residual next (no Jacobian) when the
-/// quadratic prediction of the next residual is below this many
-/// tolerances; if it falls short, one chord step with the last Jacobian
-/// follows.
-const CONFIRM_BELOW: f64 = 1e3;
+/// Targets per batch of `images_batch` (~2 polishes each: eight groups of
+/// four lanes per round).
+const BATCH: usize = 16;
+
+/// A target after `prepare`.
+#[derive(Clone, Copy)]
+enum Prepared {
+    /// Answered (the robust sampler's images are in its `out`), or an error.
+    Done(Result<(), CylStatus>),
+    /// Its jobs end at `end` in the batch's job list (they start where the
+    /// previous target's ended).
+    Jobs {
+        end: usize,
+        p: DVec2,
+        dv: f64,
+        dist: f64,
+        beta0: f64,
+        in_hollow: bool,
+    },
+}
+
+/// A thread's buffers for `images_batch`, reused across calls (no
+/// allocation per target).
+#[derive(Default)]
+struct Scratch {
+    outs: Vec<Vec<CylImage>>,
+    ctx: Vec<Prepared>,
+    jobs: Vec<Job>,
+    cands: Vec<Candidate>,
+    run: Vec<u32>,
+}
 
 /// Newton steps a polish may take.
 const POLISH_STEPS: usize = 6;
 
 /// Newton in (b, β) with the closed-form Jacobian from the table's first
-/// guess, one step at a time (`step`), so that a target's polishes can run
-/// interleaved: one path evaluation per step instead of three. Fails (the
-/// caller then runs the damped finite-difference Newton, which also handles
-/// the family edges) unless the residual falls to 1e-13·dist within
-/// `POLISH_STEPS` steps at a `b` near the bracket (so that it is this
-/// bracket's root, not a neighbour's).
+/// guess, one step at a time (`step`, given the evaluation at the current
+/// point), so that the polishes of a batch run four at a time: one
+/// evaluation per step instead of three. Fails (the caller then runs the
+/// damped finite-difference Newton, which also handles the family edges)
+/// unless the residual falls to 1e-13·dist within `POLISH_STEPS` steps at
+/// a `b` near the bracket (so that it is this bracket's root, not a
+/// neighbour's).
+///
+/// Before the lanes (issue 16, sixth round) a polish whose next residual
+/// was predicted to converge evaluated the residual alone (about half an
+/// evaluation with the Jacobian) and took a chord step when it fell
+/// short; in four lanes the Jacobian comes with every evaluation, so every
+/// step is a full Newton step.
 struct Polish {
     fam: Family,
+    /// The target (2-D position, height above the eye).
+    p: DVec2,
+    dv: f64,
     /// The first guess (the fallbacks start there).
     b0: f64,
     beta0: f64,
@@ -1055,15 +1186,6 @@ struct Polish {
     lo: f64,
     hi: f64,
     state: PolishState,
-    /// The residual before the last step (∞ before the first).
-    prev_norm: f64,
-    /// The next evaluation is predicted to confirm convergence.
-    confirm: bool,
-    /// The Jacobian of the last full evaluation (for one chord step when a
-    /// confirmation falls short).
-    jac: [[f64; 2]; 2],
-    /// The chord step was taken.
-    chord: bool,
 }
 
 #[derive(Clone, Copy, PartialEq)]
@@ -1079,10 +1201,12 @@ enum Job {
 }
 
 impl Polish {
-    fn new(fam: Family, dist: f64, b0: f64, beta0: f64, bracket: (f64, f64)) -> Polish {
+    fn new(fam: Family, p: DVec2, dv: f64, dist: f64, b0: f64, beta0: f64, bracket: (f64, f64)) -> Polish {
         let width = (bracket.1 - bracket.0).abs();
         Polish {
             fam,
+            p,
+            dv,
             b0,
             beta0,
             bracket,
@@ -1092,78 +1216,30 @@ impl Polish {
             lo: bracket.0.min(bracket.1) - width,
             hi: bracket.0.max(bracket.1) + width,
             state: PolishState::Running,
-            prev_norm: f64::INFINITY,
-            confirm: false,
-            jac: [[0.0; 2]; 2],
-            chord: false,
         }
     }
 
-    /// One Newton step (or the convergence test that ends the polish).
-    /// Returns whether the polish is still running.
+    /// The point to evaluate next.
     #[inline]
-    fn step(&mut self, c: &HollowCylinder, e: DVec2, p: DVec2, dv: f64, in_hollow: bool) -> bool {
-        if self.state != PolishState::Running {
-            return false;
+    fn lane(&self) -> LaneIn {
+        LaneIn {
+            fam: self.fam,
+            p: self.p,
+            dv: self.dv,
+            b: self.b,
+            beta: self.beta,
         }
-        if self.confirm {
-            // The last step was predicted to converge: the residual alone
-            // (`resid`), and the Jacobian only if it did not.
-            self.confirm = false;
-            let Some(r) = c.resid(self.fam, e, p, dv, self.b, self.beta, in_hollow) else {
-                self.state = PolishState::Failed;
-                return false;
-            };
-            let norm = r[0].abs().max(r[1].abs());
-            if norm <= self.tol {
-                self.finish_at_root();
-                return false;
-            }
-            if !self.chord && norm <= 0.1 * self.prev_norm {
-                // Not yet, but converging: one chord step with the last
-                // Jacobian (at most one per polish), then confirm again.
-                self.chord = true;
-                self.confirm = true;
-                let j = self.jac;
-                return self.newton_step(r, j);
-            }
-        }
-        let Some((r, j)) = c.resid_jac(self.fam, e, p, dv, self.b, self.beta, in_hollow) else {
-            self.state = PolishState::Failed;
-            return false;
-        };
-        let norm = r[0].abs().max(r[1].abs());
-        if norm <= self.tol {
-            self.finish_at_root();
-            return false;
-        }
-        // Quadratic convergence predicts the next residual as
-        // norm·(norm / previous)²; well below the tolerance, the next
-        // evaluation is a confirmation and needs no Jacobian. Only the
-        // cost depends on this guess: convergence is always judged on the
-        // residual itself.
-        self.confirm = self.prev_norm.is_finite()
-            && norm * norm * norm <= CONFIRM_BELOW * self.tol * self.prev_norm * self.prev_norm;
-        self.prev_norm = norm;
-        self.jac = j;
-        self.newton_step(r, j)
     }
 
-    /// The step −J⁻¹·r; false (failed) on a singular J or a β out of range.
+    /// One step (`lanes::step`, taken in `newton4`): the convergence test
+    /// that ends the polish, or the next point.
     #[inline]
-    fn newton_step(&mut self, r: [f64; 2], j: [[f64; 2]; 2]) -> bool {
-        let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
-        if det == 0.0 || !det.is_finite() {
-            self.state = PolishState::Failed;
-            return false;
+    fn step(&mut self, st: Step) {
+        match st {
+            Step::Fail => self.state = PolishState::Failed,
+            Step::Root => self.finish_at_root(),
+            Step::Next(b, beta) => (self.b, self.beta) = (b, beta),
         }
-        self.b -= (r[0] * j[1][1] - r[1] * j[0][1]) / det;
-        self.beta -= (j[0][0] * r[1] - j[1][0] * r[0]) / det;
-        if self.beta.is_nan() || self.beta.abs() >= 0.999_999 {
-            self.state = PolishState::Failed;
-            return false;
-        }
-        true
     }
 
     /// The residual is within the tolerance: done if `b` is near the
@@ -1183,8 +1259,7 @@ impl Polish {
 }
 
 thread_local! {
-    static CANDS: std::cell::RefCell<Vec<Candidate>> = const { std::cell::RefCell::new(Vec::new()) };
-    static JOBS: std::cell::RefCell<Vec<Job>> = const { std::cell::RefCell::new(Vec::new()) };
+    static SCRATCH: std::cell::RefCell<Scratch> = std::cell::RefCell::new(Scratch::default());
 }
 
 #[cfg(test)]
@@ -1365,10 +1440,10 @@ mod scan_tests {
 /// A small deterministic generator for the tests (no dependency, same
 /// targets every run).
 #[cfg(test)]
-mod test_rng {
-    pub(super) struct Lcg(pub(super) u64);
+pub(crate) mod test_rng {
+    pub(crate) struct Lcg(pub(crate) u64);
     impl Lcg {
-        pub(super) fn next(&mut self) -> f64 {
+        pub(crate) fn next(&mut self) -> f64 {
             self.0 = self
                 .0
                 .wrapping_mul(6364136223846793005)

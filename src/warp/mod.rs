@@ -6,6 +6,7 @@
 pub mod cylinder;
 pub mod fastcyl;
 pub mod glass;
+mod lanes;
 pub mod paper;
 pub mod plate;
 pub mod points;

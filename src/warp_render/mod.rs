@@ -260,6 +260,27 @@ impl VertexSolver {
     pub fn images(&self, p: DVec3) -> VertexImages {
         vertex_images(&self.glass, self.method, self.eye, p, self.fast.as_ref())
     }
+
+    /// The images of every point of `pts` into `out` (as `images`); the
+    /// fast cylinder solver takes them in batches (its Newton polishes run
+    /// four at a time).
+    pub fn images_chunk(&self, pts: &[DVec3], out: &mut [VertexImages]) {
+        let (WarpMethod::Exact, Some(f)) = (self.method, self.fast.as_ref()) else {
+            for (o, p) in out.iter_mut().zip(pts) {
+                *o = self.images(*p);
+            }
+            return;
+        };
+        f.images_batch(pts, false, |i, ims| {
+            let mut vi = VertexImages::default();
+            if let Ok(ims) = ims {
+                for im in ims {
+                    vi.push(WarpGlass::key_for(im.family, im.impact), im.position);
+                }
+            }
+            out[i] = vi;
+        });
+    }
 }
 
 thread_local! {

@@ -402,10 +402,9 @@ impl Pipeline {
                 let solver = VertexSolver::new(*glass, method, eye, all);
                 self.imgs.resize(nv, VertexImages::default());
                 self.imgs
-                    .par_iter_mut()
-                    .zip(all)
-                    .with_min_len(256)
-                    .for_each(|(out, p)| *out = solver.images(*p));
+                    .par_chunks_mut(256)
+                    .zip(all.par_chunks(256))
+                    .for_each(|(out, p)| solver.images_chunk(p, out));
                 let imgs = &self.imgs;
                 let keys = &self.keys;
                 self.masks.par_iter_mut().zip(imgs).for_each(|(m, vi)| {
