@@ -4,7 +4,8 @@
 //! analytic refraction warps. See DESIGN.md and docs/.
 //!
 //! Layers, bottom to top (`tests/layering.rs` enforces them): [`ray`],
-//! [`optics`], [`sampling`], [`counters`] → [`embree`] (the only `unsafe`) →
+//! [`optics`], [`sampling`], [`counters`] → [`embree`] (the only FFI; the one
+//! other `unsafe` is the cylinder warp's AVX2 lanes, `warp::lanes`) →
 //! [`error`] → [`camera`], [`media`], [`warp`] solvers, [`accum`] → [`scene`]
 //! (the model and its builder) → [`dielectric`] (the nested rule) →
 //! [`integrator`] → [`render`], [`audit`] → parts, farm, benches, the warp
