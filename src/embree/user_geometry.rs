@@ -414,7 +414,10 @@ unsafe fn lanes<Q: LaneQuery>(args: *const Q::Args) {
             let rays = std::slice::from_raw_parts(lane_rays.as_ptr() as *const LaneRay, m);
             let mut cand_store = [MaybeUninit::<Candidates>::uninit(); LANES];
             for c in &mut cand_store[..m] {
-                c.write(Candidates::default());
+                // Only `len` (the items are MaybeUninit, valid uninitialised):
+                // writing `Candidates::default()` became a memset of every
+                // lane's 104 bytes.
+                std::ptr::addr_of_mut!((*c.as_mut_ptr()).len).write(0);
             }
             let cands = std::slice::from_raw_parts_mut(cand_store.as_mut_ptr() as *mut Candidates, m);
             if m == 1 {
