@@ -434,6 +434,7 @@ impl PathState {
     /// path has ended. `surface`: the hit's surface point when the caller
     /// has already reconstructed it (`path_lanes`), else it is made here.
     /// (Forced inline: one call per segment, in the lane loop and in `path`.)
+    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn advance(
         &mut self,
