@@ -1283,6 +1283,125 @@ impl ContainsGrid {
 mod tests {
     use super::*;
 
+    /// The shortcut in `is_touch` (no window root when the gap is clearly
+    /// beyond it) decides as the window itself does, also for gaps right at
+    /// the window's edge.
+    #[test]
+    fn touch_shortcut_agrees_with_the_window() {
+        let mut rng = crate::sampling::Rng::new(11);
+        let mut u = || rng.uniform_f64() * 2.0 - 1.0;
+        for k in 0..200_000 {
+            let o = DVec3::new(u(), u(), u()) * 10f64.powf(3.0 * u());
+            let d = DVec3::new(u(), u(), u()) * 10f64.powf(u());
+            let t0 = 10f64.powf(3.0 * u()) * u();
+            let tmax = t0.abs();
+            let win = crate::ray::crossing_window_f64(o, d, tmax);
+            // Gaps around the window, down to a few ulps of it.
+            let gap = win * (1.0 + u() * 10f64.powf(-15.0 * u().abs()));
+            let t1 = if t0 >= 0.0 { t0 - gap } else { t0 + gap };
+            let want = (t1 - t0).abs() <= 1e-6 + t0.abs() * 4e-7
+                || (t1 - t0).abs() <= crate::ray::crossing_window_f64(o, d, t0.abs().max(t1.abs()));
+            assert_eq!(is_touch(t0, t1, o, d), want, "case {k}: {t0} {t1} {o} {d}");
+        }
+    }
+
+    /// `intersect_lanes` (lanes side by side) gives every lane what
+    /// `intersect_in` gives it alone, bit for bit: spheres, cylinders and
+    /// tubes about the y axis and a tilted one, rays aimed near them
+    /// (grazing ones included), any ray interval, one to seven lanes.
+    #[test]
+    fn lanes_side_by_side_equal_lanes_alone() {
+        let tilted = DVec3::new(1.0, 2.0, 0.5).normalize();
+        let shapes = [
+            Analytic::Sphere {
+                center: DVec3::new(0.3, 0.6, -0.2),
+                radius: 0.6,
+            },
+            Analytic::Cylinder {
+                p0: DVec3::new(0.0, -1.0, 0.0),
+                axis: DVec3::Y,
+                height: 2.0,
+                radius: 1.0,
+                inward: true,
+                caps: false,
+            },
+            Analytic::Cylinder {
+                p0: DVec3::new(0.1, -1.0, 0.2),
+                axis: tilted,
+                height: 2.0,
+                radius: 0.7,
+                inward: false,
+                caps: true,
+            },
+            Analytic::Tube {
+                p0: DVec3::new(0.0, -1.0, 0.0),
+                axis: DVec3::Y,
+                height: 2.0,
+                outer: 1.0,
+                inner: 0.8,
+            },
+            Analytic::Tube {
+                p0: DVec3::new(0.0, -1.0, 0.0),
+                axis: tilted,
+                height: 2.0,
+                outer: 1.0,
+                inner: 0.8,
+            },
+        ];
+        let mut rng = crate::sampling::Rng::new(5);
+        let mut hits = 0;
+        for shape in shapes {
+            for prim in 0..shape.prims() {
+                for round in 0..2000 {
+                    let m = 1 + round % 7;
+                    let rays: Vec<LaneRay> = (0..m)
+                        .map(|_| {
+                            let org =
+                                V3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 6.0 - V3::splat(3.0);
+                            let aim =
+                                V3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 2.4 - V3::splat(1.2);
+                            let mut dir = aim - org;
+                            if rng.uniform() < 0.2 {
+                                // Perpendicular to the way to the centre: grazing.
+                                dir = dir.cross(V3::new(0.3, 1.0, -0.2));
+                            }
+                            let tnear = if rng.uniform() < 0.5 { 0.0 } else { rng.uniform() };
+                            let tfar = if rng.uniform() < 0.5 {
+                                f32::INFINITY
+                            } else {
+                                tnear + 4.0 * rng.uniform()
+                            };
+                            LaneRay {
+                                org,
+                                dir,
+                                tnear,
+                                tfar,
+                            }
+                        })
+                        .collect();
+                    let mut side = vec![Candidates::default(); m];
+                    shape.intersect_lanes(prim, &rays, &mut side);
+                    for (r, got) in rays.iter().zip(&side) {
+                        let mut alone = Candidates::default();
+                        shape.intersect_in(prim, r.org, r.dir, r.tnear, r.tfar, &mut alone);
+                        assert_eq!(got.as_slice(), alone.as_slice(), "{shape:?} prim {prim}: {r:?}");
+                        let mut all = Candidates::default();
+                        shape.intersect(prim, r.org, r.dir, &mut all);
+                        let clipped: Vec<Candidate> = all
+                            .as_slice()
+                            .iter()
+                            .copied()
+                            .filter(|c| c.t >= r.tnear && c.t <= r.tfar)
+                            .collect();
+                        assert_eq!(alone.as_slice(), &clipped[..], "{shape:?} prim {prim}: {r:?}");
+                        hits += alone.as_slice().len();
+                    }
+                }
+            }
+        }
+        assert!(hits > 10_000, "{hits} crossings: the rays should meet the shapes");
+    }
+
     #[test]
     fn sphere_crossings_are_analytic_even_far_away() {
         let (t0, t1) = sphere_ts(
