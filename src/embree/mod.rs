@@ -58,7 +58,7 @@ pub use device::{Device, EmbreeError};
 use filter::init_context;
 pub use filter::{FilterContext, FilterHit, HitFilter, SkipRanges};
 pub use scene::{BuildQuality, Scene, SceneBuilder, SceneFlags};
-pub use user_geometry::{user_geometry_panics, Bounds, Candidate, Candidates, UserShape};
+pub use user_geometry::{user_geometry_panics, Bounds, Candidate, Candidates, LaneRay, UserShape};
 
 /// `RTC_INVALID_GEOMETRY_ID` (a cast macro bindgen does not translate): the
 /// geometry id of "no hit".

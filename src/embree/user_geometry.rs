@@ -12,6 +12,7 @@ use embree_sys as sys;
 use glam::Vec3A as V3;
 use std::any::Any;
 use std::ffi::c_void;
+use std::mem::MaybeUninit;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Mutex;
@@ -80,40 +81,78 @@ pub struct Candidate {
 }
 
 /// Up to four candidate crossings of one primitive; the callbacks sort them
-/// by ascending `t` before use.
-#[derive(Debug, Clone, Default)]
+/// by ascending `t` before use. Only the pushed items are ever written or
+/// read: a callback makes one per active lane, and zeroing the four items
+/// of each cost more than the pushes.
+#[derive(Clone, Copy)]
 pub struct Candidates {
-    items: [Candidate; 4],
+    items: [MaybeUninit<Candidate>; 4],
     len: usize,
+}
+
+impl Default for Candidates {
+    #[inline(always)]
+    fn default() -> Self {
+        Candidates {
+            items: [MaybeUninit::uninit(); 4],
+            len: 0,
+        }
+    }
+}
+
+impl std::fmt::Debug for Candidates {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_list().entries(self.as_slice()).finish()
+    }
 }
 
 impl Candidates {
     /// Add a candidate; silently ignores more than four (no analytic shape of
     /// snell has more than two crossings per primitive).
+    #[inline(always)]
     pub fn push(&mut self, c: Candidate) {
         if self.len < self.items.len() {
-            self.items[self.len] = c;
+            self.items[self.len].write(c);
             self.len += 1;
         }
     }
 
     /// The candidates pushed so far (in push order until the callback sorts them).
+    #[inline(always)]
     pub fn as_slice(&self) -> &[Candidate] {
-        &self.items[..self.len]
+        // SAFETY: items[..len] were written by `push` (len never exceeds 4),
+        // and MaybeUninit<Candidate> has Candidate's layout.
+        unsafe { std::slice::from_raw_parts(self.items.as_ptr() as *const Candidate, self.len) }
     }
 
     /// Insertion sort by t: at most four items (a generic slice sort cost
     /// 4% of a deep-nesting trace, by callgrind).
     #[inline]
     fn sort(&mut self) {
-        for i in 1..self.len {
+        // SAFETY: as in `as_slice`, mutably.
+        let items =
+            unsafe { std::slice::from_raw_parts_mut(self.items.as_mut_ptr() as *mut Candidate, self.len) };
+        for i in 1..items.len() {
             let mut j = i;
-            while j > 0 && self.items[j - 1].t > self.items[j].t {
-                self.items.swap(j - 1, j);
+            while j > 0 && items[j - 1].t > items[j].t {
+                items.swap(j - 1, j);
                 j -= 1;
             }
         }
     }
+}
+
+/// One active lane of a callback, as [`UserShape::intersect_lanes`] sees it.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct LaneRay {
+    /// Origin.
+    pub org: V3,
+    /// Direction (any length).
+    pub dir: V3,
+    /// Start of the ray interval.
+    pub tnear: f32,
+    /// End of the ray interval.
+    pub tfar: f32,
 }
 
 /// An analytic shape exposed to Embree as user geometry
@@ -132,6 +171,31 @@ pub trait UserShape: Send + Sync + 'static {
     /// `out`, for any t and in any order (the caller sorts them and clips
     /// to the ray interval). `dir` need not be unit length.
     fn intersect(&self, prim: u32, org: V3, dir: V3, out: &mut Candidates);
+
+    /// [`intersect`](UserShape::intersect) restricted to the ray interval:
+    /// push at least every crossing whose `t` lies in `[tnear, tfar]` (the
+    /// callbacks clip to it anyway), in the order `intersect` would. A shape
+    /// can skip the work of crossings outside it (the analytic shapes build
+    /// no normal for them, and test for a tangent touch only when a root is
+    /// inside). The default pushes all of them.
+    #[inline]
+    fn intersect_in(&self, prim: u32, org: V3, dir: V3, tnear: f32, tfar: f32, out: &mut Candidates) {
+        let _ = (tnear, tfar);
+        self.intersect(prim, org, dir, out);
+    }
+
+    /// [`intersect_in`](UserShape::intersect_in) of each of `rays` (the
+    /// active lanes of one callback) into `out[k]` for `rays[k]`. A shape
+    /// may compute the lanes side by side (independent arithmetic the
+    /// processor overlaps, where one lane after the other waits on each
+    /// lane's square roots and divisions); the result must be the same.
+    /// The default calls `intersect_in` lane by lane.
+    #[inline]
+    fn intersect_lanes(&self, prim: u32, rays: &[LaneRay], out: &mut [Candidates]) {
+        for (r, o) in rays.iter().zip(out) {
+            self.intersect_in(prim, r.org, r.dir, r.tnear, r.tfar, o);
+        }
+    }
 }
 
 /// What Embree's `geometryUserPtr` points at for a user geometry: boxed and
@@ -296,6 +360,9 @@ impl LaneQuery for Occluded {
     }
 }
 
+/// Lanes a callback hands to [`UserShape::intersect_lanes`] at once.
+const LANES: usize = 16;
+
 /// The lane loop of both callbacks: for each active lane, intersect the shape,
 /// sort the candidates, clip them to `[tnear, tfar]`, and offer them nearest
 /// first to the context filter (if any); the first accepted one is recorded
@@ -309,72 +376,117 @@ unsafe fn lanes<Q: LaneQuery>(args: *const Q::Args) {
     // SAFETY: guaranteed by the caller (Embree's callback contract): `args`, its
     // valid mask of N ints and its SoA ray block of N lanes are valid for this
     // call; geometryUserPtr is our UserGeom (`add_user`), and `context` is a
-    // valid intersect context (ours, or `FilterContext`'s base).
+    // valid intersect context (ours, or `FilterContext`'s base). The slices
+    // over the lane arrays cover only their first m entries, each written
+    // before (MaybeUninit<T> has T's layout).
     unsafe {
         let a = &*args;
         let n = Q::n(a);
         let g = &*(Q::user(a) as *const UserGeom);
         let r = Q::ray(a);
-        for i in 0..n {
-            if *Q::valid(a).add(i) == 0 {
-                continue;
-            }
-            let org = V3::new(*r.add(soa(0, i, n)), *r.add(soa(1, i, n)), *r.add(soa(2, i, n)));
-            let tnear = *r.add(soa(3, i, n));
-            let dir = V3::new(*r.add(soa(4, i, n)), *r.add(soa(5, i, n)), *r.add(soa(6, i, n)));
-            let mut cands = Candidates::default();
-            g.shape.intersect(Q::prim_id(a), org, dir, &mut cands);
-            cands.sort();
-            for c in cands.as_slice() {
-                let tfar_ptr = r.add(soa(8, i, n));
-                let tfar = *tfar_ptr;
-                if !(c.t >= tnear && c.t <= tfar) {
+        // The active lanes, sixteen at a time (Embree's N is at most 16).
+        let mut base = 0;
+        while base < n {
+            let end = (base + LANES).min(n);
+            let mut idx = [0u8; LANES];
+            let mut lane_rays = [MaybeUninit::<LaneRay>::uninit(); LANES];
+            let mut m = 0;
+            for i in base..end {
+                if *Q::valid(a).add(i) == 0 {
                     continue;
                 }
-                // Potential hit in single-lane layout; filters read t from ray.tfar.
-                let mut potential = sys::RTCHit {
-                    Ng_x: c.ng[0],
-                    Ng_y: c.ng[1],
-                    Ng_z: c.ng[2],
-                    u: c.u,
-                    v: c.v,
-                    primID: Q::prim_id(a),
-                    geomID: Q::geom_id(a),
-                    instID: [(*Q::context(a)).instID[0]],
-                };
-                *tfar_ptr = c.t;
-                // Without a context filter there is nothing to call: user
-                // geometries never get per-geometry filters (`add_user`), so
-                // rtcFilterIntersection/Occlusion would accept the hit anyway;
-                // with one, they would call it and nothing else, so it is
-                // called directly (callgrind: ~20 instructions less per call).
-                // Wide queries are not used by snell's filters; their hits
-                // are accepted directly. Nor is it called for a geometry the
-                // filtered query's skip ranges name (`context_skips`: a
-                // context with a filter is a FilterContext's).
-                let filter = (*Q::context(a)).filter;
-                if let Some(filter) =
-                    filter.filter(|_| n == 1 && !context_skips(Q::context(a), Q::geom_id(a)))
-                {
-                    let mut lane_valid: i32 = -1;
-                    let fargs = sys::RTCFilterFunctionNArguments {
-                        valid: &mut lane_valid,
-                        geometryUserPtr: Q::user(a),
-                        context: Q::context(a),
-                        ray: r as *mut sys::RTCRayN,
-                        hit: &mut potential as *mut sys::RTCHit as *mut sys::RTCHitN,
-                        N: 1,
-                    };
-                    // The context filter with the argument block Embree's
-                    // rtcFilter* would pass it (under this block's SAFETY).
-                    filter(&fargs);
-                    if lane_valid == 0 {
-                        *tfar_ptr = tfar;
+                idx[m] = (i - base) as u8;
+                lane_rays[m].write(LaneRay {
+                    org: V3::new(*r.add(soa(0, i, n)), *r.add(soa(1, i, n)), *r.add(soa(2, i, n))),
+                    dir: V3::new(*r.add(soa(4, i, n)), *r.add(soa(5, i, n)), *r.add(soa(6, i, n))),
+                    tnear: *r.add(soa(3, i, n)),
+                    tfar: *r.add(soa(8, i, n)),
+                });
+                m += 1;
+            }
+            let first = base;
+            base = end;
+            if m == 0 {
+                continue;
+            }
+            // The first m lanes were written just above (the arrays are not
+            // zeroed: a callback usually has one to four active lanes).
+            let rays = std::slice::from_raw_parts(lane_rays.as_ptr() as *const LaneRay, m);
+            let mut cand_store = [MaybeUninit::<Candidates>::uninit(); LANES];
+            for c in &mut cand_store[..m] {
+                // Only `len` (the items are MaybeUninit, valid uninitialised):
+                // writing `Candidates::default()` became a memset of every
+                // lane's 104 bytes.
+                std::ptr::addr_of_mut!((*c.as_mut_ptr()).len).write(0);
+            }
+            let cands = std::slice::from_raw_parts_mut(cand_store.as_mut_ptr() as *mut Candidates, m);
+            if m == 1 {
+                let ray = &rays[0];
+                g.shape.intersect_in(
+                    Q::prim_id(a),
+                    ray.org,
+                    ray.dir,
+                    ray.tnear,
+                    ray.tfar,
+                    &mut cands[0],
+                );
+            } else {
+                g.shape.intersect_lanes(Q::prim_id(a), rays, cands);
+            }
+            for (k, cands) in cands.iter_mut().enumerate() {
+                let i = first + idx[k] as usize;
+                let (tnear, tfar) = (rays[k].tnear, rays[k].tfar);
+                cands.sort();
+                for c in cands.as_slice() {
+                    if !(c.t >= tnear && c.t <= tfar) {
                         continue;
                     }
+                    let tfar_ptr = r.add(soa(8, i, n));
+                    // Potential hit in single-lane layout; filters read t from ray.tfar.
+                    let mut potential = sys::RTCHit {
+                        Ng_x: c.ng[0],
+                        Ng_y: c.ng[1],
+                        Ng_z: c.ng[2],
+                        u: c.u,
+                        v: c.v,
+                        primID: Q::prim_id(a),
+                        geomID: Q::geom_id(a),
+                        instID: [(*Q::context(a)).instID[0]],
+                    };
+                    *tfar_ptr = c.t;
+                    // Without a context filter there is nothing to call: user
+                    // geometries never get per-geometry filters (`add_user`), so
+                    // rtcFilterIntersection/Occlusion would accept the hit anyway;
+                    // with one, they would call it and nothing else, so it is
+                    // called directly (callgrind: ~20 instructions less per call).
+                    // Wide queries are not used by snell's filters; their hits
+                    // are accepted directly. Nor is it called for a geometry the
+                    // filtered query's skip ranges name (`context_skips`: a
+                    // context with a filter is a FilterContext's).
+                    let filter = (*Q::context(a)).filter;
+                    if let Some(filter) =
+                        filter.filter(|_| n == 1 && !context_skips(Q::context(a), Q::geom_id(a)))
+                    {
+                        let mut lane_valid: i32 = -1;
+                        let fargs = sys::RTCFilterFunctionNArguments {
+                            valid: &mut lane_valid,
+                            geometryUserPtr: Q::user(a),
+                            context: Q::context(a),
+                            ray: r as *mut sys::RTCRayN,
+                            hit: &mut potential as *mut sys::RTCHit as *mut sys::RTCHitN,
+                            N: 1,
+                        };
+                        // The context filter with the argument block Embree's
+                        // rtcFilter* would pass it (under this block's SAFETY).
+                        filter(&fargs);
+                        if lane_valid == 0 {
+                            *tfar_ptr = tfar;
+                            continue;
+                        }
+                    }
+                    Q::accept(r, i, n, &potential);
+                    break; // candidates are sorted: the first accepted one is nearest
                 }
-                Q::accept(r, i, n, &potential);
-                break; // candidates are sorted: the first accepted one is nearest
             }
         }
     }

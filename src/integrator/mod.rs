@@ -12,7 +12,7 @@ use crate::optics;
 use crate::ray::{front_facing, offset_origin, offset_size, spawn_transmitted, Ray};
 use crate::sampling::{cosine_hemisphere, power_heuristic, Rng};
 use crate::scene::IntegratorKind;
-use crate::scene::{Material, RenderScene};
+use crate::scene::{Material, RenderScene, SurfacePoint};
 use glam::{DVec3, Vec3A as V3};
 use std::f32::consts::FRAC_1_PI;
 
@@ -431,8 +431,10 @@ impl PathState {
     /// medium's absorption before the cast): emission, the next-event
     /// connection (returned as a shadow ray to resolve before the next
     /// segment, in order), the next ray and Russian roulette. `false`: the
-    /// path has ended. (Forced inline: one call per segment, in the lane
-    /// loop and in `path`.)
+    /// path has ended. `surface`: the hit's surface point when the caller
+    /// has already reconstructed it (`path_lanes`), else it is made here.
+    /// (Forced inline: one call per segment, in the lane loop and in `path`.)
+    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn advance(
         &mut self,
@@ -440,6 +442,7 @@ impl PathState {
         sigma: Option<V3>,
         seg: &Segment,
         coincident: &dielectric::Coincident,
+        surface: Option<&SurfacePoint>,
         rng: &mut Rng,
         st: &mut Counters,
     ) -> (Option<PendingShadow>, bool) {
@@ -458,7 +461,10 @@ impl PathState {
         if let Some(s) = sigma {
             self.beta *= (-s * seg.length).exp();
         }
-        let sp = scene.surface_point(&seg.chord, hit);
+        let sp = match surface {
+            Some(sp) => *sp,
+            None => scene.surface_point(&seg.chord, hit),
+        };
         // Shade with the direction the (possibly curved) ray arrives with.
         self.ray.dir = seg.dir;
         let rec = &scene.geoms[hit.geom_id as usize];
@@ -612,7 +618,7 @@ fn path(
         st.segments += 1;
         let sigma = tr.medium(&p.list);
         let (seg, coincident) = cast(tr, &p.ray, &mut p.list, st)?;
-        let (shadow, go) = p.advance(tr, sigma, &seg, &coincident, rng, st);
+        let (shadow, go) = p.advance(tr, sigma, &seg, &coincident, None, rng, st);
         if let Some(sh) = shadow {
             if !tr.scene.embree.occluded(&sh.ray) {
                 p.l += sh.contrib;
@@ -690,6 +696,29 @@ pub fn path_lanes<const N: usize, P: RayPacket<N>>(
         near.intersect(&scene.embree, coherent);
         coherent = false;
         shadow.clear();
+        // Which lanes the packet answered (the others are cast one by one
+        // below), and the surface points of their hits, every lane's before
+        // any lane is shaded: independent f64 square roots and divisions
+        // (an analytic hit's projection and normal) the processor overlaps,
+        // where each lane's shading waited on its own.
+        let mut known = [false; N];
+        let mut sps: [Option<SurfacePoint>; N] = [None; N];
+        for i in 0..n {
+            let Some(p) = &paths[i] else { continue };
+            let Some(check) = plain[i] else { continue };
+            let hit = near.hit(i);
+            if check && !dielectric::plain_hit_is_true(scene, tr.strategy, &p.ray, hit.as_ref(), &p.list) {
+                // A touch at a mesh edge or a leaked entry: the packet's
+                // query was made (counted); `trace` redoes it and continues
+                // past.
+                sts[i].queries += 1;
+                continue;
+            }
+            if let Some(h) = &hit {
+                sps[i] = Some(scene.surface_point(&p.ray, h));
+            }
+            known[i] = true;
+        }
         let mut pending: [Option<V3>; N] = [None; N];
         let mut ended = [false; N];
         for i in 0..n {
@@ -697,38 +726,17 @@ pub fn path_lanes<const N: usize, P: RayPacket<N>>(
             let st = &mut sts[i];
             st.segments += 1;
             let sigma = tr.medium(&p.list);
-            // The packet's answer, when it is the segment's (built in place
-            // and shaded right here: a segment moved out of a `match` was
-            // copied twice per lane).
-            let known = match plain[i] {
-                Some(check) => {
-                    let hit = near.hit(i);
-                    if check
-                        && !dielectric::plain_hit_is_true(scene, tr.strategy, &p.ray, hit.as_ref(), &p.list)
-                    {
-                        // A touch at a mesh edge or a leaked entry: the
-                        // packet's query was made (counted); `trace` redoes
-                        // it and continues past.
-                        st.queries += 1;
-                        None
-                    } else {
-                        Some(hit)
-                    }
-                }
-                None => None,
-            };
+            // The segment is built in place and shaded right here (a
+            // segment moved out of a `match` was copied twice per lane).
             let (seg, cast_coincident, coincident);
-            match known {
-                Some(hit) => {
-                    seg = known_segment(&p.ray, hit, st);
-                    coincident = &NO_COINCIDENT;
-                }
-                None => {
-                    (seg, cast_coincident) = cast(tr, &p.ray, &mut p.list, st)?;
-                    coincident = &cast_coincident;
-                }
+            if known[i] {
+                seg = known_segment(&p.ray, near.hit(i), st);
+                coincident = &NO_COINCIDENT;
+            } else {
+                (seg, cast_coincident) = cast(tr, &p.ray, &mut p.list, st)?;
+                coincident = &cast_coincident;
             }
-            let (sh, go) = p.advance(tr, sigma, &seg, coincident, &mut rngs[i], st);
+            let (sh, go) = p.advance(tr, sigma, &seg, coincident, sps[i].as_ref(), &mut rngs[i], st);
             if let Some(sh) = sh {
                 shadow.set_ray(i, &sh.ray);
                 pending[i] = Some(sh.contrib);

@@ -5,7 +5,7 @@
 //! centre/axis (cylinder `normal = "in"` flips it); a disk's and a rect's normal
 //! is the given one; for meshes the geometric normal is (v1−v0)×(v2−v0), i.e.
 //! the side from which the winding is counter-clockwise.
-use crate::embree::{Bounds, Candidate, Candidates, UserShape};
+use crate::embree::{Bounds, Candidate, Candidates, LaneRay, UserShape};
 use glam::{DVec3, Vec3A as V3};
 
 /// `v.normalize_or(fallback)`, bit for bit: glam's test of the reciprocal
@@ -34,8 +34,17 @@ fn normalize_or_f64(v: DVec3, fallback: DVec3) -> DVec3 {
 }
 
 /// Ray–sphere crossings in f64 (the f32 quadratic loses too much at grazing).
-#[inline]
+#[cfg(test)]
 fn sphere_ts(c: DVec3, r: f64, o: DVec3, d: DVec3) -> Option<(f64, f64)> {
+    let (t0, t1, ok) = sphere_roots(c, r, o, d);
+    ok.then_some((t0, t1))
+}
+
+/// [`sphere_ts`] without a branch: the ordered roots and whether they are
+/// crossings (when not, the roots are meaningless). Straight-line code, so
+/// that the lanes of a callback ([`Analytic::intersect_lanes`]) overlap.
+#[inline(always)]
+fn sphere_roots(c: DVec3, r: f64, o: DVec3, d: DVec3) -> (f64, f64, bool) {
     let oc = o - c;
     let a = d.length_squared();
     let b = oc.dot(d);
@@ -43,15 +52,59 @@ fn sphere_ts(c: DVec3, r: f64, o: DVec3, d: DVec3) -> Option<(f64, f64)> {
     let l = oc.length();
     let cc = (l - r) * (l + r);
     let disc = b * b - a * cc;
-    if disc < 0.0 || a == 0.0 {
-        return None;
-    }
+    let ok = !(disc < 0.0 || a == 0.0);
     let s = disc.sqrt();
     // Numerically stable pair.
     let q = if b > 0.0 { -(b + s) } else { -b + s };
     let (t0, t1) = if q == 0.0 { (0.0, 0.0) } else { (q / a, cc / q) };
-    Some((t0.min(t1), t0.max(t1)))
+    (t0.min(t1), t0.max(t1), ok)
 }
+
+/// The candidate of an analytic hit at `t` with normal `n` (u = v = 1/3:
+/// analytic hits are never "near a mesh edge", see dielectric).
+#[inline(always)]
+fn candidate(t: f64, n: DVec3) -> Candidate {
+    Candidate {
+        t: t as f32,
+        ng: n.as_vec3a().into(),
+        u: 1.0 / 3.0,
+        v: 1.0 / 3.0,
+    }
+}
+
+/// The sphere's crossings of a ray with its roots `(t0, t1, ok)`
+/// ([`sphere_roots`]) within `[tn, tf]`, onto `out`. A tangent touch
+/// (double root) is not a crossing: nothing is reported, so
+/// silhouette-grazing rays neither enter nor leave. (Asked only when a root
+/// counts.)
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn sphere_push(
+    center: DVec3,
+    (t0, t1, ok): (f64, f64, bool),
+    o: DVec3,
+    d: DVec3,
+    tn: f32,
+    tf: f32,
+    out: &mut Candidates,
+) {
+    if !ok {
+        return;
+    }
+    let (k0, k1) = (in_range(t0, tn, tf), in_range(t1, tn, tf));
+    if (k0 || k1) && !is_touch(t0, t1, o, d) {
+        if k0 {
+            out.push(candidate(t0, o + d * t0 - center));
+        }
+        if k1 {
+            out.push(candidate(t1, o + d * t1 - center));
+        }
+    }
+}
+
+/// Lanes [`Analytic::intersect_lanes`] computes side by side (a callback
+/// of Embree's 16-wide packet traversal has one to four active lanes).
+const LANES: usize = 4;
 
 /// The height of `p` along the unit `axis` from `p0`, and its distance from
 /// the axis line.
@@ -60,6 +113,65 @@ fn axial(p0: DVec3, axis: DVec3, p: DVec3) -> (f64, f64) {
     let q = p - p0;
     let y = q.dot(axis);
     (y, (q - axis * y).length())
+}
+
+/// The axis of a cylinder or tube, for the per-hit arithmetic: the world's
+/// y axis (every shipped scene's cylinders), whose components along and
+/// across need no products, or any unit vector. Both give the same values
+/// for the y axis (up to the sign of a zero component).
+trait Axis: Copy {
+    /// The component of `v` along the axis.
+    fn along(self, v: DVec3) -> f64;
+    /// `v` less its component `along` the axis.
+    fn across(self, v: DVec3, along: f64) -> DVec3;
+    /// `base` moved by `y` along the axis.
+    fn offset(self, base: DVec3, y: f64) -> DVec3;
+}
+
+/// The component of `p - p0` across the axis through `p0` (the y axis when
+/// `axis` is it).
+#[inline(always)]
+fn across_axis(p0: DVec3, axis: DVec3, p: DVec3) -> DVec3 {
+    let q = p - p0;
+    if axis == DVec3::Y {
+        AxisY.across(q, AxisY.along(q))
+    } else {
+        axis.across(q, axis.along(q))
+    }
+}
+
+/// The world's y axis.
+#[derive(Clone, Copy)]
+struct AxisY;
+
+impl Axis for AxisY {
+    #[inline(always)]
+    fn along(self, v: DVec3) -> f64 {
+        v.y
+    }
+    #[inline(always)]
+    fn across(self, v: DVec3, _along: f64) -> DVec3 {
+        DVec3::new(v.x, 0.0, v.z)
+    }
+    #[inline(always)]
+    fn offset(self, base: DVec3, y: f64) -> DVec3 {
+        DVec3::new(base.x, base.y + y, base.z)
+    }
+}
+
+impl Axis for DVec3 {
+    #[inline(always)]
+    fn along(self, v: DVec3) -> f64 {
+        v.dot(self)
+    }
+    #[inline(always)]
+    fn across(self, v: DVec3, along: f64) -> DVec3 {
+        v - self * along
+    }
+    #[inline(always)]
+    fn offset(self, base: DVec3, y: f64) -> DVec3 {
+        base + self * y
+    }
 }
 
 /// Two roots this close are one tangent touch, not an entry and an exit.
@@ -71,8 +183,28 @@ fn axial(p0: DVec3, axis: DVec3, p: DVec3) -> (f64, f64) {
 /// through the circle where two spheres meet kept the second sphere.)
 #[inline]
 fn is_touch(t0: f64, t1: f64, o: DVec3, d: DVec3) -> bool {
-    let win = crate::ray::crossing_window_f64(o, d, t0.abs().max(t1.abs()));
-    (t1 - t0).abs() <= 1e-6 + t0.abs() * 4e-7 || (t1 - t0).abs() <= win
+    let gap = (t1 - t0).abs();
+    if gap <= 1e-6 + t0.abs() * 4e-7 {
+        return true;
+    }
+    let tmax = t0.abs().max(t1.abs());
+    // The window is k·(|o|max + 0.5)/|d| + k·t; |d| >= its largest
+    // component, so a gap beyond k·t + k·(|o|max + 0.5)/|d|max (with a
+    // margin far above the rounding of either side) is beyond the window,
+    // without the window's square root and division. Near it, the window.
+    const K: f64 = 2.0 * crate::ray::OFFSET_ULPS as f64 * f32::EPSILON as f64;
+    const MARGIN: f64 = 1.0 + 1e-9;
+    let beyond =
+        (gap - K * MARGIN * tmax) * d.abs().max_element() > K * MARGIN * (o.abs().max_element() + 0.5);
+    !beyond && gap <= crate::ray::crossing_window_f64(o, d, tmax)
+}
+
+/// Is the root `t` one a query keeps: finite, and within `[tn, tf]` as the
+/// f32 the callback compares (`Candidate::t`)?
+#[inline(always)]
+fn in_range(t: f64, tn: f32, tf: f32) -> bool {
+    let t32 = t as f32;
+    t.is_finite() && t32 >= tn && t32 <= tf
 }
 
 /// An analytic primitive set. Closed sets of primitives share one geometry.
@@ -130,48 +262,170 @@ pub enum Analytic {
 
 impl Analytic {
     /// Crossings of the ray with the infinite cylinder around (p0, axis),
-    /// clipped to [0, h]: `emit(t, radial)` for each, nearer root first.
+    /// clipped to [0, h] and to the ray interval `[tn, tf]` ([`in_range`]):
+    /// `emit(t, radial)` for each, in root order.
     /// (Handed over one by one rather than as an array of options, which
     /// `intersect` then copied and unpacked: callgrind, cylinder_refraction.)
+    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    fn cyl(p0: DVec3, axis: DVec3, h: f64, r: f64, o: DVec3, d: DVec3, mut emit: impl FnMut(f64, DVec3)) {
-        let op = o - p0;
-        let d_perp = d - axis * d.dot(axis);
-        let o_perp = op - axis * op.dot(axis);
-        let a = d_perp.length_squared();
-        if a == 0.0 {
-            return;
+    fn cyl(
+        p0: DVec3,
+        axis: DVec3,
+        h: f64,
+        r: f64,
+        o: DVec3,
+        d: DVec3,
+        range: (f32, f32),
+        emit: impl FnMut(f64, DVec3),
+    ) {
+        if axis == DVec3::Y {
+            Self::cyl_about(p0, AxisY, h, r, o, d, range, emit)
+        } else {
+            Self::cyl_about(p0, axis, h, r, o, d, range, emit)
         }
+    }
+
+    /// [`cyl`](Self::cyl) about the axis `axis`.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn cyl_about(
+        p0: DVec3,
+        axis: impl Axis,
+        h: f64,
+        r: f64,
+        o: DVec3,
+        d: DVec3,
+        range: (f32, f32),
+        emit: impl FnMut(f64, DVec3),
+    ) {
+        let roots = Self::cyl_roots(p0, axis, r, o, d);
+        Self::cyl_emit(p0, axis, h, o, d, roots, range, emit);
+    }
+
+    /// The roots of the ray with the infinite cylinder of radius `r` around
+    /// the axis through `p0`, in the quadratic's order, and whether they are
+    /// crossings (when not, the roots are meaningless). Straight-line code,
+    /// so that the lanes of a callback ([`Analytic::intersect_lanes`]) overlap.
+    #[inline(always)]
+    fn cyl_roots(p0: DVec3, axis: impl Axis, r: f64, o: DVec3, d: DVec3) -> (f64, f64, bool) {
+        let op = o - p0;
+        let d_perp = axis.across(d, axis.along(d));
+        let o_perp = axis.across(op, axis.along(op));
+        let a = d_perp.length_squared();
         let b = o_perp.dot(d_perp);
         let lo = o_perp.length();
         let c = (lo - r) * (lo + r);
         let disc = b * b - a * c;
-        if disc < 0.0 {
-            return;
-        }
+        let ok = !(a == 0.0 || disc < 0.0);
         let s = disc.sqrt();
         let q = if b > 0.0 { -(b + s) } else { -b + s };
-        let ts = if q == 0.0 { [0.0, 0.0] } else { [q / a, c / q] };
-        // Tangent to the cylinder: not a crossing.
-        if is_touch(ts[0], ts[1], o, d) {
+        let (t0, t1) = if q == 0.0 { (0.0, 0.0) } else { (q / a, c / q) };
+        (t0, t1, ok)
+    }
+
+    /// The crossings among the roots `(t0, t1, ok)` ([`cyl_roots`](Self::cyl_roots))
+    /// within [0, h] along the axis and within `[tn, tf]` ([`in_range`]):
+    /// `emit(t, radial)` for each, in root order. Two roots of one tangent
+    /// touch are no crossing (asked only when a root counts).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn cyl_emit(
+        p0: DVec3,
+        axis: impl Axis,
+        h: f64,
+        o: DVec3,
+        d: DVec3,
+        (t0, t1, ok): (f64, f64, bool),
+        (tn, tf): (f32, f32),
+        mut emit: impl FnMut(f64, DVec3),
+    ) {
+        if !ok {
             return;
         }
-        for t in ts {
+        let keep = [in_range(t0, tn, tf), in_range(t1, tn, tf)];
+        if !(keep[0] || keep[1]) || is_touch(t0, t1, o, d) {
+            return;
+        }
+        let op = o - p0;
+        for (t, k) in [t0, t1].into_iter().zip(keep) {
+            if !k {
+                continue;
+            }
             let p = op + d * t;
-            let y = p.dot(axis);
+            let y = axis.along(p);
             if (0.0..=h).contains(&y) {
-                emit(t, p - axis * y);
+                emit(t, axis.across(p, y));
             }
         }
     }
 
+    /// The walls of a cylinder (`flip`: normals towards the axis) for the
+    /// lanes of a callback: every lane's roots first, then each lane's
+    /// crossings.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn cyl_lanes(
+        p0: DVec3,
+        axis: impl Axis,
+        h: f64,
+        r: f64,
+        flip: bool,
+        rays: &[LaneRay],
+        out: &mut [Candidates],
+    ) {
+        for (rays, out) in rays.chunks(LANES).zip(out.chunks_mut(LANES)) {
+            let mut roots = [(0.0, 0.0, false); LANES];
+            for (root, ray) in roots.iter_mut().zip(rays) {
+                *root = Self::cyl_roots(p0, axis, r, ray.org.as_dvec3(), ray.dir.as_dvec3());
+            }
+            for ((ray, out), &root) in rays.iter().zip(out).zip(&roots) {
+                let (o, d) = (ray.org.as_dvec3(), ray.dir.as_dvec3());
+                Self::cyl_emit(p0, axis, h, o, d, root, (ray.tnear, ray.tfar), |t, radial| {
+                    out.push(candidate(t, if flip { -radial } else { radial }))
+                });
+            }
+        }
+    }
+
+    /// [`cyl_lanes`](Self::cyl_lanes) about `axis`, the y axis's own code for it.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn cyl_lanes_about(
+        p0: DVec3,
+        axis: DVec3,
+        h: f64,
+        r: f64,
+        flip: bool,
+        rays: &[LaneRay],
+        out: &mut [Candidates],
+    ) {
+        if axis == DVec3::Y {
+            Self::cyl_lanes(p0, AxisY, h, r, flip, rays, out)
+        } else {
+            Self::cyl_lanes(p0, axis, h, r, flip, rays, out)
+        }
+    }
+
+    /// The crossing of the ray with the disk (annulus when `inner` > 0), if
+    /// it lies within `[tn, tf]` ([`in_range`]).
     #[inline]
-    fn disk(center: DVec3, n: DVec3, r: f64, inner: f64, o: DVec3, d: DVec3) -> Option<f64> {
+    fn disk(
+        center: DVec3,
+        n: DVec3,
+        r: f64,
+        inner: f64,
+        o: DVec3,
+        d: DVec3,
+        (tn, tf): (f32, f32),
+    ) -> Option<f64> {
         let dn = d.dot(n);
         if dn == 0.0 {
             return None;
         }
         let t = (center - o).dot(n) / dn;
+        if !in_range(t, tn, tf) {
+            return None;
+        }
         let p = o + d * t - center;
         let q = p.length_squared();
         (q <= r * r && q >= inner * inner).then_some(t)
@@ -288,8 +542,7 @@ impl Analytic {
             Analytic::Sphere { center, .. } => normalize_or_f64(p - center, DVec3::Y),
             Analytic::Cylinder { p0, axis, inward, .. } => match prim {
                 0 => {
-                    let q = p - p0;
-                    let radial = normalize_or_f64(q - axis * q.dot(axis), DVec3::X);
+                    let radial = normalize_or_f64(across_axis(p0, axis, p), DVec3::X);
                     if inward {
                         -radial
                     } else {
@@ -300,8 +553,7 @@ impl Analytic {
                 _ => axis,
             },
             Analytic::Tube { p0, axis, .. } => {
-                let q = p - p0;
-                let radial = normalize_or_f64(q - axis * q.dot(axis), DVec3::X);
+                let radial = normalize_or_f64(across_axis(p0, axis, p), DVec3::X);
                 match prim {
                     0 => radial,
                     1 => -radial,
@@ -316,15 +568,22 @@ impl Analytic {
     /// Snap a point near primitive `prim` onto it exactly (f64).
     #[inline]
     pub fn project(&self, prim: u32, p: DVec3) -> DVec3 {
-        let radial = |p0: DVec3, axis: DVec3, r: f64| {
+        fn onto(p0: DVec3, axis: impl Axis, r: f64, p: DVec3) -> DVec3 {
             let q = p - p0;
-            let y = q.dot(axis);
-            let rad = q - axis * y;
+            let y = axis.along(q);
+            let rad = axis.across(q, y);
             let l = rad.length();
             if l > 0.0 {
-                p0 + axis * y + rad * (r / l)
+                axis.offset(p0, y) + rad * (r / l)
             } else {
                 p
+            }
+        }
+        let radial = |p0: DVec3, axis: DVec3, r: f64| {
+            if axis == DVec3::Y {
+                onto(p0, AxisY, r, p)
+            } else {
+                onto(p0, axis, r, p)
             }
         };
         let plane = |c: DVec3, n: DVec3| p - n * (p - c).dot(n);
@@ -443,29 +702,19 @@ impl UserShape for Analytic {
     }
 
     fn intersect(&self, prim: u32, org: V3, dir: V3, out: &mut Candidates) {
+        self.intersect_in(prim, org, dir, f32::NEG_INFINITY, f32::INFINITY, out);
+    }
+
+    #[inline]
+    fn intersect_in(&self, prim: u32, org: V3, dir: V3, tn: f32, tf: f32, out: &mut Candidates) {
         let o = org.as_dvec3();
         let d = dir.as_dvec3();
-        // u = v = 1/3: analytic hits are never "near a mesh edge" (see dielectric).
-        let mut push = |t: f64, n: DVec3| {
-            if t.is_finite() {
-                out.push(Candidate {
-                    t: t as f32,
-                    ng: n.as_vec3a().into(),
-                    u: 1.0 / 3.0,
-                    v: 1.0 / 3.0,
-                });
-            }
-        };
+        let range = (tn, tf);
+        // Every t pushed is `in_range`.
+        let mut push = |t: f64, n: DVec3| out.push(candidate(t, n));
         match *self {
             Analytic::Sphere { center, radius } => {
-                // A tangent touch (double root) is not a crossing: report nothing,
-                // so silhouette-grazing rays neither enter nor leave.
-                if let Some((t0, t1)) =
-                    sphere_ts(center, radius, o, d).filter(|&(a, b)| !is_touch(a, b, o, d))
-                {
-                    push(t0, o + d * t0 - center);
-                    push(t1, o + d * t1 - center);
-                }
+                sphere_push(center, sphere_roots(center, radius, o, d), o, d, tn, tf, out);
             }
             Analytic::Cylinder {
                 p0,
@@ -475,16 +724,16 @@ impl UserShape for Analytic {
                 inward,
                 ..
             } => match prim {
-                0 => Self::cyl(p0, axis, height, radius, o, d, |t, radial| {
+                0 => Self::cyl(p0, axis, height, radius, o, d, range, |t, radial| {
                     push(t, if inward { -radial } else { radial })
                 }),
                 1 => {
-                    if let Some(t) = Self::disk(p0, axis, radius, 0.0, o, d) {
+                    if let Some(t) = Self::disk(p0, axis, radius, 0.0, o, d, range) {
                         push(t, -axis);
                     }
                 }
                 _ => {
-                    if let Some(t) = Self::disk(p0 + axis * height, axis, radius, 0.0, o, d) {
+                    if let Some(t) = Self::disk(p0 + axis * height, axis, radius, 0.0, o, d, range) {
                         push(t, axis);
                     }
                 }
@@ -496,15 +745,15 @@ impl UserShape for Analytic {
                 outer,
                 inner,
             } => match prim {
-                0 => Self::cyl(p0, axis, height, outer, o, d, &mut push),
-                1 => Self::cyl(p0, axis, height, inner, o, d, |t, radial| push(t, -radial)),
+                0 => Self::cyl(p0, axis, height, outer, o, d, range, &mut push),
+                1 => Self::cyl(p0, axis, height, inner, o, d, range, |t, radial| push(t, -radial)),
                 2 => {
-                    if let Some(t) = Self::disk(p0, axis, outer, inner, o, d) {
+                    if let Some(t) = Self::disk(p0, axis, outer, inner, o, d, range) {
                         push(t, -axis);
                     }
                 }
                 _ => {
-                    if let Some(t) = Self::disk(p0 + axis * height, axis, outer, inner, o, d) {
+                    if let Some(t) = Self::disk(p0 + axis * height, axis, outer, inner, o, d, range) {
                         push(t, axis);
                     }
                 }
@@ -515,8 +764,48 @@ impl UserShape for Analytic {
                 radius,
                 inner,
             } => {
-                if let Some(t) = Self::disk(center, normal, radius, inner, o, d) {
+                if let Some(t) = Self::disk(center, normal, radius, inner, o, d, range) {
                     push(t, normal);
+                }
+            }
+        }
+    }
+
+    fn intersect_lanes(&self, prim: u32, rays: &[LaneRay], out: &mut [Candidates]) {
+        match *self {
+            Analytic::Sphere { center, radius } => {
+                for (rays, out) in rays.chunks(LANES).zip(out.chunks_mut(LANES)) {
+                    let mut roots = [(0.0, 0.0, false); LANES];
+                    for (root, ray) in roots.iter_mut().zip(rays) {
+                        *root = sphere_roots(center, radius, ray.org.as_dvec3(), ray.dir.as_dvec3());
+                    }
+                    for ((ray, out), &root) in rays.iter().zip(out).zip(&roots) {
+                        let (o, d) = (ray.org.as_dvec3(), ray.dir.as_dvec3());
+                        sphere_push(center, root, o, d, ray.tnear, ray.tfar, out);
+                    }
+                }
+            }
+            Analytic::Cylinder {
+                p0,
+                axis,
+                height,
+                radius,
+                inward,
+                ..
+            } if prim == 0 => Self::cyl_lanes_about(p0, axis, height, radius, inward, rays, out),
+            Analytic::Tube {
+                p0,
+                axis,
+                height,
+                outer,
+                inner,
+            } if prim < 2 => {
+                let (r, flip) = if prim == 0 { (outer, false) } else { (inner, true) };
+                Self::cyl_lanes_about(p0, axis, height, r, flip, rays, out)
+            }
+            _ => {
+                for (r, o) in rays.iter().zip(out) {
+                    self.intersect_in(prim, r.org, r.dir, r.tnear, r.tfar, o);
                 }
             }
         }
@@ -993,6 +1282,125 @@ impl ContainsGrid {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The shortcut in `is_touch` (no window root when the gap is clearly
+    /// beyond it) decides as the window itself does, also for gaps right at
+    /// the window's edge.
+    #[test]
+    fn touch_shortcut_agrees_with_the_window() {
+        let mut rng = crate::sampling::Rng::new(11);
+        let mut u = || rng.uniform_f64() * 2.0 - 1.0;
+        for k in 0..200_000 {
+            let o = DVec3::new(u(), u(), u()) * 10f64.powf(3.0 * u());
+            let d = DVec3::new(u(), u(), u()) * 10f64.powf(u());
+            let t0 = 10f64.powf(3.0 * u()) * u();
+            let tmax = t0.abs();
+            let win = crate::ray::crossing_window_f64(o, d, tmax);
+            // Gaps around the window, down to a few ulps of it.
+            let gap = win * (1.0 + u() * 10f64.powf(-15.0 * u().abs()));
+            let t1 = if t0 >= 0.0 { t0 - gap } else { t0 + gap };
+            let want = (t1 - t0).abs() <= 1e-6 + t0.abs() * 4e-7
+                || (t1 - t0).abs() <= crate::ray::crossing_window_f64(o, d, t0.abs().max(t1.abs()));
+            assert_eq!(is_touch(t0, t1, o, d), want, "case {k}: {t0} {t1} {o} {d}");
+        }
+    }
+
+    /// `intersect_lanes` (lanes side by side) gives every lane what
+    /// `intersect_in` gives it alone, bit for bit: spheres, cylinders and
+    /// tubes about the y axis and a tilted one, rays aimed near them
+    /// (grazing ones included), any ray interval, one to seven lanes.
+    #[test]
+    fn lanes_side_by_side_equal_lanes_alone() {
+        let tilted = DVec3::new(1.0, 2.0, 0.5).normalize();
+        let shapes = [
+            Analytic::Sphere {
+                center: DVec3::new(0.3, 0.6, -0.2),
+                radius: 0.6,
+            },
+            Analytic::Cylinder {
+                p0: DVec3::new(0.0, -1.0, 0.0),
+                axis: DVec3::Y,
+                height: 2.0,
+                radius: 1.0,
+                inward: true,
+                caps: false,
+            },
+            Analytic::Cylinder {
+                p0: DVec3::new(0.1, -1.0, 0.2),
+                axis: tilted,
+                height: 2.0,
+                radius: 0.7,
+                inward: false,
+                caps: true,
+            },
+            Analytic::Tube {
+                p0: DVec3::new(0.0, -1.0, 0.0),
+                axis: DVec3::Y,
+                height: 2.0,
+                outer: 1.0,
+                inner: 0.8,
+            },
+            Analytic::Tube {
+                p0: DVec3::new(0.0, -1.0, 0.0),
+                axis: tilted,
+                height: 2.0,
+                outer: 1.0,
+                inner: 0.8,
+            },
+        ];
+        let mut rng = crate::sampling::Rng::new(5);
+        let mut hits = 0;
+        for shape in shapes {
+            for prim in 0..shape.prims() {
+                for round in 0..2000 {
+                    let m = 1 + round % 7;
+                    let rays: Vec<LaneRay> = (0..m)
+                        .map(|_| {
+                            let org =
+                                V3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 6.0 - V3::splat(3.0);
+                            let aim =
+                                V3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 2.4 - V3::splat(1.2);
+                            let mut dir = aim - org;
+                            if rng.uniform() < 0.2 {
+                                // Perpendicular to the way to the centre: grazing.
+                                dir = dir.cross(V3::new(0.3, 1.0, -0.2));
+                            }
+                            let tnear = if rng.uniform() < 0.5 { 0.0 } else { rng.uniform() };
+                            let tfar = if rng.uniform() < 0.5 {
+                                f32::INFINITY
+                            } else {
+                                tnear + 4.0 * rng.uniform()
+                            };
+                            LaneRay {
+                                org,
+                                dir,
+                                tnear,
+                                tfar,
+                            }
+                        })
+                        .collect();
+                    let mut side = vec![Candidates::default(); m];
+                    shape.intersect_lanes(prim, &rays, &mut side);
+                    for (r, got) in rays.iter().zip(&side) {
+                        let mut alone = Candidates::default();
+                        shape.intersect_in(prim, r.org, r.dir, r.tnear, r.tfar, &mut alone);
+                        assert_eq!(got.as_slice(), alone.as_slice(), "{shape:?} prim {prim}: {r:?}");
+                        let mut all = Candidates::default();
+                        shape.intersect(prim, r.org, r.dir, &mut all);
+                        let clipped: Vec<Candidate> = all
+                            .as_slice()
+                            .iter()
+                            .copied()
+                            .filter(|c| c.t >= r.tnear && c.t <= r.tfar)
+                            .collect();
+                        assert_eq!(alone.as_slice(), &clipped[..], "{shape:?} prim {prim}: {r:?}");
+                        hits += alone.as_slice().len();
+                    }
+                }
+            }
+        }
+        assert!(hits > 10_000, "{hits} crossings: the rays should meet the shapes");
+    }
 
     #[test]
     fn sphere_crossings_are_analytic_even_far_away() {
