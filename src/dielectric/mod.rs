@@ -67,6 +67,33 @@ material = {{ type = "dielectric", ior = 1.5, priority = 2 }}
         .expect("a valid test scene")
 }
 
+/// A test scene: sphere "a" (priority 1, the unit sphere at the origin)
+/// and sphere "b" (priority 2) of centre and radius `b`, then the
+/// `[[objects]]` of `more`.
+#[cfg(test)]
+pub(crate) fn two_spheres(b: ([f64; 3], f64), more: &str) -> crate::scene::RenderScene {
+    let ([x, y, z], r) = b;
+    let text = format!(
+        r#"
+[camera]
+position = [0.0, 0.0, 5.0]
+target = [0.0, 0.0, 0.0]
+fov = 40.0
+[[objects]]
+name = "a"
+shape = {{ type = "sphere", center = [0.0, 0.0, 0.0], radius = 1.0 }}
+material = {{ type = "dielectric", ior = 1.33, priority = 1 }}
+[[objects]]
+name = "b"
+shape = {{ type = "sphere", center = [{x:?}, {y:?}, {z:?}], radius = {r:?} }}
+material = {{ type = "dielectric", ior = 1.5, priority = 2 }}
+{more}"#
+    );
+    let build = crate::scene::BuildOptions::default();
+    crate::scene::load_scene_str("t.toml", &text, std::path::Path::new("."), &build)
+        .expect("a valid test scene")
+}
+
 /// How false hits are found and skipped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum NestedStrategy {

@@ -434,7 +434,6 @@ fn settle(scene: &RenderScene, near: &NearSolids, child: &Ray, list: &mut Interi
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::{load_scene_str, BuildOptions};
 
     /// Points on the unit sphere (Fibonacci spiral).
     fn sphere_points(n: usize) -> impl Iterator<Item = DVec3> {
@@ -449,31 +448,12 @@ mod tests {
 
     #[test]
     fn zones_hold_every_point_near_the_other_surface_and_few_others() {
-        let text = r#"
-[camera]
-position = [0.0, 0.0, 5.0]
-target = [0.0, 0.0, 0.0]
-fov = 40.0
-[[objects]]
-name = "a"
-shape = { type = "sphere", center = [0.0, 0.0, 0.0], radius = 1.0 }
-material = { type = "dielectric", ior = 1.33, priority = 1 }
-[[objects]]
-name = "b"
-shape = { type = "sphere", center = [1.5, 0.2, 0.0], radius = 0.8 }
-material = { type = "dielectric", ior = 1.5, priority = 2 }
-[[objects]]
+        let ground = r#"[[objects]]
 name = "ground"
 shape = { type = "rect", center = [0.0, -1.0, 0.0], normal = [0.0, 1.0, 0.0], u_axis = [1.0, 0.0, 0.0], size = [6.0, 6.0] }
 material = { type = "diffuse", reflectance = [0.5, 0.5, 0.5] }
 "#;
-        let scene = load_scene_str(
-            "t.toml",
-            text,
-            std::path::Path::new("."),
-            &BuildOptions::default(),
-        )
-        .unwrap();
+        let scene = crate::dielectric::two_spheres(([1.5, 0.2, 0.0], 0.8), ground);
         let nb = neighbours(&scene);
         let geom = |name: &str| scene.geoms.iter().position(|g| g.name == name).unwrap();
         let (ga, gg) = (geom("a"), geom("ground"));

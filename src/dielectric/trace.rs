@@ -613,7 +613,6 @@ fn recast(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::{load_scene_str, BuildOptions};
     use glam::Vec3A;
 
     #[test]
@@ -641,27 +640,7 @@ mod tests {
     fn inside_the_lowest_solid_a_plain_query_answers_and_the_look_ahead_finds_a_surface_at_the_hit() {
         // Sphere a (the lowest rank) overlaps sphere b; they meet on the
         // circle x = 0.75, radius sqrt(0.4375).
-        let text = r#"
-[camera]
-position = [0.0, 0.0, 5.0]
-target = [0.0, 0.0, 0.0]
-fov = 40.0
-[[objects]]
-name = "a"
-shape = { type = "sphere", center = [0.0, 0.0, 0.0], radius = 1.0 }
-material = { type = "dielectric", ior = 1.33, priority = 1 }
-[[objects]]
-name = "b"
-shape = { type = "sphere", center = [1.5, 0.0, 0.0], radius = 1.0 }
-material = { type = "dielectric", ior = 1.5, priority = 2 }
-"#;
-        let scene = load_scene_str(
-            "t.toml",
-            text,
-            std::path::Path::new("."),
-            &BuildOptions::default(),
-        )
-        .unwrap();
+        let scene = crate::dielectric::two_spheres(([1.5, 0.0, 0.0], 1.0), "");
         let org = Vec3A::new(-0.5, 0.0, 0.0);
         let mut c = Counters::default();
         // Away from b: one plain query, no filter call.
