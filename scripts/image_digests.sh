@@ -6,9 +6,11 @@
 # every strategy, the glass scenes also with the Whitted integrator.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-bin=${1:-target/release/snell}
+# Honours CARGO_TARGET_DIR (a worktree building into its own target).
+target=${CARGO_TARGET_DIR:-target}
+bin=${1:-$target/release/snell}
 cargo build --release --quiet --example image_digest
-digest=target/release/examples/image_digest
+digest=$target/release/examples/image_digest
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 r() { # name out-tag extra-args...
