@@ -62,9 +62,7 @@ shape = {{ type = "box", center = [0.3, 0.0, 0.0], size = [1.0, 2.0, 2.0] }}
 material = {{ type = "dielectric", ior = 1.5, priority = 2 }}
 {more}"#
     );
-    let build = crate::scene::BuildOptions::default();
-    crate::scene::load_scene_str("t.toml", &text, std::path::Path::new("."), &build)
-        .expect("a valid test scene")
+    test_scene(&text)
 }
 
 /// A test scene: sphere "a" (priority 1, the unit sphere at the origin)
@@ -89,8 +87,14 @@ shape = {{ type = "sphere", center = [{x:?}, {y:?}, {z:?}], radius = {r:?} }}
 material = {{ type = "dielectric", ior = 1.5, priority = 2 }}
 {more}"#
     );
+    test_scene(&text)
+}
+
+/// The scene of the TOML `text` (a test's own; it must load).
+#[cfg(test)]
+fn test_scene(text: &str) -> crate::scene::RenderScene {
     let build = crate::scene::BuildOptions::default();
-    crate::scene::load_scene_str("t.toml", &text, std::path::Path::new("."), &build)
+    crate::scene::load_scene_str("t.toml", text, std::path::Path::new("."), &build)
         .expect("a valid test scene")
 }
 

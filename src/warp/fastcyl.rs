@@ -226,6 +226,20 @@ impl Table {
         (out, quiet)
     }
 
+    /// The full scan's candidates (every entry, `cylinder::scan_candidates`):
+    /// what the bounded scan and the plans must find.
+    #[cfg(test)]
+    fn full_candidates(&self, p: DVec2, edge_tol: f64, along_min: f64) -> Vec<Candidate> {
+        crate::warp::cylinder::scan_candidates(
+            &self.b,
+            |k| {
+                let along = self.gy[k] * p.x - self.gx[k] * p.y - self.ac[k];
+                (along > along_min).then(|| self.gx[k] * p.x + self.gy[k] * p.y - self.gc[k])
+            },
+            edge_tol,
+        )
+    }
+
     /// `candidates`, appended to `out` (a buffer reused across families).
     /// An entry counts when the target is more than `along_min` ahead of its
     /// final ray's origin. Returns the number of quiet blocks (evaluated by
@@ -1384,7 +1398,6 @@ mod target_tests {
 #[cfg(test)]
 mod scan_tests {
     use super::*;
-    use crate::warp::cylinder::scan_candidates;
 
     /// The bounded scan finds exactly the candidates of the full scan
     /// (every table entry), over targets near and far, in and around the
@@ -1409,14 +1422,7 @@ mod scan_tests {
                 for table in w.tables.iter().step_by(7) {
                     for t in table.iter() {
                         for (tol, along_min) in [(1e-3, 0.0), (0.05, -0.1)] {
-                            let full = scan_candidates(
-                                &t.b,
-                                |k| {
-                                    let along = t.gy[k] * p.x - t.gx[k] * p.y - t.ac[k];
-                                    (along > along_min).then(|| t.gx[k] * p.x + t.gy[k] * p.y - t.gc[k])
-                                },
-                                tol,
-                            );
+                            let full = t.full_candidates(p, tol, along_min);
                             let (fast, q) = t.candidates(p, tol, along_min);
                             assert_eq!(full, fast, "r={inner} p={p} tol={tol}");
                             quiet += q;
@@ -1457,7 +1463,6 @@ pub(crate) mod test_rng {
 mod plan_tests {
     use super::test_rng::Lcg;
     use super::*;
-    use crate::warp::cylinder::scan_candidates;
 
     /// The inverse table's plans find exactly the full scan's candidates
     /// (every table entry, `scan_candidates`), hence the same image count
@@ -1531,14 +1536,7 @@ mod plan_tests {
                     if t.b.is_empty() {
                         continue;
                     }
-                    let full = scan_candidates(
-                        &t.b,
-                        |k| {
-                            let along = t.gy[k] * p.x - t.gx[k] * p.y - t.ac[k];
-                            (along > along_min).then(|| t.gx[k] * p.x + t.gy[k] * p.y - t.gc[k])
-                        },
-                        tol,
-                    );
+                    let full = t.full_candidates(p, tol, along_min);
                     let (a, b) = spans[fi];
                     let segs = &pl.segs[a as usize..b as usize];
                     let mut fast = Vec::new();
