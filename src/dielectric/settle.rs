@@ -37,7 +37,7 @@ use super::filter::{
 use super::InteriorList;
 use crate::counters::Counters;
 use crate::ray::{crossing_window, Hit, Ray};
-use crate::scene::model::{Neighbours, Zone};
+use crate::scene::model::{Box32, Neighbours, Zone};
 use crate::scene::shapes::Analytic;
 use crate::scene::{RenderScene, Shape};
 use glam::DVec3;
@@ -88,7 +88,7 @@ fn neighbours(scene: &RenderScene) -> &Neighbours {
                     .collect()
             })
             .collect::<Vec<Vec<Zone>>>();
-        let near_prims: Vec<Option<Vec<bool>>> = scene
+        let near_prims: Vec<Option<Vec<Box32>>> = scene
             .geoms
             .iter()
             .zip(&of)
@@ -103,9 +103,16 @@ fn neighbours(scene: &RenderScene) -> &Neighbours {
                                     let p = m.positions[i as usize];
                                     DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64)
                                 });
-                                zones
-                                    .iter()
-                                    .any(|z| piece_may_be_near(scene, z.solid, v, tol, 0, &mut budget))
+                                let mut near = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+                                for z in zones {
+                                    near_pieces(scene, z.solid, v, tol, 0, &mut budget, &mut near);
+                                }
+                                if near.0.cmple(near.1).all() {
+                                    // Padded as a zone is (see `zone`).
+                                    Box32::padded(near.0, near.1, tol)
+                                } else {
+                                    Box32::EMPTY
+                                }
                             })
                             .collect(),
                     )
@@ -146,13 +153,10 @@ fn zone(scene: &RenderScene, shape: &Shape, bx: (DVec3, DVec3), s: u32, tol: f64
     }
     // Padded by `tol` again: a hit point computed in f32 lies within it of
     // the true point wherever the table applies (see `for_each_near`).
-    let lo = (b.0 - tol - 1e-6 * (1.0 + b.0.abs()))
-        .to_array()
-        .map(|v| v as f32);
-    let hi = (b.1 + tol + 1e-6 * (1.0 + b.1.abs()))
-        .to_array()
-        .map(|v| v as f32);
-    Some(Zone { solid: s, lo, hi })
+    Some(Zone {
+        solid: s,
+        bx: Box32::padded(b.0, b.1, tol),
+    })
 }
 
 /// The box `b` cut down to the bounds of its part inside the ball of centre
@@ -205,43 +209,54 @@ fn band_box(cg: DVec3, rg: f64, cs: DVec3, rs: f64, tol: f64, b: (DVec3, DVec3))
     lo.cmple(hi).all().then_some((lo, hi))
 }
 
-/// Distance tests one mesh's triangles may spend in [`piece_may_be_near`]
+/// Distance tests one mesh's triangles may spend in [`near_pieces`]
 /// (a few milliseconds); past them every triangle counts as near.
 const PIECE_TESTS: u32 = 2_000_000;
 
-/// May the surface of solid `s` come within `tol` of the triangle `v`? Its
-/// distance test at the centroid, widened by the farthest vertex; where
-/// that cannot rule the triangle out, its halves (split at the longest
-/// edge) are tested, down to pieces no wider than `tol` or 16 levels (then
-/// `true`), while `budget` lasts. A lathe's wall triangle is a sliver as
-/// tall as the glass (bisection halves its length every other level): most
-/// of it is far from the water's surface that meets one end.
-fn piece_may_be_near(
+/// The parts of the triangle `v` that the surface of solid `s` may come
+/// within `tol` of, added to the box `acc`. Its distance test at the
+/// centroid, widened by the farthest vertex, rules a piece out; where it
+/// cannot, the halves (split at the longest edge) are tested, down to pieces
+/// no wider than `tol` or 16 levels (whose bounds are then added), while
+/// `budget` lasts (past it, each piece left is added whole). A lathe's wall
+/// triangle is a sliver as tall as the glass (bisection halves its length
+/// every other level): only a band of it, where the water's cap meets it,
+/// is near the water's surface, and hits elsewhere on it skip the
+/// look-ahead (a flag per triangle kept 12k look-aheads per pass of
+/// glass_ice_bubbles, every one of which found nothing).
+fn near_pieces(
     scene: &RenderScene,
     s: u32,
     v: [DVec3; 3],
     tol: f64,
     depth: u32,
     budget: &mut u32,
-) -> bool {
-    let c = (v[0] + v[1] + v[2]) / 3.0;
-    let rho = v.iter().map(|p| (*p - c).length()).fold(0.0, f64::max);
+    acc: &mut (DVec3, DVec3),
+) {
+    let add = |acc: &mut (DVec3, DVec3)| {
+        acc.0 = acc.0.min(v[0].min(v[1]).min(v[2]));
+        acc.1 = acc.1.max(v[0].max(v[1]).max(v[2]));
+    };
     if *budget == 0 {
-        return true;
+        add(acc);
+        return;
     }
     *budget -= 1;
+    let c = (v[0] + v[1] + v[2]) / 3.0;
+    let rho = v.iter().map(|p| (*p - c).length()).fold(0.0, f64::max);
     if !scene.surface_may_be_near(s, c, rho + tol) {
-        return false;
+        return;
     }
     if depth >= 16 || rho <= tol {
-        return true;
+        add(acc);
+        return;
     }
     let e = [0, 1, 2].map(|k| (v[(k + 1) % 3] - v[k]).length_squared());
     let k = (0..3).max_by(|&a, &b| e[a].total_cmp(&e[b])).unwrap_or(0);
     let (a, b, o) = (v[k], v[(k + 1) % 3], v[(k + 2) % 3]);
     let m = (a + b) / 2.0;
-    piece_may_be_near(scene, s, [a, m, o], tol, depth + 1, budget)
-        || piece_may_be_near(scene, s, [m, b, o], tol, depth + 1, budget)
+    near_pieces(scene, s, [a, m, o], tol, depth + 1, budget, acc);
+    near_pieces(scene, s, [m, b, o], tol, depth + 1, budget, acc);
 }
 
 /// Calls `f(solid)` for every solid other than `own` (the solid of the hit
@@ -280,19 +295,18 @@ fn for_each_near(
 /// a few box tests) when its geometry has no neighbours, or its triangle has
 /// none near, or the hit lies in none of their zones, and the neighbourhood
 /// is within the table's tolerance.
-#[inline]
+#[inline(always)]
 fn may_have_neighbours(scene: &RenderScene, h: &Hit, ray: &Ray) -> bool {
     let nb = neighbours(scene);
     let g = h.geom_id as usize;
     let zones = &nb.of[g];
-    let table = !zones.is_empty()
-        && nb.near_prims[g]
+    let table = !zones.is_empty() && {
+        let p = (ray.org + ray.dir * h.t).to_array();
+        nb.near_prims[g]
             .as_ref()
-            .is_none_or(|near| near.get(h.prim_id as usize).copied().unwrap_or(true))
-        && {
-            let p = (ray.org + ray.dir * h.t).to_array();
-            zones.iter().any(|z| z.holds(p))
-        };
+            .is_none_or(|near| near.get(h.prim_id as usize).is_none_or(|b| b.holds(p)))
+            && zones.iter().any(|z| z.holds(p))
+    };
     table || 2.0 * neighbourhood(ray, h.t) > nb.tol
 }
 

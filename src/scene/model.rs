@@ -306,23 +306,37 @@ impl SolidBoxes {
 pub(crate) struct Neighbours {
     pub(crate) tol: f64,
     pub(crate) of: Vec<Vec<Zone>>,
-    /// Per mesh geometry with neighbours, per triangle: may a neighbour's
-    /// surface come within `tol` of that triangle? (`None`: not known per
-    /// primitive, as for analytic shapes.)
-    pub(crate) near_prims: Vec<Option<Vec<bool>>>,
+    /// Per mesh geometry with neighbours, per triangle: the box holding the
+    /// parts of that triangle a neighbour's surface may come within `tol`
+    /// of ([`Box32::EMPTY`] when none), padded as a [`Zone`] is. (`None`:
+    /// not known per primitive, as for analytic shapes.)
+    pub(crate) near_prims: Vec<Option<Vec<Box32>>>,
 }
 
-/// Where on a geometry's surface the surface of `solid` may come within the
-/// neighbour table's tolerance: a box, padded by that tolerance again (for
-/// the rounding of a hit point computed in f32) and rounded outward to f32.
+/// An axis-aligned box in f32 (bounds rounded outward by whoever makes it).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) struct Zone {
-    pub(crate) solid: u32,
+pub(crate) struct Box32 {
     pub(crate) lo: [f32; 3],
     pub(crate) hi: [f32; 3],
 }
 
-impl Zone {
+impl Box32 {
+    /// The box that holds nothing.
+    pub(crate) const EMPTY: Box32 = Box32 {
+        lo: [f32::INFINITY; 3],
+        hi: [f32::NEG_INFINITY; 3],
+    };
+
+    /// The box from `lo` to `hi` (f64) widened by `pad` and by a millionth
+    /// of each coordinate's size, then rounded outward to f32: a point
+    /// within `pad` of the f64 box, computed in f32, lies in it.
+    pub(crate) fn padded(lo: glam::DVec3, hi: glam::DVec3, pad: f64) -> Box32 {
+        Box32 {
+            lo: (lo - pad - 1e-6 * (1.0 + lo.abs())).to_array().map(|v| v as f32),
+            hi: (hi + pad + 1e-6 * (1.0 + hi.abs())).to_array().map(|v| v as f32),
+        }
+    }
+
     /// Does the box hold `p`?
     #[inline]
     pub(crate) fn holds(&self, p: [f32; 3]) -> bool {
@@ -332,6 +346,23 @@ impl Zone {
             && p[1] <= self.hi[1]
             && p[2] >= self.lo[2]
             && p[2] <= self.hi[2]
+    }
+}
+
+/// Where on a geometry's surface the surface of `solid` may come within the
+/// neighbour table's tolerance: a box, padded by that tolerance again (for
+/// the rounding of a hit point computed in f32) and rounded outward to f32.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Zone {
+    pub(crate) solid: u32,
+    pub(crate) bx: Box32,
+}
+
+impl Zone {
+    /// Does the box hold `p`?
+    #[inline]
+    pub(crate) fn holds(&self, p: [f32; 3]) -> bool {
+        self.bx.holds(p)
     }
 }
 

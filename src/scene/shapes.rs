@@ -1079,6 +1079,87 @@ pub struct ContainsGrid {
     /// Each triangle's plane: unit normal and offset (`n·x = d`); zero for
     /// a degenerate triangle. Gates `surface_near`'s exact distances.
     planes: Vec<[f64; 4]>,
+    /// The mesh's bounds cut into cells, each classified on first use.
+    cells: InOutCells,
+}
+
+/// The bounds of a closed mesh cut into at most 64 cells a side, each
+/// classified on first use as wholly outside, wholly inside, or mixed (the
+/// surface may pass through it). A point in a classified whole cell gets
+/// its answer from one load; a point in a mixed cell (or outside the
+/// bounds) from the parity test. A cell is whole when no triangle comes
+/// within its half-diagonal of its centre (`ContainsGrid::surface_near`,
+/// never false when one does), so every point of it lies on the same side
+/// as the centre; the side is taken from two parity tests (the centre and
+/// a point a quarter cell off it), and a cell where they disagree (a parity
+/// ray through an edge) stays mixed. The leaked-entry check of
+/// glass_ice_bubbles spent 1.9 M instructions per trace pass in 1,518
+/// parity tests of the glass (1,270 each).
+#[derive(Debug)]
+struct InOutCells {
+    lo: DVec3,
+    size: DVec3,
+    n: [usize; 3],
+    /// `UNKNOWN`, `OUTSIDE`, `INSIDE` or `MIXED` per cell, x fastest.
+    /// Relaxed loads and stores: a cell's class is a function of the mesh,
+    /// so two threads classifying it store the same value.
+    state: Vec<std::sync::atomic::AtomicU8>,
+}
+
+const CELL_UNKNOWN: u8 = 0;
+const CELL_OUTSIDE: u8 = 1;
+const CELL_INSIDE: u8 = 2;
+const CELL_MIXED: u8 = 3;
+
+impl Clone for InOutCells {
+    fn clone(&self) -> Self {
+        use std::sync::atomic::{AtomicU8, Ordering};
+        InOutCells {
+            state: self
+                .state
+                .iter()
+                .map(|c| AtomicU8::new(c.load(Ordering::Relaxed)))
+                .collect(),
+            ..*self
+        }
+    }
+}
+
+impl InOutCells {
+    /// Cells over the bounds (`lo`, `hi`), the longest side cut in 64.
+    fn new(lo: DVec3, hi: DVec3) -> Self {
+        let ext = (hi - lo).max(DVec3::splat(1e-9 * (1.0 + lo.abs().max(hi.abs()).max_element())));
+        let cell = ext.max_element() / 64.0;
+        let n = ext.to_array().map(|e| ((e / cell).ceil() as usize).clamp(1, 64));
+        let size = ext / DVec3::new(n[0] as f64, n[1] as f64, n[2] as f64);
+        InOutCells {
+            lo,
+            size,
+            n,
+            state: (0..n[0] * n[1] * n[2])
+                .map(|_| std::sync::atomic::AtomicU8::new(CELL_UNKNOWN))
+                .collect(),
+        }
+    }
+
+    /// The cell holding `p` and its centre; `None` outside the bounds.
+    #[inline]
+    fn cell_of(&self, p: DVec3) -> Option<(usize, [usize; 3])> {
+        let x = (p - self.lo) / self.size;
+        let mut i = [0usize; 3];
+        for k in 0..3 {
+            // `!(..)` also rejects NaN.
+            if !(x[k] >= 0.0 && x[k] < self.n[k] as f64) {
+                return None;
+            }
+            i[k] = x[k] as usize;
+        }
+        Some(((i[2] * self.n[1] + i[1]) * self.n[0] + i[0], i))
+    }
+
+    fn centre(&self, i: [usize; 3]) -> DVec3 {
+        self.lo + (DVec3::new(i[0] as f64, i[1] as f64, i[2] as f64) + 0.5) * self.size
+    }
 }
 
 impl ContainsGrid {
@@ -1197,6 +1278,7 @@ impl ContainsGrid {
                 [n.x, n.y, n.z, n.dot(a)]
             })
             .collect();
+        let (blo, bhi) = mesh.aabb();
         Self {
             mesh,
             axes,
@@ -1206,11 +1288,50 @@ impl ContainsGrid {
             start,
             tris,
             planes,
+            cells: InOutCells::new(blo, bhi),
+        }
+    }
+
+    /// Is `p` inside the mesh? From its cell's class where the cell is whole
+    /// ([`InOutCells`]), else [`Self::parity_contains`].
+    #[inline]
+    pub fn contains(&self, p: DVec3) -> bool {
+        use std::sync::atomic::Ordering::Relaxed;
+        let Some((c, i)) = self.cells.cell_of(p) else {
+            return self.parity_contains(p);
+        };
+        let mut class = self.cells.state[c].load(Relaxed);
+        if class == CELL_UNKNOWN {
+            class = self.classify(i);
+            self.cells.state[c].store(class, Relaxed);
+        }
+        match class {
+            CELL_OUTSIDE => false,
+            CELL_INSIDE => true,
+            _ => self.parity_contains(p),
+        }
+    }
+
+    /// The class of cell `i` (see [`InOutCells`]).
+    #[cold]
+    fn classify(&self, i: [usize; 3]) -> u8 {
+        let c = self.cells.centre(i);
+        let half = 0.5 * self.cells.size.length();
+        // Widened far beyond the rounding of the distance tests.
+        if self.surface_near(c, half * (1.0 + 1e-6) + 1e-9 * (1.0 + c.abs().max_element())) {
+            return CELL_MIXED;
+        }
+        let a = self.parity_contains(c);
+        let b = self.parity_contains(c + 0.25 * self.cells.size * DVec3::new(1.0, -0.7, 0.4));
+        match (a, b) {
+            (true, true) => CELL_INSIDE,
+            (false, false) => CELL_OUTSIDE,
+            _ => CELL_MIXED,
         }
     }
 
     /// Is `p` inside the mesh? (Parity of the parity ray's crossings.)
-    pub fn contains(&self, p: DVec3) -> bool {
+    pub fn parity_contains(&self, p: DVec3) -> bool {
         let q = [p.dot(self.axes[0]), p.dot(self.axes[1])];
         let mut cell = [0usize; 2];
         for k in 0..2 {
@@ -1513,6 +1634,75 @@ mod tests {
         );
         // Far outside the grid: nothing near.
         assert!(!g.surface_near(DVec3::new(5.0, 1.0, 5.0), tol));
+    }
+
+    /// The cell cache answers as the parity test does, at points scattered
+    /// through the bounds and a hair off the surface, on the glass lathe
+    /// and a rotated box; most points are answered from whole cells. Its
+    /// power: classifying each cell by its centre alone (no surface gate)
+    /// gets points wrong.
+    #[test]
+    fn cell_cache_agrees_with_parity() {
+        use crate::scene::meshgen::{lathe, LatheShading};
+        let glass = lathe(
+            &[
+                [0.0, 0.0],
+                [1.0, 0.0],
+                [1.0, 2.5],
+                [0.9, 2.5],
+                [0.9, 0.1],
+                [0.0, 0.1],
+            ],
+            96,
+            LatheShading::Smooth { crease_deg: 30.0 },
+        );
+        let mut cube = lathe(
+            &[[0.0, -0.35], [0.5, -0.35], [0.5, 0.35], [0.0, 0.35]],
+            4,
+            LatheShading::Flat,
+        );
+        let rot = glam::DQuat::from_axis_angle(DVec3::new(1.0, 0.3, 0.2).normalize(), 0.44);
+        for v in &mut cube.positions {
+            let q = rot * DVec3::from_array(v.map(f64::from)) + DVec3::new(-0.25, 1.75, 0.1);
+            *v = q.to_array().map(|c| c as f32);
+        }
+        let mut rng = crate::sampling::Rng::new(9);
+        for m in [glass, cube] {
+            let m = std::sync::Arc::new(m);
+            let g = ContainsGrid::new(m.clone());
+            let (lo, hi) = m.aabb();
+            let mut pts: Vec<DVec3> = (0..40000)
+                .map(|_| {
+                    let u = DVec3::new(rng.uniform_f64(), rng.uniform_f64(), rng.uniform_f64());
+                    lo - 0.05 + (hi - lo + 0.1) * u
+                })
+                .collect();
+            for t in m.indices.iter() {
+                let [a, b, c] = t.map(|i| DVec3::from_array(m.positions[i as usize].map(f64::from)));
+                let n = (b - a).cross(c - a).normalize();
+                let on = (a + b + c) / 3.0;
+                pts.extend([on + n * 1e-6, on - n * 1e-6, on + n * 1e-3, on - n * 1e-3]);
+            }
+            let (mut whole, mut naive_wrong) = (0, 0);
+            for &q in &pts {
+                let exact = g.parity_contains(q);
+                assert_eq!(g.contains(q), exact, "{q}");
+                if let Some((c, i)) = g.cells.cell_of(q) {
+                    let class = g.cells.state[c].load(std::sync::atomic::Ordering::Relaxed);
+                    whole += (class == CELL_INSIDE || class == CELL_OUTSIDE) as u32;
+                    naive_wrong += (g.parity_contains(g.cells.centre(i)) != exact) as u32;
+                }
+            }
+            assert!(
+                whole as usize > pts.len() / 2,
+                "{whole} of {} from whole cells",
+                pts.len()
+            );
+            assert!(
+                naive_wrong > 50,
+                "centre-only classes get {naive_wrong} points wrong"
+            );
+        }
     }
 
     #[test]
