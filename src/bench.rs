@@ -297,6 +297,11 @@ pub struct NestedRun {
     /// back to back, in an order that rotates with k, so per-repetition
     /// ratios compare runs that saw the same machine load).
     pub walls: Vec<f64>,
+    /// CPU time of every repetition (seconds), in the order of `walls`;
+    /// empty where the kernel does not report it. Ratios are taken from
+    /// these when present: on a shared machine a run that waits for the
+    /// processor loses wall time, not CPU time.
+    pub cpus: Vec<f64>,
     /// Trace mode, filter only: the share of the trace time spent applying
     /// false hits to interior lists (the paper's "list updates" statistic),
     /// from one extra timed pass ([`dielectric::time_list_updates`], the
@@ -316,17 +321,26 @@ pub fn clock_pair_s() -> f64 {
     acc / n as f64
 }
 
-fn trace_only(scene: &RenderScene, strategy: NestedStrategy, rays: &[ListedRay]) -> Result<(f64, Counters)> {
+/// One pass of `strategy` over `rays` on the calling thread: its wall time,
+/// its CPU time (`None` where the kernel does not report it) and counters.
+fn trace_only(
+    scene: &RenderScene,
+    strategy: NestedStrategy,
+    rays: &[ListedRay],
+) -> Result<(f64, Option<f64>, Counters)> {
     let mut c = Counters::default();
     let t = Instant::now();
-    let mut sink = 0u64;
-    for r in rays {
-        let mut list = InteriorList::from_solids(&scene.solids, &r.list);
-        let h = dielectric::trace(scene, strategy, &r.ray, &mut list, &mut c)?;
-        sink += h.map(|h| h.hit.geom_id as u64).unwrap_or(3) + list.len() as u64;
-    }
-    std::hint::black_box(sink);
-    Ok((t.elapsed().as_secs_f64(), c))
+    let (sink, cpu) = crate::cpu_time::on_this_thread(|| -> Result<u64> {
+        let mut sink = 0u64;
+        for r in rays {
+            let mut list = InteriorList::from_solids(&scene.solids, &r.list);
+            let h = dielectric::trace(scene, strategy, &r.ray, &mut list, &mut c)?;
+            sink += h.map(|h| h.hit.geom_id as u64).unwrap_or(3) + list.len() as u64;
+        }
+        Ok(sink)
+    });
+    std::hint::black_box(sink?);
+    Ok((t.elapsed().as_secs_f64(), cpu, c))
 }
 
 /// Options of the nested benchmark (the default: every nested and reference
@@ -413,6 +427,8 @@ pub fn nested(opts: &NestedBenchOptions, mut progress: impl FnMut(&str)) -> Resu
         };
         progress(&format!("{name}: {} trace rays", rays.len()));
         let mut trace_t = vec![vec![]; strategies.len()];
+        let mut trace_cpu: Vec<Vec<Option<f64>>> = vec![vec![]; strategies.len()];
+        let mut render_cpu: Vec<Vec<Option<f64>>> = vec![vec![]; strategies.len()];
         let mut trace_c = vec![Counters::default(); strategies.len()];
         let mut render_t = vec![vec![]; strategies.len()];
         let mut render_stats = vec![None; strategies.len()];
@@ -423,8 +439,9 @@ pub fn nested(opts: &NestedBenchOptions, mut progress: impl FnMut(&str)) -> Resu
             // the first one measured 1.3 % slower every time).
             let order = |k: usize| (k + rep) % strategies.len();
             for k in (0..strategies.len()).map(order).filter(|_| opts.trace) {
-                let (t, c) = trace_only(&scene, strategies[k], &rays)?;
+                let (t, cpu, c) = trace_only(&scene, strategies[k], &rays)?;
                 trace_t[k].push(t);
+                trace_cpu[k].push(cpu);
                 trace_c[k] = c;
             }
             for k in (0..strategies.len()).map(order).filter(|_| opts.render_mode) {
@@ -439,6 +456,7 @@ pub fn nested(opts: &NestedBenchOptions, mut progress: impl FnMut(&str)) -> Resu
                     },
                 )?;
                 render_t[k].push(r.stats.wall_s);
+                render_cpu[k].push(r.stats.cpu_s);
                 render_stats[k] = Some(r.stats);
             }
         }
@@ -450,6 +468,13 @@ pub fn nested(opts: &NestedBenchOptions, mut progress: impl FnMut(&str)) -> Resu
             (update_s - updates as f64 * clock_pair_s()).max(0.0)
         } else {
             0.0
+        };
+        // Every repetition's CPU time, or none.
+        let all = |v: &[Option<f64>]| {
+            v.iter()
+                .copied()
+                .collect::<Option<Vec<f64>>>()
+                .unwrap_or_default()
         };
         for (k, s) in strategies.iter().enumerate() {
             if opts.trace {
@@ -466,6 +491,7 @@ pub fn nested(opts: &NestedBenchOptions, mut progress: impl FnMut(&str)) -> Resu
                     rays: rays.len() as u64,
                     samples_per_s: None,
                     walls: trace_t[k].clone(),
+                    cpus: all(&trace_cpu[k]),
                     list_update_share: (*s == NestedStrategy::Filter).then(|| update_s / wall),
                 });
             }
@@ -486,6 +512,7 @@ pub fn nested(opts: &NestedBenchOptions, mut progress: impl FnMut(&str)) -> Resu
                 rays: st.counters.rays(),
                 samples_per_s: Some(st.counters.samples as f64 / wall),
                 walls: render_t[k].clone(),
+                cpus: all(&render_cpu[k]),
                 list_update_share: None,
             });
         }
@@ -507,14 +534,31 @@ pub fn ratio_spread(filter: &[f64], other: &[f64]) -> (f64, f64, f64) {
     (median(r), lo, hi)
 }
 
-/// Ratio table: filter/recast and filter/off, per scene and mode, each as the
-/// median of per-repetition ratios with its range; `~` marks a ratio whose
-/// range includes 1 (the two strategies are within noise of each other).
-/// Speeds in Mrays/s; ratios are time of the other strategy / time of filter
-/// (> 1 means filter is faster). One line per scene and mode, with a header
-/// and a closing legend line; every line ends in a newline. A scene lacking
-/// one of the four strategies in a mode is left out.
+/// Ratio tables: filter/recast and filter/off, per scene and mode, each as
+/// the median of per-repetition ratios with its range; `~` marks a ratio
+/// whose range includes 1 (the two strategies are within noise of each
+/// other). First from CPU times (where every run has them: steady on a
+/// shared machine), then from wall times. Speeds in Mrays/s (wall); ratios
+/// are time of the other strategy / time of filter (> 1 means filter is
+/// faster). One line per scene and mode, with a header and a closing legend
+/// line per table; every line ends in a newline. A scene lacking one of the
+/// four strategies in a mode is left out.
 pub fn nested_ratios(runs: &[NestedRun]) -> String {
+    let mut out = String::new();
+    if runs
+        .iter()
+        .all(|r| !r.cpus.is_empty() && r.cpus.len() == r.walls.len())
+    {
+        out.push_str("ratios of CPU times:\n");
+        out.push_str(&ratio_table(runs, |r| &r.cpus));
+        out.push_str("ratios of wall times:\n");
+    }
+    out.push_str(&ratio_table(runs, |r| &r.walls));
+    out
+}
+
+/// [`nested_ratios`]' table with the per-repetition times `times` picks.
+fn ratio_table(runs: &[NestedRun], times: impl Fn(&NestedRun) -> &Vec<f64>) -> String {
     let mut out = String::from(
         "scene                   mode    filter Mrays/s  recast  toggle  off   filter/recast (min-max)   filter/off (min-max)      false hits/ray  list upd\n",
     );
@@ -553,8 +597,8 @@ pub fn nested_ratios(runs: &[NestedRun]) -> String {
                 rc.rays_per_s / 1e6,
                 tg.rays_per_s / 1e6,
                 off.rays_per_s / 1e6,
-                fmt(ratio_spread(&f.walls, &rc.walls)),
-                fmt(ratio_spread(&f.walls, &off.walls)),
+                fmt(ratio_spread(times(f), times(rc))),
+                fmt(ratio_spread(times(f), times(off))),
                 f.false_hits_per_ray,
                 f.list_update_share
                     .map_or("-".into(), |x| format!("{:.3}%", 100.0 * x))
@@ -648,7 +692,52 @@ pub fn chord_sweep(
 
 #[cfg(test)]
 mod ratio_tests {
-    use super::ratio_spread;
+    use super::{nested_ratios, ratio_spread, NestedRun};
+
+    fn run(strategy: &str, walls: &[f64], cpus: &[f64]) -> NestedRun {
+        NestedRun {
+            scene: "s".into(),
+            strategy: strategy.into(),
+            mode: "trace".into(),
+            rays_per_s: 1.0,
+            false_hits_per_ray: 0.0,
+            wall_s: walls[0],
+            median_of: walls.len(),
+            spread_s: [walls[0], walls[0]],
+            rays: 1,
+            samples_per_s: None,
+            walls: walls.to_vec(),
+            cpus: cpus.to_vec(),
+            list_update_share: None,
+        }
+    }
+
+    /// The first table's ratios come from CPU times, the second's from wall
+    /// times; without CPU times for every run, only the wall table.
+    #[test]
+    fn ratio_tables_take_cpu_times_first() {
+        let runs = vec![
+            run("filter", &[1.0, 1.0, 1.0], &[1.0, 1.0, 1.0]),
+            run("recast", &[1.0, 1.1, 0.9], &[2.0, 2.0, 2.0]),
+            run("toggle", &[1.0, 1.0, 1.0], &[2.0, 2.0, 2.0]),
+            run("off", &[0.5, 0.5, 0.5], &[0.8, 0.8, 0.8]),
+        ];
+        let t = nested_ratios(&runs);
+        let (cpu, wall) = t.split_once("ratios of wall times:").expect("two tables");
+        assert!(cpu.contains("ratios of CPU times"), "{t}");
+        assert!(
+            cpu.contains(" 2.000 (2.000-2.000)") && cpu.contains(" 0.800 (0.800-0.800)"),
+            "{t}"
+        );
+        assert!(
+            wall.contains("~ 1.000 (0.900-1.100)") && wall.contains(" 0.500 (0.500-0.500)"),
+            "{t}"
+        );
+        let mut no_cpu = runs.clone();
+        no_cpu[1].cpus.clear();
+        let t = nested_ratios(&no_cpu);
+        assert!(!t.contains("CPU") && t.contains("~ 1.000 (0.900-1.100)"), "{t}");
+    }
 
     #[test]
     fn per_repetition_ratios_and_their_range() {

@@ -57,6 +57,9 @@ pub struct CeilingRun {
     pub packet_replay_rays_per_s: f64,
     /// samples/s × rays per sample ÷ replay rays/s, per repetition: median, min, max.
     pub share: [f64; 3],
+    /// The same share from CPU times (render and replay threads), steadier
+    /// on a shared machine; `None` where the kernel does not report them.
+    pub share_cpu: Option<[f64; 3]>,
 }
 
 fn median_min_max(mut v: Vec<f64>) -> [f64; 3] {
@@ -77,8 +80,14 @@ fn median_min_max(mut v: Vec<f64>) -> [f64; 3] {
 /// (`rtcIntersect1` / `rtcOccluded1`, what the renderer does) or (`packets`)
 /// in packets of eight consecutive rays of one kind (`rtcIntersect8` /
 /// `rtcOccluded8`, incoherent: the log's order interleaves paths); returns
-/// the wall time (s).
-fn replay(scene: &RenderScene, rays: &[Logged], pool: &rayon::ThreadPool, packets: bool) -> f64 {
+/// the wall time (s) and the CPU time of the pool's threads (s, if known).
+fn replay(
+    scene: &RenderScene,
+    rays: &[Logged],
+    pool: &rayon::ThreadPool,
+    packets: bool,
+) -> (f64, Option<f64>) {
+    let cpu0 = pool.broadcast(|_| crate::cpu_time::thread_cpu_s());
     let t = Instant::now();
     let hits: u64 = pool.install(|| {
         rays.par_chunks(4096)
@@ -98,7 +107,9 @@ fn replay(scene: &RenderScene, rays: &[Logged], pool: &rayon::ThreadPool, packet
             .sum()
     });
     std::hint::black_box(hits);
-    t.elapsed().as_secs_f64()
+    let wall = t.elapsed().as_secs_f64();
+    let cpu = crate::cpu_time::pool_delta(&cpu0, &pool.broadcast(|_| crate::cpu_time::thread_cpu_s()));
+    (wall, cpu)
 }
 
 /// The packet replay of one chunk: nearest and shadow rays gathered into two
@@ -181,17 +192,27 @@ pub fn ceiling(opts: &CeilingOptions, mut progress: impl FnMut(&str)) -> Result<
         ));
         let (mut sps, mut qps, mut rps, mut share) = (vec![], vec![], vec![], vec![]);
         let mut pps = vec![];
+        let mut share_cpu = Some(vec![]);
         for _ in 0..opts.reps.max(1) {
             let r = render(&scene, &settings, &ropts)?;
             let wall = r.stats.wall_s.max(1e-9);
             let s = r.stats.counters.samples as f64 / wall;
-            let replay_s = replay(&scene, &rays, &pool, false).max(1e-9);
-            pps.push(rays.len() as f64 / replay(&scene, &rays, &pool, true).max(1e-9));
-            let rr = rays.len() as f64 / replay_s;
+            let (replay_s, replay_cpu) = replay(&scene, &rays, &pool, false);
+            pps.push(rays.len() as f64 / replay(&scene, &rays, &pool, true).0.max(1e-9));
+            let rr = rays.len() as f64 / replay_s.max(1e-9);
             sps.push(s);
             qps.push(r.stats.counters.rays() as f64 / wall);
             rps.push(rr);
             share.push(s * rays_per_sample / rr);
+            // Per CPU second: samples × rays per sample of the render ÷ rays of the replay.
+            share_cpu = share_cpu
+                .zip(r.stats.cpu_s.zip(replay_cpu))
+                .map(|(mut v, (rc, pc))| {
+                    let render_rays_per_cpu_s =
+                        r.stats.counters.samples as f64 * rays_per_sample / rc.max(1e-9);
+                    v.push(render_rays_per_cpu_s / (rays.len() as f64 / pc.max(1e-9)));
+                    v
+                });
         }
         let run = CeilingRun {
             scene: name.clone(),
@@ -201,6 +222,7 @@ pub fn ceiling(opts: &CeilingOptions, mut progress: impl FnMut(&str)) -> Result<
             replay_rays_per_s: median_min_max(rps)[0],
             packet_replay_rays_per_s: median_min_max(pps)[0],
             share: median_min_max(share),
+            share_cpu: share_cpu.map(median_min_max),
         };
         progress(&format!("{name}: share of the ceiling {:.2}", run.share[0]));
         out.push(run);
@@ -215,10 +237,13 @@ pub fn table(runs: &[CeilingRun], opts: &CeilingOptions) -> String {
         "render vs the Embree ceiling of its own rays ({w}x{h}, {spp} spp, {} threads, {} reps; rays recorded at {} spp; share = samples/s x rays per sample / bare-Embree replay rays/s, median (min-max))\n",
         opts.threads, opts.reps, opts.record_spp
     );
-    s.push_str("| scene | samples/s | Embree queries/s (render) | rays/sample | replay rays/s | share of ceiling | 8-packet replay rays/s |\n|---|---|---|---|---|---|---|\n");
+    s.push_str("| scene | samples/s | Embree queries/s (render) | rays/sample | replay rays/s | share of ceiling | share, CPU times | 8-packet replay rays/s |\n|---|---|---|---|---|---|---|---|\n");
     for r in runs {
+        let cpu = r
+            .share_cpu
+            .map_or("-".into(), |c| format!("{:.2} ({:.2}-{:.2})", c[0], c[1], c[2]));
         s.push_str(&format!(
-            "| {} | {:.3e} | {:.3e} | {:.2} | {:.3e} | {:.2} ({:.2}-{:.2}) | {:.3e} ({:.2}x) |\n",
+            "| {} | {:.3e} | {:.3e} | {:.2} | {:.3e} | {:.2} ({:.2}-{:.2}) | {cpu} | {:.3e} ({:.2}x) |\n",
             r.scene,
             r.samples_per_s,
             r.render_queries_per_s,

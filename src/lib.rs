@@ -105,6 +105,7 @@ pub mod bench;
 pub mod camera;
 pub mod ceiling;
 pub mod counters;
+pub mod cpu_time;
 pub mod dielectric;
 #[allow(unsafe_code)] // the one FFI module: every unsafe block says why it is sound
 pub mod embree;

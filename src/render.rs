@@ -126,6 +126,9 @@ pub struct Rendered {
 pub struct RenderStats {
     /// Wall-clock time of the render, seconds.
     pub wall_s: f64,
+    /// CPU time of the render's threads, seconds (`None` where the kernel
+    /// does not report it; see `cpu_time`).
+    pub cpu_s: Option<f64>,
     /// Every event counted over the render.
     pub counters: Counters,
 }
@@ -138,6 +141,7 @@ impl RenderStats {
         let per = |a: u64, b: u64| a as f64 / b.max(1) as f64;
         let derived = serde_json::json!({
             "wall_s": self.wall_s,
+            "cpu_s": self.cpu_s,
             "samples_per_s": c.samples as f64 / self.wall_s.max(1e-9),
             "rays": c.rays(),
             "rays_per_s": c.rays() as f64 / self.wall_s.max(1e-9),
@@ -492,6 +496,7 @@ pub fn render_part(
     let bar = progress_bar(total, opts.quiet);
     let samples_done = AtomicU64::new(0);
     let tiles_finished = AtomicU64::new(0);
+    let cpu0 = pool.broadcast(|_| crate::cpu_time::thread_cpu_s());
     let start_t = Instant::now();
     let results: Vec<Result<TileOut>> = pool.install(|| {
         tiles
@@ -522,6 +527,7 @@ pub fn render_part(
         b.finish_and_clear();
     }
     let wall = start_t.elapsed().as_secs_f64();
+    let cpu = crate::cpu_time::pool_delta(&cpu0, &pool.broadcast(|_| crate::cpu_time::thread_cpu_s()));
     let rw = region.width();
     let n = region.pixels();
     let mut pixels = vec![V3::ZERO; n];
@@ -563,6 +569,7 @@ pub fn render_part(
     }
     let complete = pixel_spp.iter().all(|&c| c == count as f32);
     stats.wall_s = wall;
+    stats.cpu_s = cpu;
     Ok(Rendered {
         width: rw,
         height: region.height(),

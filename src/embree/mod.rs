@@ -16,6 +16,8 @@
 //!   `RTCIntersectContext` ([`FilterContext`], `#[repr(C)]`, Embree's context
 //!   first); the inline `rtcInitIntersectContext` in Rust.
 //! - `warp_ffi.rs`: ray packets and refittable meshes for the warp renderer.
+//! - `clock.rs`: the thread CPU clock of the C library (not Embree; here so
+//!   that all FFI is in one module), for the benchmarks' CPU times.
 //!
 //! Rays and hits are [`Ray`] and [`Hit`] of [`crate::ray`] (re-exported here):
 //! `org + t·dir` with t in units of `|dir|` (`dir` need not be unit length);
@@ -47,6 +49,7 @@
 //!   A panicking filter is reported as `Err` after the query; a panicking
 //!   shape makes its query see a miss and is reported by [`Scene::check`].
 
+mod clock;
 mod device;
 mod filter;
 mod scene;
@@ -54,6 +57,7 @@ mod user_geometry;
 pub mod warp_ffi;
 
 pub use crate::ray::{Hit, Ray};
+pub use clock::thread_cpu_s;
 pub use device::{Device, EmbreeError};
 use filter::init_context;
 pub use filter::{FilterContext, FilterHit, HitFilter, SkipRanges};
