@@ -393,13 +393,15 @@ impl RenderScene {
         }
     }
 
-    /// Solids containing `p` (independent point-in-solid tests).
+    /// Solids containing `p` (independent point-in-solid tests: for a mesh
+    /// the parity test itself, not the cell cache the tracer reads, so that
+    /// the audit and the tests that judge the tracer by it do not share it).
     pub fn solids_containing(&self, p: DVec3) -> Vec<u32> {
         self.containment
             .iter()
             .enumerate()
             .filter(|(_, c)| match c {
-                Containment::Mesh(m) => m.contains(p),
+                Containment::Mesh(m) => m.parity_contains(p),
                 Containment::Analytic(a) => a.contains(p).unwrap_or(false),
             })
             .map(|(i, _)| i as u32)
