@@ -369,6 +369,9 @@ pub struct NestedBenchOptions {
     pub reps: usize,
     /// Width and height of the camera-ray grid the trace-only rays start from.
     pub trace_grid: (u32, u32),
+    /// Rays a trace-mode repetition casts at least (whole passes over the
+    /// ray set; 0: one pass). Default [`TRACE_RAYS_PER_REP`].
+    pub trace_rays_per_rep: usize,
     /// Width, height and samples per pixel of the render mode (seed 1).
     pub render: (u32, u32, u32),
     /// Render threads (trace-only runs on the calling thread).
@@ -390,6 +393,7 @@ impl Default for NestedBenchOptions {
             scenes_dir: "scenes".into(),
             reps: 5,
             trace_grid: (160, 120),
+            trace_rays_per_rep: TRACE_RAYS_PER_REP,
             render: (160, 120, 8),
             threads: 1,
             scenes: NESTED_SCENES
@@ -440,7 +444,7 @@ pub fn nested(opts: &NestedBenchOptions, mut progress: impl FnMut(&str)) -> Resu
         } else {
             Vec::new()
         };
-        let passes = TRACE_RAYS_PER_REP.div_ceil(rays.len().max(1));
+        let passes = opts.trace_rays_per_rep.div_ceil(rays.len().max(1)).max(1);
         progress(&format!(
             "{name}: {} trace rays, {passes} passes per repetition",
             rays.len()

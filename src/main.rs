@@ -336,6 +336,10 @@ struct BenchNestedArgs {
     /// Only this mode: `trace` (the fixed ray set, no shading) or `render`.
     #[arg(long, value_parser = ["trace", "render"])]
     mode: Option<String>,
+    /// Rays a trace-mode repetition casts at least, in whole passes over the
+    /// ray set (0: one pass, e.g. to count one pass's instructions).
+    #[arg(long, default_value_t = snell::bench::TRACE_RAYS_PER_REP)]
+    trace_rays_per_rep: usize,
 }
 
 // `snell bench render`.
@@ -933,6 +937,7 @@ fn bench_nested(a: BenchNestedArgs) -> Result<()> {
         reps: a.reps,
         threads: a.threads,
         scenes_dir: a.scenes_dir,
+        trace_rays_per_rep: a.trace_rays_per_rep,
         ..Default::default()
     };
     if !a.scenes.is_empty() {

@@ -399,6 +399,9 @@ fn nested(o: &ReportOptions, z: &Sizes, log: &mut dyn FnMut(&str)) -> Result<Sec
             scenes_dir: o.scenes_dir.clone(),
             reps: z.nested_reps,
             trace_grid: z.nested_grid,
+            // One pass per repetition: the report plots speeds, it does not
+            // judge 1 % differences (and `--quick` runs in the tests).
+            trace_rays_per_rep: 0,
             render: z.nested_render,
             threads: rayon::current_num_threads(),
             scenes: NESTED_SCENES.iter().map(|s| s.to_string()).collect(),
