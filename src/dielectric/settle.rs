@@ -210,7 +210,7 @@ fn band_box(cg: DVec3, rg: f64, cs: DVec3, rs: f64, tol: f64, b: (DVec3, DVec3))
 }
 
 /// Distance tests one mesh's triangles may spend in [`near_pieces`]
-/// (a few milliseconds); past them every triangle counts as near.
+/// (a few milliseconds); past them each piece left counts as near whole.
 const PIECE_TESTS: u32 = 2_000_000;
 
 /// The parts of the triangle `v` that the surface of solid `s` may come
@@ -458,6 +458,88 @@ mod tests {
             let phi = golden * i as f64;
             DVec3::new(r * phi.cos(), y, r * phi.sin())
         })
+    }
+
+    /// A lathe glass whose inner wall the water's top cap crosses (as in
+    /// glass_ice_bubbles): each wall triangle's near box holds every point
+    /// of it within the table's tolerance of the water's surface (distance
+    /// to the capped cylinder computed here, independently), and only a
+    /// band of it: a flag per triangle (its whole surface) holds ~100x more
+    /// (1.34 M sampled points against 13.6 k; asked: 20x).
+    #[test]
+    fn triangle_boxes_hold_every_near_point_and_only_a_band() {
+        let scene = crate::dielectric::test_scene(
+            r#"
+[camera]
+position = [0.0, 1.0, 5.0]
+target = [0.0, 1.0, 0.0]
+fov = 40.0
+[[objects]]
+name = "glass"
+shape = { type = "lathe", segments = 32, profile = [[0.0, 0.0], [1.0, 0.0], [1.0, 2.5], [0.9, 2.5], [0.9, 0.1], [0.0, 0.1]] }
+material = { type = "dielectric", ior = 1.5, priority = 2 }
+[[objects]]
+name = "water"
+shape = { type = "cylinder", p0 = [0.0, 0.05, 0.0], p1 = [0.0, 1.8, 0.0], radius = 0.95, caps = true }
+material = { type = "dielectric", ior = 1.33, priority = 1 }
+"#,
+        );
+        let nb = neighbours(&scene);
+        let g = scene.geoms.iter().position(|g| g.name == "glass").unwrap();
+        let Shape::Mesh(m) = &scene.geoms[g].shape else {
+            panic!("the lathe is a mesh")
+        };
+        let boxes = nb.near_prims[g].as_ref().expect("the glass has a neighbour");
+        // Distance from `p` to the surface of the capped cylinder.
+        let dist = |p: DVec3| {
+            let r = (p.x * p.x + p.z * p.z).sqrt();
+            let (dr, dy) = (r - 0.95, (0.05 - p.y).max(p.y - 1.8));
+            if dr <= 0.0 && dy <= 0.0 {
+                (-dr).min(-dy)
+            } else {
+                (dr.max(0.0).powi(2) + dy.max(0.0).powi(2)).sqrt()
+            }
+        };
+        let (mut near, mut held, mut flagged) = (0, 0, 0);
+        let mut rng = crate::sampling::Rng::new(3);
+        let k = 40;
+        for (t, tri) in m.indices.iter().enumerate() {
+            let [a, b, c] = tri.map(|i| DVec3::from_array(m.positions[i as usize].map(f64::from)));
+            let bx = boxes[t];
+            let whole = bx != Box32::EMPTY;
+            // A grid over the triangle, and where it spans the cap's height
+            // (y = 1.8) random points too: the band within the tolerance is
+            // a few thousandths tall, finer than the grid.
+            let grid =
+                (0..=k).flat_map(|i| (0..=(k - i)).map(move |j| (i as f64 / k as f64, j as f64 / k as f64)));
+            let spans = a.y.min(b.y).min(c.y) < 1.81 && a.y.max(b.y).max(c.y) > 1.79;
+            let random: Vec<(f64, f64)> = (0..if spans { 20_000 } else { 0 })
+                .map(|_| {
+                    let (u, v) = (rng.uniform_f64(), rng.uniform_f64());
+                    if u + v > 1.0 {
+                        (1.0 - u, 1.0 - v)
+                    } else {
+                        (u, v)
+                    }
+                })
+                .collect();
+            for (u, v) in grid.chain(random) {
+                let p = a + (b - a) * u + (c - a) * v;
+                let q = [p.x as f32, p.y as f32, p.z as f32];
+                let inside = bx.holds(q);
+                held += inside as u32;
+                flagged += whole as u32;
+                if dist(p) <= nb.tol {
+                    near += 1;
+                    assert!(inside, "{p} (triangle {t}) is {} from the water", dist(p));
+                }
+            }
+        }
+        assert!(near > 100, "{near} points near the water's surface");
+        assert!(
+            held * 20 < flagged,
+            "{held} points in the boxes, {flagged} on flagged triangles"
+        );
     }
 
     #[test]
