@@ -17,8 +17,15 @@ use super::cylinder::{Candidate, CylImage, CylStatus, EyeTerms, Family, HollowCy
 use super::lanes::{newton_rows, Consts, LaneIn, Rows, NEXT, ROOT};
 use glam::{DVec2, DVec3};
 
-/// Width of a β bin (the table's β is the bin centre).
-const BIN: f64 = 0.01;
+/// Width of a β bin (the table's β is the bin centre). 0.01 until issue
+/// 16's eighth round: 0.02 halves the tables and the inverse table's plans
+/// (a per-frame cost that parallelises poorly: 10 -> 6-7 ms on two threads
+/// for the bench plane) for slightly more per-target work (a wider edge
+/// tolerance, 0.5·BIN·dist, makes a few more candidates; the first guesses
+/// from the bin's centre are a little farther, +1 % Newton evaluations).
+/// callgrind, tables + plans + 100k targets: 524.1 -> 499.2 M instructions
+/// (0.04: 505.5 M).
+const BIN: f64 = 0.02;
 
 /// One family's table in one β bin, as linear forms in the target `p`:
 /// `g = gx·p.x + gy·p.y − gc` (the target's signed distance from the final
