@@ -15,7 +15,8 @@
 //! tried first: LLVM vectorised it mostly in pairs and kept 80 scalar
 //! square roots and divisions (1,790 instructions per call, no faster than
 //! four scalar calls), hence the intrinsics. This module and `src/embree/`
-//! are the crate's only `unsafe` (the dispatch and reading the lanes out).
+//! are the crate's only `unsafe` (the dispatch, reading the lanes out and
+//! loading four rows of `Rows` into a register).
 #![allow(unsafe_code)]
 use super::cylinder::{Family, HollowCylinder};
 use glam::DVec2;
@@ -406,7 +407,7 @@ mod avx {
         })
     }
 
-    /// `super::newton_rows` for the rows `i..i + 4` of `rows` (loaded and
+    /// `super::newton_rows`, four rows at a time (each group loaded and
     /// stored as vectors): b and β of a lane that steps are overwritten
     /// with the next point, and the lane's outcome goes to `status`.
     #[target_feature(enable = "avx2")]
