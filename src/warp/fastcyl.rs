@@ -13,12 +13,19 @@
 //! image (checked to 1e-9 like the slow path); what can differ is a pair of
 //! images within a bin's width of a caustic, where the pair exists at the
 //! target's β but not at the bin's (or the reverse).
-use super::cylinder::{Candidate, CylImage, CylStatus, Family, HollowCylinder};
-use super::lanes::{newton4, Consts, LaneIn, Step, LANES};
+use super::cylinder::{Candidate, CylImage, CylStatus, EyeTerms, Family, HollowCylinder};
+use super::lanes::{newton_rows, Consts, LaneIn, Rows, NEXT, ROOT};
 use glam::{DVec2, DVec3};
 
-/// Width of a β bin (the table's β is the bin centre).
-const BIN: f64 = 0.01;
+/// Width of a β bin (the table's β is the bin centre). 0.01 until issue
+/// 16's eighth round: 0.02 halves the tables and the inverse table's plans
+/// (a per-frame cost that parallelises poorly: 10 -> 6-7 ms on two threads
+/// for the bench plane) for slightly more per-target work (a wider edge
+/// tolerance, 0.5·BIN·dist, makes a few more candidates; the first guesses
+/// from the bin's centre are a little farther, +1 % Newton evaluations).
+/// callgrind, tables + plans + 100k targets: 524.1 -> 499.2 M instructions
+/// (0.04: 505.5 M).
+const BIN: f64 = 0.02;
 
 /// One family's table in one β bin, as linear forms in the target `p`:
 /// `g = gx·p.x + gy·p.y − gc` (the target's signed distance from the final
@@ -614,6 +621,10 @@ pub struct CylinderWarper {
     plans: Option<Plans>,
     /// The tube and the eye for the four-lane evaluations.
     lanes: Consts,
+    /// The eye's terms of an image's direction (`collect`).
+    terms: EyeTerms,
+    /// `EDGE_SLOW_STEPS` (the tests compare with `u32::MAX`).
+    edge_slow: u32,
 }
 
 const FAMILIES: [Family; 4] = [Family::Through4, Family::Tir2, Family::Wall2, Family::Hollow2];
@@ -634,20 +645,35 @@ impl CylinderWarper {
     /// # Errors
     /// `EyeNotOutside` when the eye is within the outer radius.
     pub fn for_targets(cyl: HollowCylinder, eye: DVec3, targets: &[DVec3]) -> Result<Self, CylStatus> {
-        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-        let (mut hollow, mut outside) = (false, false);
-        for &t in targets {
-            let d = t - eye;
-            let l = d.length();
-            if l > 0.0 {
-                let b = d.dot(cyl.axis_direction) / l;
-                lo = lo.min(b);
-                hi = hi.max(b);
-            }
-            let rp = cyl.to2(t).0.length();
-            hollow |= rp <= cyl.inner_radius;
-            outside |= rp >= cyl.outer_radius;
-        }
+        use rayon::prelude::*;
+        // In parallel (issue 16, eighth round: this pass and the inverse
+        // table's passes over the targets were a third of `for_targets`'
+        // wall time on two threads, run on one). min, max and `|` give the
+        // same answer in any order.
+        type Range = (f64, f64, bool, bool);
+        let empty: Range = (f64::INFINITY, f64::NEG_INFINITY, false, false);
+        let (mut lo, mut hi, hollow, outside) = targets
+            .par_chunks(4096)
+            .map(|ch| {
+                let (mut lo, mut hi, mut hollow, mut outside) = empty;
+                for &t in ch {
+                    let d = t - eye;
+                    let l = d.length();
+                    if l > 0.0 {
+                        let b = d.dot(cyl.axis_direction) / l;
+                        lo = lo.min(b);
+                        hi = hi.max(b);
+                    }
+                    let rp = cyl.to2(t).0.length();
+                    hollow |= rp <= cyl.inner_radius;
+                    outside |= rp >= cyl.outer_radius;
+                }
+                (lo, hi, hollow, outside)
+            })
+            .reduce(
+                || empty,
+                |a, b| (a.0.min(b.0), a.1.max(b.1), a.2 | b.2, a.3 | b.3),
+            );
         if lo > hi {
             (lo, hi) = (0.0, 0.0);
         }
@@ -745,6 +771,8 @@ impl CylinderWarper {
             tables,
             plans: None,
             lanes: Consts::new(&cyl, e),
+            terms: EyeTerms::for_tube(&cyl, e),
+            edge_slow: EDGE_SLOW_STEPS,
         })
     }
 
@@ -770,8 +798,9 @@ impl CylinderWarper {
     /// `min_targets` of them fall in (see `Plans`).
     fn build_plans(&mut self, targets: &[DVec3], min_targets: usize) {
         use rayon::prelude::*;
+        // The passes over the targets in parallel (see `for_targets`).
         let located: Vec<(DVec2, usize)> = targets
-            .iter()
+            .par_iter()
             .filter_map(|&t| {
                 let (p, _, dist, bin) = self.locate(t);
                 (dist > 0.0 && p.is_finite()).then_some((p, bin?))
@@ -780,11 +809,11 @@ impl CylinderWarper {
         if located.is_empty() {
             return;
         }
-        let (mut lo, mut hi) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
-        for &(p, _) in &located {
-            lo = lo.min(p);
-            hi = hi.max(p);
-        }
+        let inf = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
+        let (lo, hi) = located
+            .par_chunks(4096)
+            .map(|ch| ch.iter().fold(inf, |(lo, hi), &(p, _)| (lo.min(p), hi.max(p))))
+            .reduce(|| inf, |a, b| (a.0.min(b.0), a.1.max(b.1)));
         let nx = ((hi.x - lo.x) / CELL).floor() as usize + 1;
         let ny = ((hi.y - lo.y) / CELL).floor() as usize + 1;
         let bins = self.tables.len();
@@ -801,9 +830,13 @@ impl CylinderWarper {
         };
         // Only cells holding at least `min_targets` targets get a plan
         // (`slot` counts them first).
-        for &(p, bin) in &located {
-            if let Some(k) = plans.slot_of(bin, p) {
-                plans.slot[k] += 1;
+        let slots: Vec<u32> = located
+            .par_iter()
+            .map(|&(p, bin)| plans.slot_of(bin, p).map_or(u32::MAX, |k| k as u32))
+            .collect();
+        for &k in &slots {
+            if k != u32::MAX {
+                plans.slot[k as usize] += 1;
             }
         }
         let keys: Vec<usize> = (0..plans.slot.len())
@@ -933,7 +966,7 @@ impl CylinderWarper {
                 let ctx = self.prepare(target, out, &mut sc.cands, &mut sc.jobs);
                 sc.ctx.push(ctx);
             }
-            self.polish_all(&mut sc.jobs, &mut sc.run);
+            self.polish_all(&mut sc.jobs, &mut sc.polish);
             let mut start = 0;
             for (i, ctx) in sc.ctx.iter().enumerate() {
                 let out = &mut sc.outs[i];
@@ -1052,36 +1085,58 @@ impl CylinderWarper {
     }
 
     /// Every running polish of the batch steps once per round, four at a
-    /// time through `lanes::resid_jac4` (a polish's step is one closed-form
-    /// evaluation and one Newton step; the lanes overlap the dependent
-    /// chains of square roots and divisions of up to four polishes, of any
-    /// targets and families). Each polish takes the same steps as alone.
-    fn polish_all(&self, jobs: &mut [Job], run: &mut Vec<u32>) {
+    /// time (`lanes::newton_rows`: one closed-form evaluation and one
+    /// Newton step per polish; the lanes overlap the dependent chains of
+    /// square roots and divisions of up to four polishes, of any targets
+    /// and families). Each polish takes the same steps as alone. The
+    /// running polishes are rows of a struct of arrays (`lanes::Rows`),
+    /// compacted after each round; a polish's own state is written only
+    /// when it ends (issue 16, eighth round: the gather of each lane from
+    /// its `Job` and the scatter of the step back cost about half as much
+    /// as the evaluations themselves).
+    fn polish_all(&self, jobs: &mut [Job], sc: &mut PolishScratch) {
+        let PolishScratch { rows, run, status } = sc;
+        rows.clear();
         run.clear();
-        run.extend(jobs.iter().enumerate().filter_map(|(i, j)| match j {
-            Job::Bracket(_) => Some(i as u32),
-            Job::Edge(..) => None,
-        }));
+        for (i, j) in jobs.iter().enumerate() {
+            if let Job::Bracket(pol) = j {
+                rows.push(&pol.lane(), pol.tol);
+                run.push(i as u32);
+            }
+        }
         for _ in 0..POLISH_STEPS {
-            if run.is_empty() {
+            let n = run.len();
+            if n == 0 {
                 break;
             }
-            for grp in run.chunks(LANES) {
-                // A short group repeats its last polish in the spare lanes.
-                let pol = |l: usize| match &jobs[grp[l.min(grp.len() - 1)] as usize] {
-                    Job::Bracket(pol) => pol,
-                    Job::Edge(..) => unreachable!("only polishes run"),
-                };
-                let lanes: [LaneIn; LANES] = std::array::from_fn(|l| pol(l).lane());
-                let tol: [f64; LANES] = std::array::from_fn(|l| pol(l).tol);
-                let steps = newton4(&self.lanes, &lanes, tol);
-                for (&ji, st) in grp.iter().zip(steps) {
-                    if let Job::Bracket(pol) = &mut jobs[ji as usize] {
-                        pol.step(st);
+            rows.pad(n);
+            status.clear();
+            status.resize(rows.b.len(), NEXT);
+            newton_rows(&self.lanes, rows, status);
+            let mut kept = 0;
+            for r in 0..n {
+                let ji = run[r] as usize;
+                match status[r] {
+                    NEXT => {
+                        if kept != r {
+                            rows.mov(r, kept);
+                            run[kept] = run[r];
+                        }
+                        kept += 1;
+                    }
+                    st => {
+                        if let Job::Bracket(pol) = &mut jobs[ji] {
+                            if st == ROOT {
+                                (pol.b, pol.beta) = (rows.b[r], rows.beta[r]);
+                                pol.finish_at_root();
+                            } else {
+                                pol.state = PolishState::Failed;
+                            }
+                        }
                     }
                 }
             }
-            run.retain(|&i| matches!(&jobs[i as usize], Job::Bracket(p) if p.state == PolishState::Running));
+            run.truncate(kept);
         }
     }
 
@@ -1107,20 +1162,63 @@ impl CylinderWarper {
                     let (k0b, k1b) = pol.bracket;
                     pol.result()
                         .and_then(|(b, beta)| {
-                            c.image_at(fam, e, p, dist, self.eye, b, beta, in_hollow, parity)
+                            if parity {
+                                c.image_at(fam, e, p, dist, self.eye, b, beta, in_hollow, true)
+                            } else {
+                                // `image_at` without the parity, the eye's
+                                // terms hoisted (the same bits).
+                                Some(self.terms.image(fam, self.eye, dist, b, beta))
+                            }
                         })
                         .or_else(|| {
-                            c.newton_image_opts(fam, e, p, dv, dist, self.eye, b, beta, in_hollow, parity)
+                            c.newton_image_opts(
+                                fam,
+                                e,
+                                p,
+                                dv,
+                                dist,
+                                self.eye,
+                                b,
+                                beta,
+                                in_hollow,
+                                parity,
+                                u32::MAX,
+                            )
                         })
                         .or_else(|| {
-                            c.newton_image_opts(fam, e, p, dv, dist, self.eye, b, beta0, in_hollow, parity)
+                            c.newton_image_opts(
+                                fam,
+                                e,
+                                p,
+                                dv,
+                                dist,
+                                self.eye,
+                                b,
+                                beta0,
+                                in_hollow,
+                                parity,
+                                u32::MAX,
+                            )
                         })
                         .or_else(|| {
                             c.refine_public(fam, e, p, dv, dist, self.eye, k0b, k1b, beta0, in_hollow)
                         })
                 }
                 Job::Edge(fam, bk) => {
-                    c.newton_image_opts(fam, e, p, dv, dist, self.eye, bk, beta0, in_hollow, parity)
+                    // Impatient: see `newton_image_opts`' `slow_limit`.
+                    c.newton_image_opts(
+                        fam,
+                        e,
+                        p,
+                        dv,
+                        dist,
+                        self.eye,
+                        bk,
+                        beta0,
+                        in_hollow,
+                        parity,
+                        self.edge_slow,
+                    )
                 }
             };
             if let Some(img) = img {
@@ -1163,11 +1261,25 @@ struct Scratch {
     ctx: Vec<Prepared>,
     jobs: Vec<Job>,
     cands: Vec<Candidate>,
+    polish: PolishScratch,
+}
+
+/// `polish_all`'s buffers: the running polishes' rows, their jobs' indices
+/// and the rows' outcomes of a round.
+#[derive(Default)]
+struct PolishScratch {
+    rows: Rows,
     run: Vec<u32>,
+    status: Vec<u8>,
 }
 
 /// Newton steps a polish may take.
 const POLISH_STEPS: usize = 6;
+
+/// An edge candidate's damped Newton gives up after this many slow steps
+/// in a row (`HollowCylinder::newton_image_opts`' `slow_limit`; 3 lost an
+/// image in the tests, so 10 leaves a margin).
+const EDGE_SLOW_STEPS: u32 = 10;
 
 /// Newton in (b, β) with the closed-form Jacobian from the table's first
 /// guess, one step at a time (`step`, given the evaluation at the current
@@ -1242,17 +1354,6 @@ impl Polish {
             dv: self.dv,
             b: self.b,
             beta: self.beta,
-        }
-    }
-
-    /// One step (`lanes::step`, taken in `newton4`): the convergence test
-    /// that ends the polish, or the next point.
-    #[inline]
-    fn step(&mut self, st: Step) {
-        match st {
-            Step::Fail => self.state = PolishState::Failed,
-            Step::Root => self.finish_at_root(),
-            Step::Next(b, beta) => (self.b, self.beta) = (b, beta),
         }
     }
 
@@ -1392,6 +1493,85 @@ mod target_tests {
                 );
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod edge_give_up_tests {
+    use super::*;
+
+    /// An edge candidate's impatient damped Newton (`EDGE_SLOW_STEPS`)
+    /// finds the same images as the patient one (`u32::MAX`, the robust
+    /// sampler's): on a grid of the bench's plane and on targets whose
+    /// images lie near the family edges, for r = 0.8 and 0.5. A limit of
+    /// one slow step loses images here (checked when this was written),
+    /// so the test tells a limit that is too eager (1 and 2 fail it).
+    #[test]
+    fn impatient_edges_find_the_same_images() {
+        let images_with = |w: &CylinderWarper, pts: &[DVec3]| {
+            let mut all = Vec::new();
+            w.images_batch(pts, false, |_, r| {
+                all.push(r.map(|v| v.to_vec()).unwrap_or_default())
+            });
+            all
+        };
+        let mut edge_images = 0;
+        for (r_in, eye) in [(0.8, DVec3::new(0.0, 0.0, 4.0)), (0.5, DVec3::new(0.7, 0.3, 3.5))] {
+            let c = HollowCylinder::try_new(DVec3::ZERO, DVec3::Y, 1.0, r_in, 1.5).unwrap();
+            let m = 120;
+            let mut pts: Vec<DVec3> = (0..m * m)
+                .map(|i| {
+                    DVec3::new(
+                        -6.0 + 12.0 * (i % m) as f64 / m as f64,
+                        -4.5 + 9.0 * (i / m) as f64 / m as f64,
+                        -3.0,
+                    )
+                })
+                .collect();
+            // Targets reached by eye rays 1e-2..1e-9 inside and outside the
+            // family edges (the silhouette, the inner wall's seam and TIR
+            // edge), as `no_image_lost_on_random_targets` makes them.
+            let (e2, _) = c.to2(eye);
+            let mut rng = test_rng::Lcg(11);
+            for _ in 0..1500 {
+                let edges = [1.0, r_in, (r_in * 1.5f64).min(1.0)];
+                let edge = edges[(rng.next() * 3.0) as usize % 3];
+                let off = 10f64.powf(-2.0 - 7.0 * rng.next()) * if rng.next() < 0.5 { -1.0 } else { 1.0 };
+                let b = (edge + off) * if rng.next() < 0.5 { -1.0 } else { 1.0 };
+                if b.abs() >= 1.0 || b.abs() >= e2.length() {
+                    continue;
+                }
+                let beta = rng.next() * 1.2 - 0.6;
+                let fams = [Family::Through4, Family::Tir2, Family::Wall2];
+                let fam = fams[(rng.next() * 3.0) as usize % 3];
+                if let Some((o, d, _, _)) = c.path_lengths(fam, e2, b, beta, false) {
+                    let q = o + d * (1.0 + 4.0 * rng.next());
+                    if q.length() > 1.0 {
+                        let (u, w, a) = c.frame_axes();
+                        pts.push(u * q.x + w * q.y + a * (rng.next() * 4.0 - 2.0));
+                    }
+                }
+            }
+            let fast = CylinderWarper::for_targets(c, eye, &pts).unwrap();
+            let mut patient = CylinderWarper::for_targets(c, eye, &pts).unwrap();
+            patient.edge_slow = u32::MAX;
+            let (a, b) = (images_with(&fast, &pts), images_with(&patient, &pts));
+            for ((t, x), y) in pts.iter().zip(&a).zip(&b) {
+                assert_eq!(x.len(), y.len(), "{t}: {x:?} {y:?}");
+                for (x, y) in x.iter().zip(y) {
+                    assert_eq!(x.family, y.family, "{t}");
+                    assert!((x.direction - y.direction).length() < 1e-12, "{t}: {x:?} {y:?}");
+                }
+            }
+            // How many images come from edge candidates at all: the
+            // comparison must have some to compare.
+            let mut none = CylinderWarper::for_targets(c, eye, &pts).unwrap();
+            none.edge_slow = 0;
+            let c0: usize = images_with(&none, &pts).iter().map(Vec::len).sum();
+            let c1: usize = b.iter().map(Vec::len).sum();
+            edge_images += c1 - c0;
+        }
+        assert!(edge_images > 10, "{edge_images}");
     }
 }
 

@@ -15,7 +15,8 @@
 //! tried first: LLVM vectorised it mostly in pairs and kept 80 scalar
 //! square roots and divisions (1,790 instructions per call, no faster than
 //! four scalar calls), hence the intrinsics. This module and `src/embree/`
-//! are the crate's only `unsafe` (the dispatch and reading the lanes out).
+//! are the crate's only `unsafe` (the dispatch, reading the lanes out and
+//! loading four rows of `Rows` into a register).
 #![allow(unsafe_code)]
 use super::cylinder::{Family, HollowCylinder};
 use glam::DVec2;
@@ -117,7 +118,9 @@ pub(crate) fn step(ev: LaneOut, b: f64, beta: f64, tol: f64) -> Step {
     Step::Next(nb, nbeta)
 }
 
-/// `step` of each lane from its own point, with tolerances `tol`.
+/// `step` of each lane from its own point, with tolerances `tol` (the
+/// tests' reference for the vector step; the solver calls `newton_rows`).
+#[cfg(test)]
 pub(crate) fn newton4(k: &Consts, lanes: &[LaneIn; LANES], tol: [f64; LANES]) -> [Step; LANES] {
     #[cfg(target_arch = "x86_64")]
     if k.avx2 {
@@ -133,9 +136,146 @@ pub(crate) fn newton4(k: &Consts, lanes: &[LaneIn; LANES], tol: [f64; LANES]) ->
     })
 }
 
+/// A family as a lane's code (`Rows::fam`, the vector code's blends).
+#[inline]
+pub(crate) fn fam_code(f: Family) -> f64 {
+    match f {
+        Family::Wall2 => 1.0,
+        Family::Tir2 => 2.0,
+        Family::Hollow2 => 3.0,
+        _ => 0.0,
+    }
+}
+
+fn fam_of(code: f64) -> Family {
+    match code as u8 {
+        1 => Family::Wall2,
+        2 => Family::Tir2,
+        3 => Family::Hollow2,
+        _ => Family::Through4,
+    }
+}
+
+/// `newton_rows`' outcomes of a row: it stepped (its b, β are the next
+/// point), its residual is within the tolerance at its (unchanged) point,
+/// or it failed (`step`'s `Next`, `Root`, `Fail`).
+pub(crate) const NEXT: u8 = 0;
+pub(crate) const ROOT: u8 = 1;
+pub(crate) const FAIL: u8 = 2;
+
+/// Running Newton polishes as a struct of arrays, one row each (issue 16,
+/// eighth round): the four lanes of an evaluation are loaded from four
+/// consecutive rows as vectors, and the next point is stored back the
+/// same way, instead of gathering each lane from a polish and scattering
+/// the step into it. The rows' count is kept a multiple of `LANES`
+/// (`pad`); padding rows repeat the last real one and are ignored.
+#[derive(Clone, Default)]
+pub(crate) struct Rows {
+    pub fam: Vec<f64>,
+    pub px: Vec<f64>,
+    pub py: Vec<f64>,
+    pub dv: Vec<f64>,
+    pub b: Vec<f64>,
+    pub beta: Vec<f64>,
+    pub tol: Vec<f64>,
+}
+
+impl Rows {
+    pub fn clear(&mut self) {
+        for v in self.cols_mut() {
+            v.clear();
+        }
+    }
+
+    fn cols_mut(&mut self) -> [&mut Vec<f64>; 7] {
+        [
+            &mut self.fam,
+            &mut self.px,
+            &mut self.py,
+            &mut self.dv,
+            &mut self.b,
+            &mut self.beta,
+            &mut self.tol,
+        ]
+    }
+
+    #[inline]
+    pub fn push(&mut self, l: &LaneIn, tol: f64) {
+        self.fam.push(fam_code(l.fam));
+        self.px.push(l.p.x);
+        self.py.push(l.p.y);
+        self.dv.push(l.dv);
+        self.b.push(l.b);
+        self.beta.push(l.beta);
+        self.tol.push(tol);
+    }
+
+    /// Keeps the first `n` rows and pads them to a multiple of `LANES`
+    /// with copies of the last one.
+    pub fn pad(&mut self, n: usize) {
+        let m = n.div_ceil(LANES) * LANES;
+        for v in self.cols_mut() {
+            v.truncate(n);
+            if n > 0 {
+                let last = v[n - 1];
+                v.resize(m, last);
+            }
+        }
+    }
+
+    /// Moves row `from` to row `to` (compaction).
+    #[inline]
+    pub fn mov(&mut self, from: usize, to: usize) {
+        for v in self.cols_mut() {
+            v[to] = v[from];
+        }
+    }
+
+    /// Row `i` as a lane.
+    fn lane(&self, i: usize) -> LaneIn {
+        LaneIn {
+            fam: fam_of(self.fam[i]),
+            p: DVec2::new(self.px[i], self.py[i]),
+            dv: self.dv[i],
+            b: self.b[i],
+            beta: self.beta[i],
+        }
+    }
+}
+
+/// One Newton step of every row (`rows` padded, `status` as long): the
+/// outcome of `step` into `status`, and for a row that steps its next
+/// point into its b and β. Rows are evaluated four at a time in AVX2
+/// registers where the CPU has it (the same bits as `newton4`, which is
+/// `step` bit for bit), else one at a time with `resid_jac` and `step`.
+pub(crate) fn newton_rows(k: &Consts, rows: &mut Rows, status: &mut [u8]) {
+    #[cfg(target_arch = "x86_64")]
+    if k.avx2 {
+        // SAFETY: as in `resid_jac4`; it reads and writes only its
+        // arguments.
+        return unsafe { avx::newton_rows(k, rows, status) };
+    }
+    for (i, st) in status.iter_mut().enumerate().take(rows.b.len()) {
+        let l = rows.lane(i);
+        let ev = k
+            .cyl
+            .resid_jac(l.fam, k.e, l.p, l.dv, l.b, l.beta, l.fam == Family::Hollow2);
+        *st = match step(ev, l.b, l.beta, rows.tol[i]) {
+            Step::Fail => FAIL,
+            Step::Root => ROOT,
+            Step::Next(b, beta) => {
+                (rows.b[i], rows.beta[i]) = (b, beta);
+                NEXT
+            }
+        };
+    }
+}
+
 #[cfg(target_arch = "x86_64")]
 mod avx {
-    use super::{Consts, DVec2, Family, LaneIn, Step, LANES};
+    #[cfg(test)]
+    use super::{fam_code, LaneIn, Step};
+    use super::{Consts, DVec2, LANES};
     use std::arch::x86_64::*;
 
     macro_rules! sp {
@@ -244,12 +384,87 @@ mod avx {
     }
 
     /// `super::step` of each lane (the same operations: bit for bit).
+    #[cfg(test)]
     #[target_feature(enable = "avx2")]
     pub(super) fn newton4(k: &Consts, lanes: &[LaneIn; LANES], tol: [f64; LANES]) -> [Step; LANES] {
         let v = eval(k, lanes);
         let b = _mm256_setr_pd(lanes[0].b, lanes[1].b, lanes[2].b, lanes[3].b);
         let beta = _mm256_setr_pd(lanes[0].beta, lanes[1].beta, lanes[2].beta, lanes[3].beta);
         let tol = _mm256_setr_pd(tol[0], tol[1], tol[2], tol[3]);
+        let (nb, nbeta, ok, root, bad) = step_v(&v, b, beta, tol);
+        let (nb, nbeta) = (out(nb), out(nbeta));
+        std::array::from_fn(|i| {
+            let bit = 1 << i;
+            if ok & bit == 0 {
+                Step::Fail
+            } else if root & bit != 0 {
+                Step::Root
+            } else if bad & bit != 0 {
+                Step::Fail
+            } else {
+                Step::Next(nb[i], nbeta[i])
+            }
+        })
+    }
+
+    /// `super::newton_rows`, four rows at a time (each group loaded and
+    /// stored as vectors): b and β of a lane that steps are overwritten
+    /// with the next point, and the lane's outcome goes to `status`.
+    #[target_feature(enable = "avx2")]
+    pub(super) fn newton_rows(k: &Consts, rows: &mut super::Rows, status: &mut [u8]) {
+        let n = rows.b.len();
+        let mut i = 0;
+        while i + LANES <= n {
+            let ld = |v: &[f64]| {
+                let a: &[f64; LANES] = v[i..i + LANES].try_into().expect("four rows");
+                // SAFETY: `a` is four readable f64 (`loadu` needs no
+                // alignment).
+                unsafe { _mm256_loadu_pd(a.as_ptr()) }
+            };
+            let (b, beta) = (ld(&rows.b), ld(&rows.beta));
+            let v = eval_v(
+                k,
+                ld(&rows.fam),
+                b,
+                beta,
+                ld(&rows.px),
+                ld(&rows.py),
+                ld(&rows.dv),
+            );
+            let (nb, nbeta, ok, root, bad) = step_v(&v, b, beta, ld(&rows.tol));
+            // Only lanes that step move (a root keeps its point).
+            let moves = !root & ok & !bad & 0xf;
+            let m = _mm256_castsi256_pd(_mm256_setr_epi64x(
+                -((moves & 1) as i64),
+                -((moves >> 1 & 1) as i64),
+                -((moves >> 2 & 1) as i64),
+                -((moves >> 3 & 1) as i64),
+            ));
+            let (nb, nbeta) = (out(sel!(m, nb, b)), out(sel!(m, nbeta, beta)));
+            rows.b[i..i + LANES].copy_from_slice(&nb);
+            rows.beta[i..i + LANES].copy_from_slice(&nbeta);
+            for l in 0..LANES {
+                let bit = 1 << l;
+                status[i + l] = if ok & bit == 0 {
+                    super::FAIL
+                } else if root & bit != 0 {
+                    super::ROOT
+                } else if bad & bit != 0 {
+                    super::FAIL
+                } else {
+                    super::NEXT
+                };
+            }
+            i += LANES;
+        }
+    }
+
+    /// `super::step` in four lanes: the next (b, β), and the bit masks of
+    /// the lanes where the evaluation exists (`ok`), the residual is
+    /// within `tol` (`root`) and the step fails (`bad`).
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn step_v(v: &Eval, b: __m256d, beta: __m256d, tol: __m256d) -> (__m256d, __m256d, i32, i32, i32) {
         let (ag, ar1) = (
             _mm256_andnot_pd(sp!(-0.0), v.g),
             _mm256_andnot_pd(sp!(-0.0), v.r1),
@@ -267,48 +482,51 @@ mod avx {
         let bad_beta = cmp!(_CMP_NLT_UQ, _mm256_andnot_pd(sp!(-0.0), nbeta), sp!(0.999_999));
         let ok = _mm256_movemask_pd(v.ok);
         let bad = _mm256_movemask_pd(_mm256_or_pd(bad_det, bad_beta));
-        let (nb, nbeta) = (out(nb), out(nbeta));
-        std::array::from_fn(|i| {
-            let bit = 1 << i;
-            if ok & bit == 0 {
-                Step::Fail
-            } else if root & bit != 0 {
-                Step::Root
-            } else if bad & bit != 0 {
-                Step::Fail
-            } else {
-                Step::Next(nb[i], nbeta[i])
-            }
-        })
+        (nb, nbeta, ok, root, bad)
     }
 
     /// `HollowCylinder::resid_jac` in four lanes (see there for the
     /// formulas; the names are the same). Intrinsics are safe to call
     /// here (the function enables AVX2); the macros only abbreviate them.
+    #[cfg(test)]
     #[target_feature(enable = "avx2")]
     #[inline]
     fn eval(k: &Consts, lanes: &[LaneIn; LANES]) -> Eval {
         let get =
             |f: fn(&LaneIn) -> f64| _mm256_setr_pd(f(&lanes[0]), f(&lanes[1]), f(&lanes[2]), f(&lanes[3]));
-        let code = |f: Family| match f {
-            Family::Wall2 => 1.0,
-            Family::Tir2 => 2.0,
-            Family::Hollow2 => 3.0,
-            _ => 0.0,
-        };
         let fam = _mm256_setr_pd(
-            code(lanes[0].fam),
-            code(lanes[1].fam),
-            code(lanes[2].fam),
-            code(lanes[3].fam),
+            fam_code(lanes[0].fam),
+            fam_code(lanes[1].fam),
+            fam_code(lanes[2].fam),
+            fam_code(lanes[3].fam),
         );
+        eval_v(
+            k,
+            fam,
+            get(|l| l.b),
+            get(|l| l.beta),
+            get(|l| l.p.x),
+            get(|l| l.p.y),
+            get(|l| l.dv),
+        )
+    }
+
+    /// `eval` of lanes already in registers (`fam` the codes of
+    /// `fam_code`).
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn eval_v(
+        k: &Consts,
+        fam: __m256d,
+        b: __m256d,
+        beta: __m256d,
+        px: __m256d,
+        py: __m256d,
+        dv: __m256d,
+    ) -> Eval {
         let wall = cmp!(_CMP_EQ_OQ, fam, sp!(1.0));
         let tir = cmp!(_CMP_EQ_OQ, fam, sp!(2.0));
         let hollow = cmp!(_CMP_EQ_OQ, fam, sp!(3.0));
-        let b = get(|l| l.b);
-        let beta = get(|l| l.beta);
-        let (px, py) = (get(|l| l.p.x), get(|l| l.p.y));
-        let dv = get(|l| l.dv);
         let c = &k.cyl;
         let (big, small) = (sp!(c.outer_radius), sp!(c.inner_radius));
         let (one, two, zero) = (sp!(1.0), sp!(2.0), sp!(0.0));
@@ -560,5 +778,86 @@ mod tests {
             assert!(some > 1000 && none > 1000, "{some} {none}");
             assert!(steps.iter().all(|&n| n > 100), "{steps:?}");
         }
+    }
+
+    /// `newton_rows` (the rows loaded as vectors, the next point stored
+    /// back) is `step` of each row bit for bit, padding included, and
+    /// leaves a row that does not step where it was.
+    #[test]
+    fn rows_equal_the_scalar_step() {
+        let mut rng = Lcg(13);
+        let c = HollowCylinder::try_new(glam::DVec3::ZERO, glam::DVec3::Y, 1.0, 0.5, 1.5).unwrap();
+        let eye = DVec2::new(0.3, 4.0);
+        let k = Consts::new(&c, eye);
+        let fams = [Family::Through4, Family::Tir2, Family::Wall2, Family::Hollow2];
+        let mut seen = [0; 3];
+        for n in [1usize, 3, 4, 7, 64, 101] {
+            let mut rows = Rows::default();
+            let mut lanes = Vec::new();
+            for _ in 0..n {
+                let fam = fams[(rng.next() * 4.0) as usize % 4];
+                let p = if fam == Family::Hollow2 {
+                    DVec2::new(rng.next() - 0.5, rng.next() - 0.5) * 0.5
+                } else {
+                    DVec2::new(rng.next() * 12.0 - 6.0, rng.next() * 12.0 - 6.0)
+                };
+                let l = LaneIn {
+                    fam,
+                    p,
+                    dv: rng.next() * 6.0 - 3.0,
+                    b: rng.next() * 2.2 - 1.1,
+                    beta: rng.next() * 1.8 - 0.9,
+                };
+                // Some tolerances above any residual (roots), most tiny.
+                let tol = if rng.next() < 0.2 {
+                    1e3
+                } else {
+                    rng.next().powi(8) * 4.0
+                };
+                rows.push(&l, tol);
+                lanes.push((l, tol));
+            }
+            rows.pad(n);
+            assert_eq!(rows.b.len() % LANES, 0);
+            // The scalar path (no AVX2) gives the same rows.
+            let mut plain = rows.clone();
+            let mut plain_status = vec![NEXT; rows.b.len()];
+            newton_rows(&k.scalar(), &mut plain, &mut plain_status);
+            let mut status = vec![NEXT; rows.b.len()];
+            newton_rows(&k, &mut rows, &mut status);
+            assert_eq!(status, plain_status);
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(
+                (bits(&rows.b), bits(&rows.beta)),
+                (bits(&plain.b), bits(&plain.beta))
+            );
+            for (i, (l, tol)) in lanes.iter().enumerate() {
+                let want = step(
+                    c.resid_jac(l.fam, eye, l.p, l.dv, l.b, l.beta, l.fam == Family::Hollow2),
+                    l.b,
+                    l.beta,
+                    *tol,
+                );
+                let got = match status[i] {
+                    FAIL => Step::Fail,
+                    ROOT => Step::Root,
+                    _ => Step::Next(rows.b[i], rows.beta[i]),
+                };
+                let bits = |s: Step| match s {
+                    Step::Next(b, beta) => Some((b.to_bits(), beta.to_bits())),
+                    Step::Root => Some((0, 1)),
+                    Step::Fail => None,
+                };
+                assert_eq!(bits(got), bits(want), "{l:?}");
+                if status[i] != NEXT {
+                    assert_eq!(
+                        (rows.b[i].to_bits(), rows.beta[i].to_bits()),
+                        (l.b.to_bits(), l.beta.to_bits())
+                    );
+                }
+                seen[status[i] as usize] += 1;
+            }
+        }
+        assert!(seen.iter().all(|&n| n > 5), "{seen:?}");
     }
 }
