@@ -16,7 +16,7 @@
 //! - Vertex sweep (Tables 1, 2) and resolution sweep (Table 3).
 //!
 //! SNELL_BENCH_QUICK=1: a short run (smaller sizes, fewer repetitions).
-//! SNELL_BENCH_ONLY=solvers|cylinder|frames|pipeline:SCENE|rays:SCENE: one part.
+//! SNELL_BENCH_ONLY=solvers|cylinder|frames|orbit|pipeline:SCENE|rays:SCENE: one part.
 //! SNELL_BENCH_REPS=N: N repetitions instead of 5 (3 quick).
 //! SNELL_BENCH_NO_PARITY=1 (with `cylinder`): time only the warp's call
 //! (`images_into` without parity), e.g. for callgrind counts.
@@ -627,6 +627,11 @@ fn main() -> snell::Result<()> {
     println!("{}", snell::bench_header());
     println!("threads: {}", rayon::current_num_threads());
     let mut sum = Summary::default();
+    if only().as_deref() == Some("orbit") {
+        // The orbit alone: `SNELL_BENCH_ONLY=orbit`.
+        orbit(24, 1600, 1200, 100_000)?;
+        return Ok(());
+    }
     if let Some(path) = only().as_deref().and_then(|o| o.strip_prefix("rays:")) {
         // Profiling the warp frame's rays pass alone: `SNELL_BENCH_ONLY=rays:SCENE`
         // (one warp, then 10 frames into one buffer; CPU seconds per frame).
