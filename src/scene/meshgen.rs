@@ -71,6 +71,18 @@ pub enum LatheShading {
     },
 }
 
+/// The glass of water's profile (r, y): base, outer wall, rim, inner wall,
+/// inner bottom; the tests' lathe.
+#[cfg(test)]
+pub(crate) const GLASS_PROFILE: [[f64; 2]; 6] = [
+    [0.0, 0.0],
+    [1.0, 0.0],
+    [1.0, 2.5],
+    [0.9, 2.5],
+    [0.9, 0.1],
+    [0.0, 0.1],
+];
+
 /// A profile of (radius, height) points revolved around +y, `segments` around.
 /// Consecutive profile points form bands; points on the axis (r = 0) produce
 /// fans, not degenerate triangles. Winding: a profile walked bottom → top on
@@ -474,15 +486,7 @@ mod tests {
 
     #[test]
     fn smooth_lathe_is_closed_smooth_around_and_sharp_at_corners() {
-        // The glass of water's profile: base, outer wall, rim, inner wall, inner bottom.
-        let p = [
-            [0.0, 0.0],
-            [1.0, 0.0],
-            [1.0, 2.5],
-            [0.9, 2.5],
-            [0.9, 0.1],
-            [0.0, 0.1],
-        ];
+        let p = GLASS_PROFILE;
         let flat = lathe(&p, 64, LatheShading::Flat);
         let m = lathe(&p, 64, LatheShading::Smooth { crease_deg: 30.0 });
         m.check_closed().unwrap();

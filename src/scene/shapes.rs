@@ -1563,14 +1563,7 @@ mod tests {
     #[test]
     fn triangle_distance_is_exact_and_the_grid_finds_every_near_surface() {
         use crate::scene::meshgen::{lathe, LatheShading};
-        let p = [
-            [0.0, 0.0],
-            [1.0, 0.0],
-            [1.0, 2.5],
-            [0.9, 2.5],
-            [0.9, 0.1],
-            [0.0, 0.1],
-        ];
+        let p = crate::scene::meshgen::GLASS_PROFILE;
         let m = std::sync::Arc::new(lathe(&p, 48, LatheShading::Flat));
         let mut rng = crate::sampling::Rng::new(11);
         // The closed form against a dense barycentric sampling of one triangle
@@ -1645,14 +1638,7 @@ mod tests {
     fn cell_cache_agrees_with_parity() {
         use crate::scene::meshgen::{lathe, LatheShading};
         let glass = lathe(
-            &[
-                [0.0, 0.0],
-                [1.0, 0.0],
-                [1.0, 2.5],
-                [0.9, 2.5],
-                [0.9, 0.1],
-                [0.0, 0.1],
-            ],
+            &crate::scene::meshgen::GLASS_PROFILE,
             96,
             LatheShading::Smooth { crease_deg: 30.0 },
         );
@@ -1708,14 +1694,7 @@ mod tests {
     #[test]
     fn contains_grid_agrees_with_brute_force_parity() {
         use crate::scene::meshgen::{lathe, LatheShading};
-        let p = [
-            [0.0, 0.0],
-            [1.0, 0.0],
-            [1.0, 2.5],
-            [0.9, 2.5],
-            [0.9, 0.1],
-            [0.0, 0.1],
-        ];
+        let p = crate::scene::meshgen::GLASS_PROFILE;
         let m = std::sync::Arc::new(lathe(&p, 96, LatheShading::Smooth { crease_deg: 30.0 }));
         let g = ContainsGrid::new(m.clone());
         let mut rng = crate::sampling::Rng::new(5);
