@@ -87,9 +87,8 @@ fn replay(
     pool: &rayon::ThreadPool,
     packets: bool,
 ) -> (f64, Option<f64>) {
-    let cpu0 = pool.broadcast(|_| crate::cpu_time::thread_cpu_s());
     let t = Instant::now();
-    let hits: u64 = pool.install(|| {
+    let run = || -> u64 {
         rays.par_chunks(4096)
             .map(|chunk| {
                 if packets {
@@ -105,11 +104,10 @@ fn replay(
                 n
             })
             .sum()
-    });
+    };
+    let (hits, cpu) = crate::cpu_time::on_pool(pool, || pool.install(run));
     std::hint::black_box(hits);
-    let wall = t.elapsed().as_secs_f64();
-    let cpu = crate::cpu_time::pool_delta(&cpu0, &pool.broadcast(|_| crate::cpu_time::thread_cpu_s()));
-    (wall, cpu)
+    (t.elapsed().as_secs_f64(), cpu)
 }
 
 /// The packet replay of one chunk: nearest and shadow rays gathered into two

@@ -23,10 +23,21 @@ pub fn on_this_thread<R>(f: impl FnOnce() -> R) -> (R, Option<f64>) {
     (r, dt)
 }
 
-/// The CPU time spent by every thread of `pool` between two readings
-/// `before` and `after` (each from `pool.broadcast(|_| thread_cpu_s())`,
-/// in thread order): their sum, `None` if any reading is missing.
-pub fn pool_delta(before: &[Option<f64>], after: &[Option<f64>]) -> Option<f64> {
+/// The CPU time the threads of `pool` spent while `f` ran (`f` puts work
+/// on the pool, e.g. through `pool.install`), in seconds, with `f`'s
+/// result: each thread's clock is read before and after (`None` if any
+/// reading is missing).
+pub fn on_pool<R>(pool: &rayon::ThreadPool, f: impl FnOnce() -> R) -> (R, Option<f64>) {
+    let before = pool.broadcast(|_| thread_cpu_s());
+    let r = f();
+    let after = pool.broadcast(|_| thread_cpu_s());
+    (r, pool_delta(&before, &after))
+}
+
+/// The CPU time spent by every thread of a pool between two readings
+/// `before` and `after` (one per thread, in thread order): their sum,
+/// `None` if any reading is missing.
+fn pool_delta(before: &[Option<f64>], after: &[Option<f64>]) -> Option<f64> {
     if before.len() != after.len() {
         return None;
     }

@@ -496,9 +496,8 @@ pub fn render_part(
     let bar = progress_bar(total, opts.quiet);
     let samples_done = AtomicU64::new(0);
     let tiles_finished = AtomicU64::new(0);
-    let cpu0 = pool.broadcast(|_| crate::cpu_time::thread_cpu_s());
     let start_t = Instant::now();
-    let results: Vec<Result<TileOut>> = pool.install(|| {
+    let run_tiles = || -> Vec<Result<TileOut>> {
         tiles
             .par_iter()
             .map(|&(x, y)| {
@@ -522,12 +521,12 @@ pub fn render_part(
                 Ok(t)
             })
             .collect()
-    });
+    };
+    let (results, cpu) = crate::cpu_time::on_pool(&pool, || pool.install(run_tiles));
     if let Some(b) = bar {
         b.finish_and_clear();
     }
     let wall = start_t.elapsed().as_secs_f64();
-    let cpu = crate::cpu_time::pool_delta(&cpu0, &pool.broadcast(|_| crate::cpu_time::thread_cpu_s()));
     let rw = region.width();
     let n = region.pixels();
     let mut pixels = vec![V3::ZERO; n];

@@ -1066,7 +1066,7 @@ impl Mesh {
 /// the point's projection. The same Möller–Trumbore test on a superset of the
 /// triangles the parity ray can hit: answers equal `Mesh::contains` (test),
 /// at O(triangles per cell) instead of O(triangles).
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 pub struct ContainsGrid {
     mesh: std::sync::Arc<Mesh>,
     axes: [DVec3; 2],
@@ -1111,20 +1111,6 @@ const CELL_OUTSIDE: u8 = 1;
 const CELL_INSIDE: u8 = 2;
 const CELL_MIXED: u8 = 3;
 
-impl Clone for InOutCells {
-    fn clone(&self) -> Self {
-        use std::sync::atomic::{AtomicU8, Ordering};
-        InOutCells {
-            state: self
-                .state
-                .iter()
-                .map(|c| AtomicU8::new(c.load(Ordering::Relaxed)))
-                .collect(),
-            ..*self
-        }
-    }
-}
-
 impl InOutCells {
     /// Cells over the bounds (`lo`, `hi`), the longest side cut in 64.
     fn new(lo: DVec3, hi: DVec3) -> Self {
@@ -1142,7 +1128,8 @@ impl InOutCells {
         }
     }
 
-    /// The cell holding `p` and its centre; `None` outside the bounds.
+    /// The cell holding `p` (its index and its coordinates); `None` outside
+    /// the bounds.
     #[inline]
     fn cell_of(&self, p: DVec3) -> Option<(usize, [usize; 3])> {
         let x = (p - self.lo) / self.size;
