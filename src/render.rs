@@ -263,12 +263,13 @@ pub static PROGRESS_LINES: AtomicBool = AtomicBool::new(false);
 /// this many, and the Embree packet type they share. Eight, not sixteen:
 /// a group's packet runs until its longest path ends, and sixteen lanes
 /// were half empty on average (glass_of_water: 7.9 live lanes per
-/// `rtcIntersect16`); eight took 3–7 % less CPU time on glass_of_water and
-/// 2–4 % less on cylinder_refraction (interleaved runs, stop 26), four lost
-/// on three_spheres. Refilling the lanes of ended paths with the next
-/// samples instead (full packets of rays at mixed depths and pixels) was
-/// 5–25 % slower: Embree's packets pay for the coherence of one pixel's
-/// rays at one depth, not for their fill.
+/// `rtcIntersect16`). Eight took a median 6 % less CPU time on
+/// glass_of_water (1–10 % over eight interleaved pairs) and 4 % less on
+/// cylinder_refraction (0–7 %), three_spheres within noise; four lost on
+/// three_spheres (0.27–0.28 → 0.30 s). Refilling the lanes of ended paths
+/// with the next samples instead (full packets of rays at mixed depths and
+/// pixels) was 5–25 % slower: Embree's packets pay for the coherence of
+/// one pixel's rays at one depth, not for their fill (stop 26, docs/peers.md).
 const LANES: usize = 8;
 type LanePacket = crate::embree::warp_ffi::Packet8;
 

@@ -649,7 +649,7 @@ pub struct LanePackets<P> {
     shadow: P,
 }
 
-/// Up to `N` paths of the path tracer traced side by side (renders use 16):
+/// Up to `N` paths of the path tracer traced side by side (renders use 8):
 /// the segments of the live paths that a plain query answers
 /// ([`dielectric::plain_query_suffices`]) go to Embree as one packet of `N`
 /// rays (the camera rays as a coherent one), the others through
