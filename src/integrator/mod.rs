@@ -658,7 +658,7 @@ pub struct LanePackets<P> {
 /// Up to `N` paths of the path tracer traced side by side (renders use 8):
 /// the segments of the live paths that a plain query answers
 /// ([`dielectric::plain_query_suffices`]) go to Embree as one packet of `N`
-/// rays (the camera rays as a coherent one), the others through
+/// rays (a coherent one while no path has met a diffuse surface), the others through
 /// [`dielectric::trace`]; every batch of shadow rays is one packet. Each path
 /// gives the same radiance, bit for bit, as [`radiance`] with its own `rng`:
 /// the shading is `PathState::advance` in both, and each path's random
