@@ -393,11 +393,18 @@ pub fn warp_scene(scene: &RenderScene, spec: &WarpSpec, prep: &Prepared) -> Resu
             let mut positions: Vec<[f32; 3]> = Vec::with_capacity(prep.vertices);
             let mut indices: Vec<[u32; 3]> = Vec::new();
             let mut source = Vec::new();
+            // The tube's direct copy is the unwarped scene, every triangle
+            // (its query stops at the tube: see `pipeline::Pipeline::new`).
+            let unwarped = key == CopyKey::DIRECT && matches!(spec.glass, WarpGlass::Cylinder(_));
             for (oi, o) in prep.objects.iter().enumerate() {
                 let base = positions.len() as u32;
                 let imgs = &per_object[oi];
-                positions.extend(imgs.iter().map(|vi| vi.get(key).unwrap_or([0.0; 3])));
-                let has = |v: u32| imgs[v as usize].get(key).is_some();
+                if unwarped {
+                    positions.extend_from_slice(&o.mesh.positions);
+                } else {
+                    positions.extend(imgs.iter().map(|vi| vi.get(key).unwrap_or([0.0; 3])));
+                }
+                let has = |v: u32| unwarped || imgs[v as usize].get(key).is_some();
                 for (ti, tri) in o.mesh.indices.iter().enumerate() {
                     if tri.iter().all(|&v| has(v)) {
                         indices.push(tri.map(|v| v + base));
