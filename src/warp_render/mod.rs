@@ -261,6 +261,27 @@ impl VertexSolver {
         vertex_images(&self.glass, self.method, self.eye, p, self.fast.as_ref())
     }
 
+    /// Every image of every point of `pts`, as `each(index in pts, copy,
+    /// warped position)`, in the order `images` keeps them (the first per
+    /// copy wins there; `each` may see a copy again). The fast cylinder
+    /// solver takes the points in batches (as `images_chunk`).
+    pub fn each_image<F: FnMut(usize, CopyKey, DVec3)>(&self, pts: &[DVec3], mut each: F) {
+        let (WarpMethod::Exact, Some(f)) = (self.method, self.fast.as_ref()) else {
+            for (i, p) in pts.iter().enumerate() {
+                let vi = self.images(*p);
+                for (k, q) in &vi.items[..vi.len()] {
+                    each(i, *k, d3(*q));
+                }
+            }
+            return;
+        };
+        f.images_batch(pts, false, |i, ims| {
+            for im in ims.into_iter().flatten() {
+                each(i, WarpGlass::key_for(im.family, im.impact), im.position);
+            }
+        });
+    }
+
     /// The images of every point of `pts` into `out` (as `images`); the
     /// fast cylinder solver takes them in batches (its Newton polishes run
     /// four at a time).

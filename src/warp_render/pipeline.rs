@@ -30,7 +30,7 @@
 //! tested exactly along its ray) gave the same pixels no faster: the
 //! per-pixel passes (classification, shading, buffers) dominate, not the
 //! visibility query (docs/warp.md, "What did not pay").
-use super::{d3, f3, pixel_ray, shade, Frame, Originals, Prepared, Shown, VertexImages, VertexSolver};
+use super::{d3, f3, pixel_ray, shade, Frame, Originals, Prepared, Shown, VertexSolver};
 use crate::embree::warp_ffi::{Committed, DynamicMesh, Packet16};
 use crate::error::{Error, Result};
 use crate::scene::RenderScene;
@@ -102,9 +102,6 @@ pub struct Pipeline {
     plate_class: Vec<std::result::Result<bool, PlateStatus>>,
     /// `positions` in f64 (the tube's solver input), made once.
     positions64: Vec<DVec3>,
-    /// Scratch for the tube's per-vertex images, kept across frames so that
-    /// a frame does not page in a fresh array.
-    imgs: Vec<VertexImages>,
 }
 
 /// The packets of both packet renderers: tiles of `TILE_W` × `TILE_H`
@@ -357,7 +354,6 @@ impl Pipeline {
             masks: vec![0; positions.len()],
             plate_class: Vec::new(),
             positions64: positions.iter().map(|p| d3(*p)).collect(),
-            imgs: Vec::new(),
             positions,
             tris,
             tri_src,
@@ -428,30 +424,55 @@ impl Pipeline {
             (glass, method) => {
                 let all = &self.positions64;
                 let solver = VertexSolver::new(*glass, method, eye, all);
-                self.imgs.resize(nv, VertexImages::default());
-                self.imgs
-                    .par_chunks_mut(256)
-                    .zip(all.par_chunks(256))
-                    .for_each(|(out, p)| solver.images_chunk(p, out));
-                let imgs = &self.imgs;
+                // One pass per chunk of vertices writes their masks and
+                // their rows of every slab, straight from the solver's
+                // images (before: a `VertexImages` per vertex, then a pass
+                // for the masks and one per slab).
                 let keys = &self.keys;
-                self.masks.par_iter_mut().zip(imgs).for_each(|(m, vi)| {
-                    *m = keys
-                        .iter()
-                        .enumerate()
-                        .filter(|(_, k)| vi.get(**k).is_some())
-                        .fold(0u8, |acc, (i, _)| acc | (1 << i));
-                });
-                let positions = &self.positions;
-                self.copies.par_iter_mut().filter(|c| !c.fixed).for_each(|c| {
-                    for (slab, &key) in c.next.chunks_mut(nv.max(1)).zip(&c.members) {
-                        slab.par_iter_mut()
-                            .zip(imgs)
-                            .zip(positions)
-                            .for_each(|((out, vi), p)| *out = vi.get(key).unwrap_or(*p));
+                let mut slab_of = [usize::MAX; 8];
+                let mut slabs: Vec<&mut [[f32; 3]]> = Vec::new();
+                for c in self.copies.iter_mut().filter(|c| !c.fixed) {
+                    for (slab, key) in c.next.chunks_mut(nv.max(1)).zip(&c.members) {
+                        if let Some(k) = keys.iter().position(|k| k == key) {
+                            slab_of[k] = slabs.len();
+                        }
+                        slabs.push(slab);
                     }
-                });
-                images = imgs.iter().map(|v| v.len()).sum();
+                }
+                const CHUNK: usize = 256;
+                let mut rows: Vec<Vec<&mut [[f32; 3]]>> = (0..nv.div_ceil(CHUNK))
+                    .map(|_| Vec::with_capacity(slabs.len()))
+                    .collect();
+                for slab in slabs {
+                    for (row, part) in rows.iter_mut().zip(slab.chunks_mut(CHUNK)) {
+                        row.push(part);
+                    }
+                }
+                rows.into_par_iter()
+                    .zip(self.masks.par_chunks_mut(CHUNK))
+                    .zip(all.par_chunks(CHUNK))
+                    .zip(self.positions.par_chunks(CHUNK))
+                    .for_each(|(((mut outs, masks), pts), unwarped)| {
+                        // A vertex without an image in a copy keeps its
+                        // unwarped position there (no kept triangle uses it).
+                        for o in outs.iter_mut() {
+                            o.copy_from_slice(unwarped);
+                        }
+                        masks.fill(0);
+                        solver.each_image(pts, |i, key, q| {
+                            let Some(k) = keys.iter().position(|k| *k == key) else {
+                                return;
+                            };
+                            // The first image per copy wins (`VertexImages::push`).
+                            if masks[i] & (1 << k) == 0 {
+                                masks[i] |= 1 << k;
+                                if let Some(o) = outs.get_mut(slab_of[k]) {
+                                    o[i] = [q.x as f32, q.y as f32, q.z as f32];
+                                }
+                            }
+                        });
+                    });
+                images = self.masks.par_iter().map(|m| m.count_ones() as usize).sum();
             }
         }
         let warp_s = t0.elapsed().as_secs_f64();
