@@ -376,7 +376,9 @@ pub struct Warped {
     pub build_s: f64,
     /// Vertex images found.
     pub images: usize,
-    /// Triangles in no copy (vertices in different families or without image).
+    /// Triangles whose vertices have no image copy in common (in different
+    /// families, or some without an image); the tube's direct copy holds
+    /// every triangle all the same (`pipeline::Pipeline::new`).
     pub dropped_triangles: usize,
 }
 
@@ -930,7 +932,7 @@ pub struct WarpReport {
     pub build_s: f64,
     /// Vertex images found.
     pub images: usize,
-    /// Triangles in no copy.
+    /// Triangles whose vertices have no image copy in common (`Warped`'s).
     pub dropped_triangles: usize,
     /// Triangles per copy, by copy name.
     pub copies: Vec<(String, usize)>,

@@ -79,7 +79,8 @@ pub struct FrameWarp {
     pub refits: usize,
     /// Copies rebuilt.
     pub rebuilds: usize,
-    /// Triangles in no copy.
+    /// Triangles whose vertices have no image copy in common (the tube's
+    /// direct copy holds every triangle all the same).
     pub dropped_triangles: usize,
 }
 
