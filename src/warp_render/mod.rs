@@ -261,6 +261,27 @@ impl VertexSolver {
         vertex_images(&self.glass, self.method, self.eye, p, self.fast.as_ref())
     }
 
+    /// Every image of every point of `pts`, as `each(index in pts, copy,
+    /// warped position)`, in the order `images` keeps them (the first per
+    /// copy wins there; `each` may see a copy again). The fast cylinder
+    /// solver takes the points in batches (as `images_chunk`).
+    pub fn each_image<F: FnMut(usize, CopyKey, DVec3)>(&self, pts: &[DVec3], mut each: F) {
+        let (WarpMethod::Exact, Some(f)) = (self.method, self.fast.as_ref()) else {
+            for (i, p) in pts.iter().enumerate() {
+                let vi = self.images(*p);
+                for (k, q) in &vi.items[..vi.len()] {
+                    each(i, *k, d3(*q));
+                }
+            }
+            return;
+        };
+        f.images_batch(pts, false, |i, ims| {
+            for im in ims.into_iter().flatten() {
+                each(i, WarpGlass::key_for(im.family, im.impact), im.position);
+            }
+        });
+    }
+
     /// The images of every point of `pts` into `out` (as `images`); the
     /// fast cylinder solver takes them in batches (its Newton polishes run
     /// four at a time).
@@ -355,7 +376,9 @@ pub struct Warped {
     pub build_s: f64,
     /// Vertex images found.
     pub images: usize,
-    /// Triangles in no copy (vertices in different families or without image).
+    /// Triangles whose vertices have no image copy in common (in different
+    /// families, or some without an image); the tube's direct copy holds
+    /// every triangle all the same (`pipeline::Pipeline::new`).
     pub dropped_triangles: usize,
 }
 
@@ -393,11 +416,18 @@ pub fn warp_scene(scene: &RenderScene, spec: &WarpSpec, prep: &Prepared) -> Resu
             let mut positions: Vec<[f32; 3]> = Vec::with_capacity(prep.vertices);
             let mut indices: Vec<[u32; 3]> = Vec::new();
             let mut source = Vec::new();
+            // The tube's direct copy is the unwarped scene, every triangle
+            // (its query stops at the tube: see `pipeline::Pipeline::new`).
+            let unwarped = key == CopyKey::DIRECT && matches!(spec.glass, WarpGlass::Cylinder(_));
             for (oi, o) in prep.objects.iter().enumerate() {
                 let base = positions.len() as u32;
                 let imgs = &per_object[oi];
-                positions.extend(imgs.iter().map(|vi| vi.get(key).unwrap_or([0.0; 3])));
-                let has = |v: u32| imgs[v as usize].get(key).is_some();
+                if unwarped {
+                    positions.extend_from_slice(&o.mesh.positions);
+                } else {
+                    positions.extend(imgs.iter().map(|vi| vi.get(key).unwrap_or([0.0; 3])));
+                }
+                let has = |v: u32| unwarped || imgs[v as usize].get(key).is_some();
                 for (ti, tri) in o.mesh.indices.iter().enumerate() {
                     if tri.iter().all(|&v| has(v)) {
                         indices.push(tri.map(|v| v + base));
@@ -902,7 +932,7 @@ pub struct WarpReport {
     pub build_s: f64,
     /// Vertex images found.
     pub images: usize,
-    /// Triangles in no copy.
+    /// Triangles whose vertices have no image copy in common (`Warped`'s).
     pub dropped_triangles: usize,
     /// Triangles per copy, by copy name.
     pub copies: Vec<(String, usize)>,
