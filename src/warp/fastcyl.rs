@@ -1056,9 +1056,11 @@ impl CylinderWarper {
                         // climb with the samples' lengths in air and glass
                         // (two fixed-point steps, four square roots and
                         // six divisions in one chain): 8 % fewer Newton
-                        // evaluations, but more instructions (458.0 →
-                        // 451.2 M without it, callgrind, bench plane) and
-                        // ~5 % more wall time on one thread.
+                        // evaluations, but more instructions (callgrind,
+                        // bench plane: 458.0 M with it, 447.0 M without it,
+                        // the tables' length columns and a fallback that
+                        // now repeated the one before) and ~8 % more wall
+                        // time on one thread.
                         let (g0, g1) = (gk(k0), gk(k1));
                         let w = if g0 == g1 { 0.5 } else { g0 / (g0 - g1) };
                         let b = t.b[k0] + w * (t.b[k1] - t.b[k0]);
