@@ -38,10 +38,6 @@ struct Table {
     gy: Vec<f64>,
     gc: Vec<f64>,
     ac: Vec<f64>,
-    /// Horizontal lengths in air (to the final ray's origin) and in glass,
-    /// for the first guess of β.
-    air: Vec<f64>,
-    glass: Vec<f64>,
     /// Per block of `BLOCK` consecutive entries: the middle entry's linear
     /// forms and the largest deviation of the block's coefficients from them.
     blocks: Vec<Block>,
@@ -286,8 +282,11 @@ impl Table {
 
     /// Evaluate the entries `lo..hi` for the target `p` into `sc`: g where
     /// the target is ahead of the entry's ray (`along > along_min`), a gap
-    /// where it is not.
-    #[inline]
+    /// where it is not. Always inlined (issue 16, tenth round: as a call,
+    /// 566k calls of ~3 entries on the bench plane, its prologue, bounds
+    /// checks and the scanner's state through memory were ~60 of its ~170
+    /// instructions per call).
+    #[inline(always)]
     fn eval_into(&self, sc: &mut Scanner<'_>, lo: usize, hi: usize, p: DVec2, along_min: f64) {
         let rows = self.gx[lo..hi]
             .iter()
@@ -298,6 +297,14 @@ impl Table {
             let along = gy * p.x - gx * p.y - ac;
             sc.push(k, (along > along_min).then_some(gx * p.x + gy * p.y - gc));
         }
+    }
+
+    /// `eval_into` of the one entry `k`.
+    #[inline(always)]
+    fn eval_one(&self, sc: &mut Scanner<'_>, k: usize, p: DVec2, along_min: f64) {
+        let (gx, gy) = (self.gx[k], self.gy[k]);
+        let along = gy * p.x - gx * p.y - self.ac[k];
+        sc.push(k, (along > along_min).then(|| gx * p.x + gy * p.y - self.gc[k]));
     }
 
     /// The scan by a cell's plan (`plan`): the same candidates as
@@ -319,8 +326,8 @@ impl Table {
                 Seg::Gap(k) => sc.push(k as usize, None),
                 Seg::Ends { lo, hi } => {
                     let (lo, hi) = (lo as usize, hi as usize);
-                    self.eval_into(&mut sc, lo, lo + 1, p, along_min);
-                    self.eval_into(&mut sc, hi - 1, hi, p, along_min);
+                    self.eval_one(&mut sc, lo, p, along_min);
+                    self.eval_one(&mut sc, hi - 1, p, along_min);
                 }
                 Seg::Eval { lo, hi } => self.eval_into(&mut sc, lo as usize, hi as usize, p, along_min),
             }
@@ -473,28 +480,19 @@ impl Table {
     /// `None` there (along > 0 fails) and the block bounds (`f64::max`
     /// skips NaN) still cover the valid entries around it.
     fn push_gap(&mut self) {
-        for v in [
-            &mut self.gx,
-            &mut self.gy,
-            &mut self.gc,
-            &mut self.ac,
-            &mut self.air,
-            &mut self.glass,
-        ] {
+        for v in [&mut self.gx, &mut self.gy, &mut self.gc, &mut self.ac] {
             v.push(f64::NAN);
         }
         self.b.push(0.0);
     }
 
-    fn push(&mut self, b: f64, origin: DVec2, dir: DVec2, air: f64, glass: f64) {
+    fn push(&mut self, b: f64, origin: DVec2, dir: DVec2) {
         // dir × (p − o) = −dir.y·p.x + dir.x·p.y − dir × o
         self.b.push(b);
         self.gx.push(-dir.y);
         self.gy.push(dir.x);
         self.gc.push(dir.perp_dot(origin));
         self.ac.push(dir.dot(origin));
-        self.air.push(air);
-        self.glass.push(glass);
     }
 }
 
@@ -740,8 +738,7 @@ impl CylinderWarper {
                         }
                     };
                     for &b in samples.iter().filter(|&&b| inside(b)) {
-                        if let Some((o, d, air, glass)) =
-                            cyl.path_lengths(fam, e, b, beta, fam == Family::Hollow2)
+                        if let Some((o, d, _, _)) = cyl.path_lengths(fam, e, b, beta, fam == Family::Hollow2)
                         {
                             if t.b.last().is_some_and(|&last| last < 0.0 && b > 0.0) {
                                 // tir2 and wall2 have a band on each side of
@@ -751,7 +748,7 @@ impl CylinderWarper {
                                 // a failed Newton and a bisection).
                                 t.push_gap();
                             }
-                            t.push(b, o, d, air, glass);
+                            t.push(b, o, d);
                         }
                     }
                     t.finish_blocks();
@@ -1040,7 +1037,6 @@ impl CylinderWarper {
             }
             let t = &table[fi];
             let gk = |k: usize| t.gx[k] * p.x + t.gy[k] * p.y - t.gc[k];
-            let ak = |k: usize| t.gy[k] * p.x - t.gx[k] * p.y - t.ac[k];
             cands.clear();
             match plan {
                 Some((pl, spans)) => {
@@ -1055,20 +1051,20 @@ impl CylinderWarper {
                 jobs.push(match cand {
                     Candidate::Bracket(k0, k1) => {
                         // First guesses: b by the secant through the two
-                        // samples, β from the climb with their lengths.
+                        // samples, β the target's straight elevation.
+                        // Until issue 16's tenth round β came from the
+                        // climb with the samples' lengths in air and glass
+                        // (two fixed-point steps, four square roots and
+                        // six divisions in one chain): 8 % fewer Newton
+                        // evaluations, but more instructions (callgrind,
+                        // bench plane: 458.0 M with it, 447.0 M without it,
+                        // the tables' length columns and a fallback that
+                        // now repeated the one before) and ~8 % more wall
+                        // time on one thread.
                         let (g0, g1) = (gk(k0), gk(k1));
                         let w = if g0 == g1 { 0.5 } else { g0 / (g0 - g1) };
-                        let lerp = |v: &[f64]| v[k0] + w * (v[k1] - v[k0]);
-                        let b = lerp(&t.b);
-                        let along = ak(k0) + w * (ak(k1) - ak(k0));
-                        let (air, glass) = (lerp(&t.air) + along, lerp(&t.glass));
-                        let mut beta = beta0;
-                        for _ in 0..2 {
-                            let ma = (1.0 - beta * beta).sqrt();
-                            let mg = (c.ior * c.ior - beta * beta).sqrt();
-                            beta = (dv / (air / ma + glass / mg)).clamp(-0.999, 0.999);
-                        }
-                        Job::Bracket(Polish::new(fam, p, dv, dist, b, beta, (t.b[k0], t.b[k1])))
+                        let b = t.b[k0] + w * (t.b[k1] - t.b[k0]);
+                        Job::Bracket(Polish::new(fam, p, dv, dist, b, beta0, (t.b[k0], t.b[k1])))
                     }
                     Candidate::Edge(k) => Job::Edge(fam, t.b[k]),
                 });
@@ -1185,21 +1181,9 @@ impl CylinderWarper {
                                 u32::MAX,
                             )
                         })
-                        .or_else(|| {
-                            c.newton_image_opts(
-                                fam,
-                                e,
-                                p,
-                                dv,
-                                dist,
-                                self.eye,
-                                b,
-                                beta0,
-                                in_hollow,
-                                parity,
-                                u32::MAX,
-                            )
-                        })
+                        // (A second damped Newton from the target's own β
+                        // was dropped with the climb's β guess: the guess's
+                        // β is that β now.)
                         .or_else(|| {
                             c.refine_public(fam, e, p, dv, dist, self.eye, k0b, k1b, beta0, in_hollow)
                         })
