@@ -879,6 +879,12 @@ mod tests {
     use super::*;
     use crate::warp_render::{build_originals, prepare, render_exact};
 
+    /// A pinhole camera at `pos` looking at the origin (y up, 40° field of
+    /// view), as the tests move the scenes' eyes.
+    fn looking_at_origin(pos: V3, w: u32, h: u32) -> crate::camera::Camera {
+        crate::camera::Camera::try_new(pos, V3::ZERO, V3::Y, 40.0, w, h, 0.0, 1.0).unwrap()
+    }
+
     /// `tile_rays` + `classify16` give every pixel of a frame (the film's
     /// ragged right and bottom edges included) `pixel_ray`'s ray and
     /// `classify`'s class, bit for bit, on both scenes, from two eyes.
@@ -898,17 +904,7 @@ mod tests {
             let pos = s.camera.position;
             let mut classes = [0usize; 8];
             for dx in [0.0f32, 0.31] {
-                s.camera = crate::camera::Camera::try_new(
-                    pos + V3::new(dx, 0.2, 0.0),
-                    V3::ZERO,
-                    V3::Y,
-                    40.0,
-                    w,
-                    h,
-                    0.0,
-                    1.0,
-                )
-                .unwrap();
+                s.camera = looking_at_origin(pos + V3::new(dx, 0.2, 0.0), w, h);
                 let eye = d3(s.camera.position.to_array());
                 let cl = Classifier::new(&pipe, eye);
                 for band in 0..(h as usize).div_ceil(TILE_H) {
@@ -965,17 +961,7 @@ mod tests {
         let mut pipe = Pipeline::new(&s, &spec, &prep, false).unwrap();
         let pos = s.camera.position;
         for dx in [0.0f32, 0.07] {
-            s.camera = crate::camera::Camera::try_new(
-                pos + V3::new(dx, 0.03, 0.0),
-                V3::ZERO,
-                V3::Y,
-                40.0,
-                160,
-                120,
-                0.0,
-                1.0,
-            )
-            .unwrap();
+            s.camera = looking_at_origin(pos + V3::new(dx, 0.03, 0.0), 160, 120);
             let fw = pipe.warp(&s).unwrap();
             assert!(fw.rebuilds >= 1, "{fw:?}");
             let a = pipe.render(&s, &spec, &prep);
