@@ -531,17 +531,16 @@ impl HollowCylinder {
         self.frame().to2(p)
     }
 
-    /// The final 2-D ray and its horizontal lengths in air and glass.
-    pub(crate) fn path_lengths(
+    /// The final 2-D ray (origin, unit direction) of the family `fam`.
+    pub(crate) fn final_ray(
         &self,
         fam: Family,
         e: DVec2,
         b: f64,
         beta: f64,
         in_hollow: bool,
-    ) -> Option<(DVec2, DVec2, f64, f64)> {
-        self.path(fam, e, b, beta, in_hollow)
-            .map(|p| (p.origin, p.dir, p.air, p.glass))
+    ) -> Option<(DVec2, DVec2)> {
+        self.path(fam, e, b, beta, in_hollow).map(|p| (p.origin, p.dir))
     }
 
     /// The direct image, when the straight line misses the tube, from the

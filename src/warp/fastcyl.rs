@@ -738,8 +738,7 @@ impl CylinderWarper {
                         }
                     };
                     for &b in samples.iter().filter(|&&b| inside(b)) {
-                        if let Some((o, d, _, _)) = cyl.path_lengths(fam, e, b, beta, fam == Family::Hollow2)
-                        {
+                        if let Some((o, d)) = cyl.final_ray(fam, e, b, beta, fam == Family::Hollow2) {
                             if t.b.last().is_some_and(|&last| last < 0.0 && b > 0.0) {
                                 // tir2 and wall2 have a band on each side of
                                 // the axis: mark the gap between them, or the
@@ -1528,7 +1527,7 @@ mod edge_give_up_tests {
                 let beta = rng.next() * 1.2 - 0.6;
                 let fams = [Family::Through4, Family::Tir2, Family::Wall2];
                 let fam = fams[(rng.next() * 3.0) as usize % 3];
-                if let Some((o, d, _, _)) = c.path_lengths(fam, e2, b, beta, false) {
+                if let Some((o, d)) = c.final_ray(fam, e2, b, beta, false) {
                     let q = o + d * (1.0 + 4.0 * rng.next());
                     if q.length() > 1.0 {
                         let (u, w, a) = c.frame_axes();
