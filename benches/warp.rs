@@ -679,8 +679,8 @@ fn main() -> snell::Result<()> {
             ce += cpu() - c3;
             drop(e);
             println!(
-                "warp {:.4} s, copies {:.4} s, rays {:.4} s",
-                f.warp_s, f.build_s, fb.render_s
+                "warp {:.4} s, copies {:.4} s ({} rebuilt, {} refit, {} triangles culled), rays {:.4} s",
+                f.warp_s, f.build_s, f.rebuilds, f.refits, f.culled_triangles, fb.render_s
             );
         }
         println!(

@@ -819,8 +819,8 @@ fn warp_speed_line(rep: &snell::warp_render::WarpReport, exact: &snell::warp_ren
 /// The warped meshes: size, images, dropped triangles, copies per object.
 fn warp_summary_line(rep: &snell::warp_render::WarpReport) -> String {
     format!(
-        "warp: {} vertices, {} triangles (longest projected edge {:.2} px), {} images, {} triangles in no copy; copies {:?}",
-        rep.vertices, rep.triangles, rep.max_edge_px, rep.images, rep.dropped_triangles, rep.copies
+        "warp: {} vertices, {} triangles (longest projected edge {:.2} px), {} images, {} triangles in no copy, {} outside the view; copies {:?}",
+        rep.vertices, rep.triangles, rep.max_edge_px, rep.images, rep.dropped_triangles, rep.culled_triangles, rep.copies
     )
 }
 

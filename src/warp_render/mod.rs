@@ -934,6 +934,9 @@ pub struct WarpReport {
     pub images: usize,
     /// Triangles whose vertices have no image copy in common (`Warped`'s).
     pub dropped_triangles: usize,
+    /// Triangles left out of the tube's copies as no primary ray can meet
+    /// them (outside the camera's pyramid of rays; not in `copies`).
+    pub culled_triangles: usize,
     /// Triangles per copy, by copy name.
     pub copies: Vec<(String, usize)>,
     /// Exact trace: BVH build of the unwarped meshes and the trace itself.
@@ -963,6 +966,7 @@ impl WarpReport {
             "vertices_per_s": self.vertices as f64 / self.warp_s.max(1e-12),
             "images": self.images,
             "dropped_triangles": self.dropped_triangles,
+            "culled_triangles": self.culled_triangles,
             "copies": self.copies.iter().map(|(k, n)| serde_json::json!({"copy": k, "triangles": n})).collect::<Vec<_>>(),
             "provenance": crate::provenance::json(),
         });
@@ -1032,6 +1036,7 @@ pub fn run(scene: &RenderScene, opts: &WarpRunOptions) -> Result<WarpReport> {
             build_s: warped.build_s,
             images: warped.images,
             dropped_triangles: warped.dropped_triangles,
+            culled_triangles: warped.culled_triangles,
             copies: pipe.copy_sizes(),
             frame,
             exact,

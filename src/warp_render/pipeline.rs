@@ -53,6 +53,8 @@ struct Copy {
     tri_ids: Vec<u32>,
     /// Next frame's vertex array (swapped with the mesh's).
     next: Vec<[f32; 3]>,
+    /// The tube's copies: per vertex of `next`, its [`Frustum::outcode`].
+    codes: Vec<u8>,
     /// Built once in `Pipeline::new` and never updated: the tube's direct
     /// copy, every triangle at its unwarped position (see `Pipeline::new`).
     fixed: bool,
@@ -82,6 +84,76 @@ pub struct FrameWarp {
     /// Triangles whose vertices have no image copy in common (the tube's
     /// direct copy holds every triangle all the same).
     pub dropped_triangles: usize,
+    /// Triangles of the tube's copies left out of their BVH this frame
+    /// because no primary ray can meet them (wholly outside the camera's
+    /// pyramid of rays, `Frustum`).
+    pub culled_triangles: usize,
+}
+
+/// The four side planes of the camera's pyramid of primary rays (planes
+/// through the eye), widened to a pixel and a half beyond the outermost
+/// pixel centres. A triangle whose three vertices lie strictly outside one
+/// of them lies wholly outside it (it is their convex hull), and every
+/// primary ray `eye + t·d`, t > 0, lies inside it, so no primary ray meets
+/// the triangle: leaving it out of a copy's BVH changes no pixel. The margin
+/// (~1e-3 rad at 1600×1200) dwarfs the f32 rounding of the copies' vertices
+/// and of Embree's rays (~1e-7 relative).
+///
+/// Issue 16, eleventh round: the tube's plane is 9 m tall where the view
+/// spans ~5 m, and a vertical tube keeps a ray's vertical slope, so ~40 %
+/// of each copy's triangles are never seen; building their BVHs was most of
+/// the copies phase. Only the tube's copies are culled: the plate's triangle
+/// sets do not depend on the camera, which is what lets a moving camera
+/// refit them.
+const CULL_MARGIN_PX: f32 = 1.5;
+
+struct Frustum {
+    eye: DVec3,
+    /// Inward normals (not unit).
+    normals: [DVec3; 4],
+}
+
+impl Frustum {
+    /// The pyramid of `scene`'s camera over its film (the warp renderer's
+    /// rays: `pixel_ray`), its planes `margin` pixels beyond the outermost
+    /// pixel centres (`CULL_MARGIN_PX`), or `None` when they are degenerate.
+    fn of(scene: &RenderScene, margin: f32) -> Option<Frustum> {
+        let (w, h) = (scene.width as f32, scene.height as f32);
+        let (lo, wx, hy) = (0.5 - margin, w - 0.5 + margin, h - 0.5 + margin);
+        // Lens sample (0, 0): the ray from the eye, as `pixel_ray`.
+        let ray = |x: f32, y: f32| {
+            let (o, d) = scene.camera.ray(x, y, (0.0, 0.0));
+            (d3(o.to_array()), d3(d.to_array()))
+        };
+        let (eye, tl) = ray(lo, lo);
+        let (tr, bl, br) = (ray(wx, lo).1, ray(lo, hy).1, ray(wx, hy).1);
+        let centre = ray(0.5 * w, 0.5 * h).1;
+        let mut normals = [tl.cross(bl), bl.cross(br), br.cross(tr), tr.cross(tl)];
+        for n in &mut normals {
+            if n.dot(centre) < 0.0 {
+                *n = -*n;
+            }
+        }
+        // Every corner inside the other planes, or the pyramid is not one
+        // (a fov near 180°, a degenerate film): then nothing is culled.
+        let ok = normals.iter().all(|n| {
+            n.is_finite()
+                && n.dot(centre) > 0.0
+                && [tl, tr, bl, br].iter().all(|c| n.dot(*c) > -1e-9 * n.length())
+        });
+        ok.then_some(Frustum { eye, normals })
+    }
+
+    /// Bit k set when `q` lies strictly outside plane k.
+    #[inline]
+    fn outcode(&self, q: DVec3) -> u8 {
+        let d = q - self.eye;
+        let mut code = 0;
+        for (k, n) in self.normals.iter().enumerate() {
+            code |= u8::from(n.dot(d) < 0.0) << k;
+        }
+        code
+    }
 }
 
 /// The warp renderer's state for one scene.
@@ -103,6 +175,9 @@ pub struct Pipeline {
     plate_class: Vec<std::result::Result<bool, PlateStatus>>,
     /// `positions` in f64 (the tube's solver input), made once.
     positions64: Vec<DVec3>,
+    /// The tube's copies leave out triangles outside the camera's pyramid
+    /// widened by this many pixels (`Frustum`); `None`: nothing is culled.
+    cull_margin_px: Option<f32>,
 }
 
 /// The packets of both packet renderers: tiles of `TILE_W` × `TILE_H`
@@ -424,6 +499,7 @@ impl Pipeline {
                 mesh: DynamicMesh::new(scene.embree.device(), refit)?,
                 tri_ids: Vec::new(),
                 next: Vec::new(),
+                codes: Vec::new(),
                 fixed: false,
             });
         }
@@ -458,6 +534,7 @@ impl Pipeline {
             plate_class: Vec::new(),
             positions64: positions.iter().map(|p| d3(*p)).collect(),
             positions,
+            cull_margin_px: Some(CULL_MARGIN_PX),
             tris,
             tri_src,
             keys,
@@ -480,9 +557,16 @@ impl Pipeline {
         let eye = DVec3::from(scene.camera.position.to_array().map(|x| x as f64));
         let nv = self.positions.len();
         let t0 = Instant::now();
+        let tube = matches!(self.glass, WarpGlass::Cylinder(_));
+        let frustum = self
+            .cull_margin_px
+            .filter(|_| tube)
+            .and_then(|m| Frustum::of(scene, m));
         for c in self.copies.iter_mut().filter(|c| !c.fixed) {
             // One slab of nv vertices per member key.
             c.next.resize(c.members.len() * nv, [0.0; 3]);
+            c.codes
+                .resize(if frustum.is_some() { c.next.len() } else { 0 }, 0);
         }
         let images;
         match (&self.glass, self.method) {
@@ -534,6 +618,7 @@ impl Pipeline {
                 let keys = &self.keys;
                 let mut slab_of = [usize::MAX; 8];
                 let mut slabs: Vec<&mut [[f32; 3]]> = Vec::new();
+                let mut code_slabs: Vec<&mut [u8]> = Vec::new();
                 for c in self.copies.iter_mut().filter(|c| !c.fixed) {
                     for (slab, key) in c.next.chunks_mut(nv.max(1)).zip(&c.members) {
                         if let Some(k) = keys.iter().position(|k| k == key) {
@@ -541,21 +626,33 @@ impl Pipeline {
                         }
                         slabs.push(slab);
                     }
+                    code_slabs.extend(c.codes.chunks_mut(nv.max(1)));
                 }
                 const CHUNK: usize = 256;
-                let mut rows: Vec<Vec<&mut [[f32; 3]]>> = (0..nv.div_ceil(CHUNK))
-                    .map(|_| Vec::with_capacity(slabs.len()))
-                    .collect();
+                let chunks = nv.div_ceil(CHUNK);
+                let mut rows: Vec<Vec<&mut [[f32; 3]]>> =
+                    (0..chunks).map(|_| Vec::with_capacity(slabs.len())).collect();
                 for slab in slabs {
                     for (row, part) in rows.iter_mut().zip(slab.chunks_mut(CHUNK)) {
                         row.push(part);
                     }
                 }
+                // Empty when nothing is culled.
+                let mut code_rows: Vec<Vec<&mut [u8]>> = (0..chunks)
+                    .map(|_| Vec::with_capacity(code_slabs.len()))
+                    .collect();
+                for slab in code_slabs {
+                    for (row, part) in code_rows.iter_mut().zip(slab.chunks_mut(CHUNK)) {
+                        row.push(part);
+                    }
+                }
+                let frustum = &frustum;
                 rows.into_par_iter()
+                    .zip(code_rows.into_par_iter())
                     .zip(self.masks.par_chunks_mut(CHUNK))
                     .zip(all.par_chunks(CHUNK))
                     .zip(self.positions.par_chunks(CHUNK))
-                    .for_each(|(((mut outs, masks), pts), unwarped)| {
+                    .for_each(|((((mut outs, mut codes), masks), pts), unwarped)| {
                         // A vertex without an image in a copy keeps its
                         // unwarped position there (no kept triangle uses it).
                         for o in outs.iter_mut() {
@@ -572,36 +669,58 @@ impl Pipeline {
                                 if let Some(o) = outs.get_mut(slab_of[k]) {
                                     o[i] = [q.x as f32, q.y as f32, q.z as f32];
                                 }
+                                if let (Some(f), Some(code)) = (frustum, codes.get_mut(slab_of[k])) {
+                                    code[i] = f.outcode(q);
+                                }
                             }
                         });
                     });
                 images = self.masks.par_iter().map(|m| m.count_ones() as usize).sum();
             }
         }
+        // The keys some vertex has an image for: a copy of none has no
+        // triangle (three of the tube's six copies on the bench's view),
+        // and its scan of every triangle is skipped.
+        let present = self.masks.par_iter().copied().reduce(|| 0, |a, b| a | b);
         let warp_s = t0.elapsed().as_secs_f64();
         let t1 = Instant::now();
         let tris = &self.tris;
         let masks = &self.masks;
-        let results: Vec<Result<Committed>> = self
+        let results: Vec<Result<(Committed, usize)>> = self
             .copies
             .par_iter_mut()
             .filter(|c| !c.fixed)
             .map(|c| {
-                let ids_with = |bit: u8, out: &mut Vec<u32>| {
-                    let keep = |t: &[u32; 3]| t.iter().all(|&v| masks[v as usize] & bit != 0);
-                    out.extend(
-                        tris.iter()
-                            .enumerate()
-                            .filter(|(_, t)| keep(t))
-                            .map(|(i, _)| i as u32),
-                    );
-                };
+                let mut culled = 0;
                 // Member m's triangles, in order; their vertices index its
                 // slab (offset m·nv).
                 let mut ids: Vec<u32> = Vec::with_capacity(c.tri_ids.len().max(1024));
                 let mut ends = Vec::with_capacity(c.members.len());
-                for &b in &c.member_bits {
-                    ids_with(1u8 << b, &mut ids);
+                for (m, &b) in c.member_bits.iter().enumerate() {
+                    let bit = 1u8 << b;
+                    if present & bit != 0 {
+                        let has = |t: &[u32; 3]| t.iter().all(|&v| masks[v as usize] & bit != 0);
+                        match c.codes.get(m * nv..(m + 1) * nv) {
+                            Some(codes) if !codes.is_empty() => {
+                                for (i, t) in tris.iter().enumerate() {
+                                    if has(t) {
+                                        let [a, b, d] = t.map(|v| codes[v as usize]);
+                                        if a & b & d == 0 {
+                                            ids.push(i as u32);
+                                        } else {
+                                            culled += 1;
+                                        }
+                                    }
+                                }
+                            }
+                            _ => ids.extend(
+                                tris.iter()
+                                    .enumerate()
+                                    .filter(|(_, t)| has(t))
+                                    .map(|(i, _)| i as u32),
+                            ),
+                        }
+                    }
                     ends.push(ids.len());
                 }
                 let same = ids == c.tri_ids && ends == c.member_ends;
@@ -609,7 +728,7 @@ impl Pipeline {
                 c.member_ends = ends;
                 let next = &mut c.next;
                 let (ids, ends) = (&c.tri_ids, &c.member_ends);
-                Ok(c.mesh.update(|vs, is| {
+                let committed = c.mesh.update(|vs, is| {
                     std::mem::swap(vs, next);
                     if same {
                         return false;
@@ -626,12 +745,15 @@ impl Pipeline {
                         start = end;
                     }
                     true
-                })?)
+                })?;
+                Ok((committed, culled))
             })
             .collect();
-        let (mut refits, mut rebuilds) = (0, 0);
+        let (mut refits, mut rebuilds, mut culled_triangles) = (0, 0, 0);
         for r in results {
-            match r? {
+            let (committed, culled) = r?;
+            culled_triangles += culled;
+            match committed {
                 Committed::Refit => refits += 1,
                 Committed::Rebuilt => rebuilds += 1,
                 Committed::Empty => {}
@@ -649,6 +771,7 @@ impl Pipeline {
             refits,
             rebuilds,
             dropped_triangles,
+            culled_triangles,
         })
     }
 
@@ -996,6 +1119,61 @@ mod tests {
                 }
             }
             assert!(beside > 5_000 && near_edge > 200, "{beside} {near_edge}");
+        }
+    }
+
+    /// Culling the tube's copies to the camera's pyramid changes no pixel
+    /// (the same frame as with nothing culled, from three eyes, one looking
+    /// off the tube's centre and one at an odd film size) while it leaves
+    /// out a sixth or more of the copies' triangles (22–27k of 96k here). Its power: the same
+    /// culling with the pyramid narrowed to 3 pixels inside the film's edge
+    /// (a wrong margin) changes the frame.
+    #[test]
+    fn culling_to_the_camera_changes_no_pixel() {
+        let mut s = crate::scene::load_scene(
+            std::path::Path::new("scenes/warp_cylinder.toml"),
+            &crate::scene::BuildOptions::default(),
+        )
+        .unwrap();
+        s.set_resolution(160, 120).unwrap();
+        let spec = s.warp.clone().unwrap();
+        let prep = prepare(&s, &spec, spec.subdivide).unwrap();
+        let mut culled = Pipeline::new(&s, &spec, &prep, false).unwrap();
+        let mut all = Pipeline::new(&s, &spec, &prep, false).unwrap();
+        all.cull_margin_px = None;
+        let mut narrow = Pipeline::new(&s, &spec, &prep, false).unwrap();
+        narrow.cull_margin_px = Some(-3.0);
+        let pos = s.camera.position;
+        for (dx, target, (w, h)) in [
+            (0.0f32, V3::ZERO, (160, 120)),
+            (0.4, V3::new(0.9, 0.5, 0.0), (160, 120)),
+            (-0.2, V3::ZERO, (131, 97)),
+        ] {
+            s.set_resolution(w, h).unwrap();
+            s.camera = crate::camera::Camera::try_new(
+                pos + V3::new(dx, 0.1, 0.0),
+                target,
+                V3::Y,
+                40.0,
+                w,
+                h,
+                0.0,
+                1.0,
+            )
+            .unwrap();
+            let fc = culled.warp(&s).unwrap();
+            let fa = all.warp(&s).unwrap();
+            narrow.warp(&s).unwrap();
+            let kept = |p: &Pipeline| p.copy_sizes().iter().map(|c| c.1).sum::<usize>();
+            let (kc, ka) = (kept(&culled), kept(&all));
+            assert_eq!(fa.culled_triangles, 0);
+            assert_eq!(kc + fc.culled_triangles, ka, "{fc:?}");
+            assert!(6 * fc.culled_triangles >= ka, "{fc:?} of {ka}");
+            let (a, b) = (culled.render(&s, &spec, &prep), all.render(&s, &spec, &prep));
+            assert!(a.pixels == b.pixels && a.shown == b.shown, "eye offset {dx}");
+            let c = narrow.render(&s, &spec, &prep);
+            let differ = c.shown.iter().zip(&b.shown).filter(|(x, y)| x != y).count();
+            assert!(differ > 100, "a narrowed pyramid changed only {differ} pixels");
         }
     }
 }
