@@ -850,6 +850,19 @@ impl Mesh {
         (n.filter(|n| n.length_squared() > 0.5), uv)
     }
 
+    /// The texture coordinates of [`Self::shading`] alone (without the
+    /// normal, whose square root and division are a latency chain).
+    #[inline]
+    pub fn shading_uv(&self, prim: u32, u: f32, v: f32) -> [f32; 2] {
+        let Some(t) = self.uvs.as_ref() else {
+            return [u, v];
+        };
+        let tri = self.indices[prim as usize];
+        let w = 1.0 - u - v;
+        let [a, b, c] = tri.map(|i| t[i as usize]);
+        [a[0] * w + b[0] * u + c[0] * v, a[1] * w + b[1] * u + c[1] * v]
+    }
+
     /// The shading normal of [`Self::shading`] alone (without the texture
     /// coordinates).
     #[inline(always)]

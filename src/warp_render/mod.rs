@@ -542,11 +542,11 @@ pub(crate) fn shade(
     let [a, b, c] = o.mesh.indices[tri as usize].map(|i| d3(o.mesh.positions[i as usize]));
     let (u64_, v64) = (u.clamp(0.0, 1.0) as f64, v.clamp(0.0, 1.0) as f64);
     let p = a * (1.0 - u64_ - v64).max(0.0) + b * u64_ + c * v64;
-    let (sn, uv) = o.mesh.shading(tri, u, v);
-    let n = sn.unwrap_or_else(|| {
-        let ng = (b - a).cross(c - a).normalize_or_zero();
-        V3::new(ng.x as f32, ng.y as f32, ng.z as f32)
-    });
+    // Texture coordinates always; the normal only for the lights, the one
+    // thing that reads it (its normalisation was ~20 % of `shade` in the
+    // tube's ray pass, perf, issue 16 eleventh round; the tube's scene is
+    // lit by its emitting plane alone, the plate's by a light).
+    let uv = o.mesh.shading_uv(tri, u, v);
     let pf = V3::new(p.x as f32, p.y as f32, p.z as f32);
     let mut col = g.emission.as_ref().map(|e| e.eval(pf, uv)).unwrap_or(V3::ZERO);
     if let Material::Diffuse { reflectance, .. } = &g.material {
@@ -554,6 +554,14 @@ pub(crate) fn shade(
         let mut e = match &scene.environment {
             Environment::Constant(c) => *c,
             _ => V3::ZERO,
+        };
+        let n = if scene.lights.is_empty() {
+            V3::ZERO
+        } else {
+            o.mesh.shading(tri, u, v).0.unwrap_or_else(|| {
+                let ng = (b - a).cross(c - a).normalize_or_zero();
+                V3::new(ng.x as f32, ng.y as f32, ng.z as f32)
+            })
         };
         for l in &scene.lights {
             match l {
