@@ -105,13 +105,15 @@ pub struct FrameWarp {
 /// the copies phase. Only the tube's copies are culled: the plate's triangle
 /// sets do not depend on the camera, which is what lets a moving camera
 /// refit them.
-const CULL_MARGIN_PX: f32 = 1.5;
-
 struct Frustum {
     eye: DVec3,
     /// Inward normals (not unit).
     normals: [DVec3; 4],
 }
+
+/// How far beyond the outermost pixel centres the culling pyramid's planes
+/// lie, in pixels.
+const CULL_MARGIN_PX: f32 = 1.5;
 
 impl Frustum {
     /// The pyramid of `scene`'s camera over its film (the warp renderer's
@@ -552,7 +554,11 @@ impl Pipeline {
         self.keys.iter().position(|k| *k == key).map_or(0, |i| 1 << i)
     }
 
-    /// Warp every vertex for the scene's current camera and update the copies.
+    /// Warp every vertex for the scene's current camera and update the
+    /// copies. The copies then hold what that camera (its eye, view and
+    /// film) can see: render the same camera (`render`, `render_into`)
+    /// before the next `warp`. The tube's copies leave out what lies
+    /// outside its pyramid of rays (`Frustum`).
     pub fn warp(&mut self, scene: &RenderScene) -> Result<FrameWarp> {
         let eye = DVec3::from(scene.camera.position.to_array().map(|x| x as f64));
         let nv = self.positions.len();
@@ -1063,6 +1069,20 @@ mod tests {
         }
     }
 
+    /// scenes/warp_cylinder.toml at 160 × 120, subdivided as its `[warp]`
+    /// says.
+    fn tube_at_160x120() -> (RenderScene, WarpSpec, Prepared) {
+        let mut s = crate::scene::load_scene(
+            std::path::Path::new("scenes/warp_cylinder.toml"),
+            &crate::scene::BuildOptions::default(),
+        )
+        .unwrap();
+        s.set_resolution(160, 120).unwrap();
+        let spec = s.warp.clone().unwrap();
+        let prep = prepare(&s, &spec, spec.subdivide).unwrap();
+        (s, spec, prep)
+    }
+
     /// The tube's direct copy is the unwarped scene (`Pipeline::new`): every
     /// pixel whose ray misses the tube shows what the exact trace shows,
     /// the pixels along the silhouette included, where a triangle across it
@@ -1072,14 +1092,7 @@ mod tests {
     /// copy is not rebuilt).
     #[test]
     fn beside_the_tube_the_warp_is_the_exact_trace() {
-        let mut s = crate::scene::load_scene(
-            std::path::Path::new("scenes/warp_cylinder.toml"),
-            &crate::scene::BuildOptions::default(),
-        )
-        .unwrap();
-        s.set_resolution(160, 120).unwrap();
-        let spec = s.warp.clone().unwrap();
-        let prep = prepare(&s, &spec, spec.subdivide).unwrap();
+        let (mut s, spec, prep) = tube_at_160x120();
         let orig = build_originals(&s, &prep).unwrap();
         let mut pipe = Pipeline::new(&s, &spec, &prep, false).unwrap();
         let pos = s.camera.position;
@@ -1125,19 +1138,12 @@ mod tests {
     /// Culling the tube's copies to the camera's pyramid changes no pixel
     /// (the same frame as with nothing culled, from three eyes, one looking
     /// off the tube's centre and one at an odd film size) while it leaves
-    /// out a sixth or more of the copies' triangles (22–27k of 96k here). Its power: the same
-    /// culling with the pyramid narrowed to 3 pixels inside the film's edge
-    /// (a wrong margin) changes the frame.
+    /// out a sixth or more of the copies' triangles (22–27k of 96k here).
+    /// Its power: the same culling with the pyramid narrowed to 3 pixels
+    /// inside the film's edge (a wrong margin) changes the frame.
     #[test]
     fn culling_to_the_camera_changes_no_pixel() {
-        let mut s = crate::scene::load_scene(
-            std::path::Path::new("scenes/warp_cylinder.toml"),
-            &crate::scene::BuildOptions::default(),
-        )
-        .unwrap();
-        s.set_resolution(160, 120).unwrap();
-        let spec = s.warp.clone().unwrap();
-        let prep = prepare(&s, &spec, spec.subdivide).unwrap();
+        let (mut s, spec, prep) = tube_at_160x120();
         let mut culled = Pipeline::new(&s, &spec, &prep, false).unwrap();
         let mut all = Pipeline::new(&s, &spec, &prep, false).unwrap();
         all.cull_margin_px = None;
