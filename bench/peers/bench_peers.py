@@ -56,6 +56,13 @@ def parse_args():
     p.add_argument("--width", type=int, default=640)
     p.add_argument("--height", type=int, default=480)
     p.add_argument("--variant", default="llvm_ad_rgb", help="Mitsuba variant")
+    p.add_argument(
+        "--mitsuba-llvm-target",
+        metavar="CPU:FEATURES:WIDTH",
+        help="hold Mitsuba's LLVM kernels to this CPU, feature string and vector width "
+        "(Dr.Jit's jit_llvm_set_target), e.g. 'haswell:+avx2,+fma:8' to see what the machine's "
+        "wider vectors give it; default: Dr.Jit's choice for this machine",
+    )
     p.add_argument("--block", type=int, default=16, help="block size for the image comparison")
     p.add_argument(
         "--limit",
@@ -447,6 +454,29 @@ def summary(xs):
     return {"median": statistics.median(xs), "min": min(xs), "max": max(xs), "all": xs}
 
 
+def set_llvm_target(spec):
+    """Dr.Jit's LLVM target, through the C function libdrjit-core exports
+    (jit_llvm_set_target(cpu, features, vector_width)); the Python API has no
+    binding for it. Call after mi.set_variant, before the first kernel."""
+    import drjit
+
+    try:
+        cpu, features, width = spec.split(":")
+        width = int(width)
+    except ValueError:
+        sys.exit(f"bench-peers: --mitsuba-llvm-target {spec!r}: expected CPU:FEATURES:WIDTH")
+    if width not in (1, 4, 8, 16):
+        sys.exit(f"bench-peers: --mitsuba-llvm-target {spec!r}: WIDTH must be 1, 4, 8 or 16")
+    core = ctypes.CDLL(str(Path(drjit.__file__).parent / "libdrjit-core.so"))
+    fn = getattr(core, "_Z19jit_llvm_set_targetPKcS0_j", None)
+    if fn is None:
+        sys.exit("bench-peers: this Dr.Jit exports no jit_llvm_set_target")
+    fn.argtypes = [ctypes.c_char_p, ctypes.c_char_p, ctypes.c_uint32]
+    fn.restype = None
+    fn(cpu.encode(), features.encode(), width)
+    return f"{cpu} {features} x{width}"
+
+
 def main():
     a = parse_args()
     ref_path = Path(a.reference)
@@ -467,6 +497,7 @@ def main():
     import mitsuba as mi
 
     mi.set_variant(a.variant)
+    llvm_target = set_llvm_target(a.mitsuba_llvm_target) if a.mitsuba_llvm_target else "Dr.Jit's default"
     dr.set_thread_count(a.threads)
     dr.set_flag(dr.JitFlag.KernelHistory, True)
 
@@ -484,6 +515,7 @@ def main():
         "mitsuba": mi.__version__,
         "drjit": dr.__version__,
         "mitsuba_variant": a.variant,
+        "mitsuba_llvm_target": llvm_target,
         "mitsuba_embree": mitsuba_embree_version(mi),
         "libllvm": os.environ.get("DRJIT_LIBLLVM_PATH", "(Dr.Jit's search)"),
         "python": platform.python_version(),
@@ -656,7 +688,7 @@ def main():
     print()
     print("provenance:")
     for k in ("date", "cpu", "load_average_start", "load_average_end", "repo_commit", "repo_dirty", "snell_commit",
-              "snell_embree", "snell_rustc", "mitsuba", "drjit", "mitsuba_variant", "mitsuba_embree", "libllvm", "drjit_cache", "python"):
+              "snell_embree", "snell_rustc", "mitsuba", "drjit", "mitsuba_variant", "mitsuba_llvm_target", "mitsuba_embree", "libllvm", "drjit_cache", "python"):
         print(f"  {k:<19} {prov[k]}")
     print(f"  images in {out}")
 
