@@ -839,20 +839,15 @@ impl Mesh {
             let [a, b, c] = tri.map(|i| V3::from(ns[i as usize]));
             (a * w + b * u + c * v).normalize_or_zero()
         });
-        let uv = self
-            .uvs
-            .as_ref()
-            .map(|t| {
-                let [a, b, c] = tri.map(|i| t[i as usize]);
-                [a[0] * w + b[0] * u + c[0] * v, a[1] * w + b[1] * u + c[1] * v]
-            })
-            .unwrap_or([u, v]);
-        (n.filter(|n| n.length_squared() > 0.5), uv)
+        (
+            n.filter(|n| n.length_squared() > 0.5),
+            self.shading_uv(prim, u, v),
+        )
     }
 
     /// The texture coordinates of [`Self::shading`] alone (without the
     /// normal, whose square root and division are a latency chain).
-    #[inline]
+    #[inline(always)]
     pub fn shading_uv(&self, prim: u32, u: f32, v: f32) -> [f32; 2] {
         let Some(t) = self.uvs.as_ref() else {
             return [u, v];

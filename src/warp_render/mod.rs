@@ -558,7 +558,7 @@ pub(crate) fn shade(
         let n = if scene.lights.is_empty() {
             V3::ZERO
         } else {
-            o.mesh.shading(tri, u, v).0.unwrap_or_else(|| {
+            o.mesh.shading_normal(tri, u, v).unwrap_or_else(|| {
                 let ng = (b - a).cross(c - a).normalize_or_zero();
                 V3::new(ng.x as f32, ng.y as f32, ng.z as f32)
             })

@@ -90,6 +90,19 @@ pub struct FrameWarp {
     pub culled_triangles: usize,
 }
 
+/// `slabs` (each split into `chunks` runs of `chunk` elements) regrouped by
+/// run: row r holds every slab's run r, so one job writes one run of every
+/// slab.
+fn chunk_rows<T>(slabs: Vec<&mut [T]>, chunks: usize, chunk: usize) -> Vec<Vec<&mut [T]>> {
+    let mut rows: Vec<Vec<&mut [T]>> = (0..chunks).map(|_| Vec::with_capacity(slabs.len())).collect();
+    for slab in slabs {
+        for (row, part) in rows.iter_mut().zip(slab.chunks_mut(chunk)) {
+            row.push(part);
+        }
+    }
+    rows
+}
+
 /// The four side planes of the camera's pyramid of primary rays (planes
 /// through the eye), widened to a pixel and a half beyond the outermost
 /// pixel centres. A triangle whose three vertices lie strictly outside one
@@ -636,22 +649,9 @@ impl Pipeline {
                 }
                 const CHUNK: usize = 256;
                 let chunks = nv.div_ceil(CHUNK);
-                let mut rows: Vec<Vec<&mut [[f32; 3]]>> =
-                    (0..chunks).map(|_| Vec::with_capacity(slabs.len())).collect();
-                for slab in slabs {
-                    for (row, part) in rows.iter_mut().zip(slab.chunks_mut(CHUNK)) {
-                        row.push(part);
-                    }
-                }
-                // Empty when nothing is culled.
-                let mut code_rows: Vec<Vec<&mut [u8]>> = (0..chunks)
-                    .map(|_| Vec::with_capacity(code_slabs.len()))
-                    .collect();
-                for slab in code_slabs {
-                    for (row, part) in code_rows.iter_mut().zip(slab.chunks_mut(CHUNK)) {
-                        row.push(part);
-                    }
-                }
+                let rows = chunk_rows(slabs, chunks, CHUNK);
+                // Empty rows when nothing is culled.
+                let code_rows = chunk_rows(code_slabs, chunks, CHUNK);
                 let frustum = &frustum;
                 rows.into_par_iter()
                     .zip(code_rows.into_par_iter())
@@ -705,26 +705,19 @@ impl Pipeline {
                 for (m, &b) in c.member_bits.iter().enumerate() {
                     let bit = 1u8 << b;
                     if present & bit != 0 {
-                        let has = |t: &[u32; 3]| t.iter().all(|&v| masks[v as usize] & bit != 0);
-                        match c.codes.get(m * nv..(m + 1) * nv) {
-                            Some(codes) if !codes.is_empty() => {
-                                for (i, t) in tris.iter().enumerate() {
-                                    if has(t) {
-                                        let [a, b, d] = t.map(|v| codes[v as usize]);
-                                        if a & b & d == 0 {
-                                            ids.push(i as u32);
-                                        } else {
-                                            culled += 1;
-                                        }
-                                    }
-                                }
+                        // The member's outcodes, when the copy is culled.
+                        let codes = c.codes.get(m * nv..(m + 1) * nv).filter(|cs| !cs.is_empty());
+                        for (i, t) in tris.iter().enumerate() {
+                            if !t.iter().all(|&v| masks[v as usize] & bit != 0) {
+                                continue;
                             }
-                            _ => ids.extend(
-                                tris.iter()
-                                    .enumerate()
-                                    .filter(|(_, t)| has(t))
-                                    .map(|(i, _)| i as u32),
-                            ),
+                            if codes
+                                .is_some_and(|cs| t.iter().fold(!0u8, |all, &v| all & cs[v as usize]) != 0)
+                            {
+                                culled += 1;
+                            } else {
+                                ids.push(i as u32);
+                            }
                         }
                     }
                     ends.push(ids.len());
