@@ -147,7 +147,7 @@ fn main() {
             100.0,
         ),
         (
-            "hot_ground (inferior mirage), 1.5 m, 0.5° down, 400 m",
+            "hot_ground, inferior mirage: 1.5 m, 0.5° down, 400 m",
             IndexField::HotGround {
                 n_inf: 1.000_293,
                 dn: 1e-4,
