@@ -103,6 +103,30 @@ struct Closed {
     q1: f64,
     q2: f64,
     k2: f64,
+    /// For an exponential profile with κ² > 0: u = αE + β + γ/E, E = e^{κτ}
+    /// (see `exp_modes`).
+    modes: Option<(f64, f64, f64)>,
+}
+
+/// u = αe^{κτ} + β + γe^{−κτ} for an exponential profile with
+/// C = A² − b² > 0, each coefficient free of cancellation (u spans e^{±Δh/H},
+/// twenty orders of magnitude over a few metres of a thin hot layer, so
+/// 1 + q₁Sh + q₂Cm would lose everything where u decays). β = A·D₀/C is the
+/// fixed point; α + γ = 1 − β = (n₀D₀ + p₀²)/C; α − γ = p₀/√C. The smaller of
+/// α, γ (γ when p₀ > 0) is (1 − β − |p₀|/√C)/2, which simplifies to
+/// D₀²b²(A + n₀) / (2C(√C + |p₀|)(n₀√C + A|p₀|)) (all factors positive).
+fn exp_modes(a: f64, d0: f64, n0: f64, b: f64, p0: f64, c: f64) -> (f64, f64, f64) {
+    let s = c.sqrt();
+    let q = p0.abs();
+    let beta = a * d0 / c;
+    let sum = (n0 * d0 + p0 * p0) / c;
+    let small = d0 * d0 * b * b * (a + n0) / (2.0 * c * (s + q) * (n0 * s + a * q));
+    let big = sum - small;
+    if p0 > 0.0 {
+        (big, beta, small)
+    } else {
+        (small, beta, big)
+    }
 }
 
 #[derive(Debug, Clone)]
@@ -233,6 +257,11 @@ pub struct StratifiedRay {
     /// n₀ − b = n₀w₀²/(1 + cos θ₀) ≥ 0.
     g0: f64,
     form: Form,
+    /// Index evaluations (quadrature nodes, root-finding steps) and closed-form
+    /// points, for the renderer's counters.
+    evals: std::cell::Cell<u64>,
+    /// e^{−h₀/H} for an exponential profile, 1 otherwise.
+    u_scale: f64,
 }
 
 /// (Ch, Sh, Cm) at τ for κ² = k2: cosh κτ, sinh(κτ)/κ, (cosh κτ − 1)/κ²
@@ -338,8 +367,6 @@ impl StratifiedRay {
         })?;
         let up = s.up;
         let h0 = r.dot(up) - s.base;
-        let (mut n0, _) = field.n_h(h0).unwrap_or((f64::NAN, 0.0));
-        super::state::check_n(n0, r)?;
         let w0 = t.dot(up);
         let horiz = t - up * w0;
         let c0 = horiz.length();
@@ -356,25 +383,36 @@ impl StratifiedRay {
                 IndexField::Linear { m, .. } => Some(ClosedKind::Linear { m }),
                 IndexField::HotGround {
                     n_inf, dn, h0: hs, ..
-                } => Some(ClosedKind::Exp {
-                    a: n_inf,
-                    d0: dn * (-h0 / hs).exp(),
-                    hs,
-                }),
+                } => Some(ClosedKind::Exp { a: n_inf, d0: dn, hs }),
                 IndexField::Exponential {
                     n0: ns, scale_height, ..
                 } => Some(ClosedKind::Exp {
                     a: 1.0,
-                    d0: -(ns - 1.0) * (-h0 / scale_height).exp(),
+                    d0: -(ns - 1.0),
                     hs: scale_height,
                 }),
                 _ => None,
             }
         };
-        if let Some(ClosedKind::Exp { a, d0, .. }) = closed {
+        // The deficit D at h = 0 becomes D₀ = D·e^{−h₀/H} at the start.
+        let mut u_scale = 1.0;
+        let closed = closed.map(|k| match k {
+            ClosedKind::Exp { a, d0, hs } => {
+                u_scale = (-h0 / hs).exp();
+                ClosedKind::Exp {
+                    a,
+                    d0: d0 * u_scale,
+                    hs,
+                }
+            }
+            other => other,
+        });
+        let n0 = match closed {
             // The same formula the closed form uses (u₀ = 1).
-            n0 = a - d0;
-        }
+            Some(ClosedKind::Exp { a, d0, .. }) => a - d0,
+            _ => field.n_h(h0).map_or(f64::NAN, |v| v.0),
+        };
+        super::state::check_n(n0, r)?;
         let b = n0 * c0;
         let p0 = n0 * w0;
         let g0 = n0 * w0 * w0 / (1.0 + c0);
@@ -387,6 +425,8 @@ impl StratifiedRay {
             b,
             p0,
             g0,
+            evals: std::cell::Cell::new(1),
+            u_scale,
             form: Form::Quad(Quad {
                 legs: Vec::new(),
                 lo: lo.min(h0),
@@ -397,15 +437,25 @@ impl StratifiedRay {
         };
         ray.form = match closed {
             Some(kind) => {
-                let (q1, q2, k2) = match kind {
-                    ClosedKind::Linear { m } => (p0, n0 * m, m * m),
-                    ClosedKind::Exp { a, d0, hs } => (
-                        p0 / hs,
-                        (p0 * p0 + n0 * d0) / (hs * hs),
-                        (d0 + g0) * (a + b) / (hs * hs),
-                    ),
+                let (q1, q2, k2, modes) = match kind {
+                    ClosedKind::Linear { m } => (p0, n0 * m, m * m, None),
+                    ClosedKind::Exp { a, d0, hs } => {
+                        let c = (d0 + g0) * (a + b);
+                        (
+                            p0 / hs,
+                            (p0 * p0 + n0 * d0) / (hs * hs),
+                            c / (hs * hs),
+                            (c > 0.0).then(|| exp_modes(a, d0, n0, b, p0, c)),
+                        )
+                    }
                 };
-                Form::Closed(Closed { kind, q1, q2, k2 })
+                Form::Closed(Closed {
+                    kind,
+                    q1,
+                    q2,
+                    k2,
+                    modes,
+                })
             }
             None => {
                 let first = ray.first_leg(field);
@@ -418,6 +468,11 @@ impl StratifiedRay {
             }
         };
         Ok(ray)
+    }
+
+    /// Index evaluations so far (a closed-form point counts as one).
+    pub fn evaluations(&self) -> u64 {
+        self.evals.get()
     }
 
     /// The invariant n·cos θ.
@@ -461,6 +516,7 @@ impl StratifiedRay {
 
     /// G(h) = n(h) − b, accurately (see the module docs), with its derivative.
     fn g(&self, field: &IndexField, h: f64) -> (f64, f64) {
+        self.evals.set(self.evals.get() + 1);
         let d = field.n_diff(h, self.h0);
         let slope = field.n_h(h).map_or(0.0, |v| v.1);
         (d + self.g0, slope)
@@ -555,6 +611,7 @@ impl StratifiedRay {
     /// would lose the offset: G there is n'(end)·offset (the next term is
     /// smaller by offset/scale of the field).
     fn leg_state(&self, field: &IndexField, leg: &Leg, phi: f64) -> (f64, f64, f64, f64) {
+        self.evals.set(self.evals.get() + 1);
         let (h, dhdphi) = leg.h_of(phi);
         match leg.turn_offset(phi) {
             Some((end, off)) if off.abs() <= 1e-8 * (1.0 + end.abs()) => {
@@ -669,6 +726,15 @@ impl StratifiedRay {
     }
 
     fn point_and_arc(&mut self, field: &IndexField, tau: f64, want_s: bool) -> (Point, f64) {
+        if tau == 0.0 {
+            let start = Point {
+                tau,
+                dh: 0.0,
+                p: self.p0,
+                n: self.n0,
+            };
+            return (start, 0.0);
+        }
         match &self.form {
             Form::Closed(c) => {
                 let pt = self.closed_point(c, tau);
@@ -683,25 +749,58 @@ impl StratifiedRay {
     }
 
     fn closed_point(&self, c: &Closed, tau: f64) -> Point {
-        let (ch, sh, cm) = hyp(c.k2, tau);
-        match c.kind {
-            ClosedKind::Linear { m } => {
+        self.evals.set(self.evals.get() + 1);
+        match (&c.kind, c.modes) {
+            (ClosedKind::Linear { m }, _) => {
+                let (ch, sh, cm) = hyp(c.k2, tau);
                 let dh = c.q1 * sh + c.q2 * cm;
                 Point {
                     tau,
                     dh,
                     p: c.q1 * ch + c.q2 * sh,
-                    n: self.n0 * ch + m * self.p0 * sh,
+                    n: self.n0 + m * dh,
                 }
             }
-            ClosedKind::Exp { a, d0, hs } => {
+            (&ClosedKind::Exp { a, d0, hs }, Some((alpha, beta, gamma))) if c.k2 * tau * tau > 1.0 => {
+                // u = αE + β + γ/E; u − 1 = α(E − 1) + γ(1/E − 1).
+                let k = c.k2.sqrt();
+                let z = k * tau;
+                let (log_u, ratio, u) = if z < 600.0 {
+                    // All three modes are well scaled here (E ≥ e): u itself,
+                    // not u − 1, keeps its digits where it is tiny.
+                    let e = z.exp();
+                    let u = alpha * e + beta + gamma / e;
+                    (u.ln(), k * (alpha * e - gamma / e) / u, u)
+                } else {
+                    // Far out only the growing mode is left (u → −∞ where
+                    // α < 0: below the field's zero, outside any valid box).
+                    let inv = (-z).exp();
+                    let rest = alpha + beta * inv + gamma * inv * inv;
+                    if rest > 0.0 {
+                        (
+                            z + rest.ln(),
+                            k * (alpha - gamma * inv * inv) / rest,
+                            f64::INFINITY,
+                        )
+                    } else {
+                        (f64::NEG_INFINITY, f64::NEG_INFINITY, 0.0)
+                    }
+                };
+                Point {
+                    tau,
+                    dh: hs * log_u,
+                    p: hs * ratio,
+                    n: a - d0 / u,
+                }
+            }
+            (&ClosedKind::Exp { a, d0, hs }, _) => {
+                let (ch, sh, cm) = hyp(c.k2, tau);
                 let du = c.q1 * sh + c.q2 * cm;
                 let u = 1.0 + du;
-                let du_dtau = c.q1 * ch + c.q2 * sh;
                 Point {
                     tau,
                     dh: hs * du.ln_1p(),
-                    p: hs * du_dtau / u,
+                    p: hs * (c.q1 * ch + c.q2 * sh) / u,
                     n: a - d0 / u,
                 }
             }
@@ -845,14 +944,100 @@ impl StratifiedRay {
     /// (None when it does not get there), root-found on the monotone pieces
     /// between turning points.
     pub fn first_height(&mut self, field: &IndexField, dh: f64, t0: f64, t1: f64) -> Option<f64> {
+        self.first_height_point(field, dh, None, t0, t1).map(|p| p.tau)
+    }
+
+    /// [`StratifiedRay::first_height`] with the point there. `u_level`, when
+    /// known, is e^{dh/H} for an exponential profile (callers that cross the
+    /// same absolute heights again and again keep e^{h/H} and scale it with
+    /// [`StratifiedRay::level_scale`]).
+    pub fn first_height_point(
+        &mut self,
+        field: &IndexField,
+        dh: f64,
+        u_level: Option<f64>,
+        t0: f64,
+        t1: f64,
+    ) -> Option<Point> {
+        if let Form::Closed(c) = &self.form {
+            if let (&ClosedKind::Exp { a, d0, hs }, Some((alpha, beta, gamma))) = (&c.kind, c.modes) {
+                if !closed_level_ill_conditioned(c, dh) {
+                    // u = αE + β + γ/E = U: a quadratic in E; the point there
+                    // needs no more exponentials (u = U, u' = κ(αE − γ/E)).
+                    self.evals.set(self.evals.get() + 1);
+                    let k = c.k2.sqrt();
+                    let target = u_level.unwrap_or_else(|| (dh / hs).exp());
+                    let e_lo = if t0 == 0.0 { 1.0 } else { (k * t0).exp() };
+                    let mut best: Option<(f64, f64)> = None;
+                    for e in quadratic_roots(alpha, beta - target, gamma) {
+                        if e >= e_lo * (1.0 - 1e-15) {
+                            let t = (e.ln() / k).max(t0);
+                            if t <= t1 && best.is_none_or(|b| t < b.0) {
+                                best = Some((t, e));
+                            }
+                        }
+                    }
+                    return best.map(|(tau, e)| Point {
+                        tau,
+                        dh,
+                        p: hs * k * (alpha * e - gamma / e) / target,
+                        n: a - d0 / target,
+                    });
+                }
+            }
+            if let Some(roots) = closed_level_roots(c, dh) {
+                // The quadratic's roots lose digits where κτ is small and the
+                // modes large; two Newton steps on the point itself restore them
+                // (skipped where the crossing is tangential).
+                let c = c.clone();
+                let polish = |t: f64| {
+                    let mut t = t;
+                    for _ in 0..2 {
+                        let p = self.closed_point(&c, t);
+                        let step = (p.dh - dh) / p.p;
+                        if !(step.is_finite() && step.abs() <= 1e-6 * (1.0 + t.abs())) {
+                            break;
+                        }
+                        t -= step;
+                    }
+                    t
+                };
+                let tau = roots
+                    .into_iter()
+                    .filter(|t| *t >= t0 * (1.0 - 1e-12) && *t <= t1 * (1.0 + 1e-12))
+                    .map(polish)
+                    .map(|t| t.clamp(t0, t1))
+                    .min_by(f64::total_cmp)?;
+                return Some(self.point(field, tau));
+            }
+        }
+        self.first_height_generic(field, dh, t0, t1)
+            .map(|t| self.point(field, t))
+    }
+
+    /// e^{−h₀/H} for an exponential profile (1 otherwise): e^{h/H} of an
+    /// absolute height h times this is the `u_level` of h − h₀.
+    pub fn level_scale(&self) -> f64 {
+        self.u_scale
+    }
+
+    fn first_height_generic(&mut self, field: &IndexField, dh: f64, t0: f64, t1: f64) -> Option<f64> {
         let mut a = t0;
         let mut pa = self.point(field, a);
         if pa.dh == dh {
             return Some(a);
         }
         while a < t1 {
-            let b = self.next_turn(field, a).min(t1);
-            let pb = self.point(field, b);
+            let mut b = self.next_turn(field, a).min(t1);
+            let mut pb = self.point(field, b);
+            // Past where the path can be evaluated (an index gone to 0): back
+            // off to where it can; the crossing, if any, is before.
+            let mut guard = 0;
+            while pb.dh.is_nan() && guard < 200 {
+                b = a + 0.5 * (b - a);
+                pb = self.point(field, b);
+                guard += 1;
+            }
             if (pa.dh - dh) * (pb.dh - dh) <= 0.0 {
                 let fa = pa.dh - dh;
                 return Some(bracketed_root(a, b, fa, |t| {
@@ -867,6 +1052,49 @@ impl StratifiedRay {
             pa = pb;
         }
         None
+    }
+
+    /// The largest |n·n'| (the bound on |d²h/dτ²|) over the heights above
+    /// the start in [lo, hi]. Exponential profiles have n' = (A − n)/H, both
+    /// monotone in h: no field evaluation beyond the ends.
+    pub fn curvature_bound(&self, field: &IndexField, lo: f64, hi: f64) -> f64 {
+        let (a, b) = (self.h0 + lo, self.h0 + hi);
+        if let Form::Closed(c) = &self.form {
+            match c.kind {
+                ClosedKind::Linear { m } => {
+                    return m.abs() * (self.n0 + m * lo).max(self.n0 + m * hi);
+                }
+                ClosedKind::Exp { a: big_a, d0, hs } => {
+                    let n_at = |dh: f64| big_a - d0 * (-dh / hs).exp();
+                    let (na, nb) = (n_at(lo), n_at(hi));
+                    return na.max(nb) * (big_a - na).abs().max((big_a - nb).abs()) / hs;
+                }
+            }
+        }
+        let n_at = |h: f64| field.n_h(h).map_or(f64::NAN, |v| v.0);
+        let n_max = field
+            .breaks_within(a, b)
+            .into_iter()
+            .map(n_at)
+            .fold(n_at(a).max(n_at(b)), f64::max);
+        n_max * field.max_abs_slope(a, b)
+    }
+
+    /// The largest |n·n'| over the path between points whose heights include
+    /// the lowest and highest of that stretch: exact from the points' indices
+    /// for the closed forms (|n·n'| is monotone in h there: n' = (A − n)/H or
+    /// m), from the field over the heights otherwise.
+    pub fn curvature_bound_at(&self, field: &IndexField, pts: &[Point]) -> f64 {
+        if let Form::Closed(c) = &self.form {
+            let f = |p: &Point| match c.kind {
+                ClosedKind::Linear { m } => m.abs() * p.n,
+                ClosedKind::Exp { a, hs, .. } => p.n * (a - p.n).abs() / hs,
+            };
+            return pts.iter().map(f).fold(0.0, f64::max);
+        }
+        let lo = pts.iter().map(|p| p.dh).fold(f64::INFINITY, f64::min);
+        let hi = pts.iter().map(|p| p.dh).fold(f64::NEG_INFINITY, f64::max);
+        self.curvature_bound(field, lo, hi)
     }
 
     /// The lowest and highest heights above the start over [t0, t1].
@@ -918,8 +1146,91 @@ impl StratifiedRay {
     }
 }
 
+/// Is a ray's path in `field` a closed form in τ (linear and exponential
+/// profiles), rather than the quadrature?
+pub fn has_closed_form(field: &IndexField) -> bool {
+    matches!(
+        field,
+        IndexField::Constant { .. }
+            | IndexField::Linear { .. }
+            | IndexField::HotGround { .. }
+            | IndexField::Exponential { .. }
+    )
+}
+
+/// The real roots of a·x² + b·x + c = 0 (stable: no cancellation between b
+/// and the root of the discriminant); NaN where there is none.
+fn quadratic_roots(a: f64, b: f64, c: f64) -> [f64; 2] {
+    if a == 0.0 {
+        return [if b != 0.0 { -c / b } else { f64::NAN }, f64::NAN];
+    }
+    let disc = b * b - 4.0 * a * c;
+    if disc < 0.0 {
+        return [f64::NAN; 2];
+    }
+    let q = -0.5 * (b + b.signum() * disc.sqrt());
+    if q == 0.0 {
+        return [0.0, f64::NAN];
+    }
+    [q / a, c / q]
+}
+
+/// The optical parameters (any order, τ ≥ 0 not enforced) where the height
+/// above the start of a closed-form ray equals `level`, solved exactly: with
+/// E = e^{κτ} the height's linearising coordinate is αE + β + γ/E, a
+/// quadratic in E (in τ itself when κ = 0). None where that form does not
+/// apply (an oscillating exponential profile, κ² < 0).
+fn closed_level_roots(c: &Closed, level: f64) -> Option<[f64; 2]> {
+    let k2 = c.k2;
+    let (alpha, beta, gamma, target) = match (&c.kind, c.modes) {
+        (&ClosedKind::Exp { hs, .. }, Some((a, b, g))) => (a, b, g, (level / hs).exp()),
+        (ClosedKind::Linear { .. }, _) if k2 == 0.0 => {
+            // q₁τ + q₂τ²/2 = level.
+            return Some(quadratic_roots(0.5 * c.q2, c.q1, -level));
+        }
+        (ClosedKind::Linear { .. }, _) if k2 > 0.0 => {
+            let k = k2.sqrt();
+            (
+                c.q1 / (2.0 * k) + c.q2 / (2.0 * k2),
+                -c.q2 / k2,
+                -c.q1 / (2.0 * k) + c.q2 / (2.0 * k2),
+                level,
+            )
+        }
+        _ => return None,
+    };
+    let k = k2.sqrt();
+    // Only positive roots are crossings (ln of the others would be NaN, and
+    // slow).
+    Some(quadratic_roots(alpha, beta - target, gamma).map(|e| if e > 0.0 { e.ln() / k } else { f64::NAN }))
+}
+
+/// Can the quadratic's roots have lost digits? When the modes αE + β + γ/E
+/// are far larger than the level they sum to (only for an exponential
+/// profile's u near 0, or a linear field's large 1/m modes).
+fn closed_level_ill_conditioned(c: &Closed, level: f64) -> bool {
+    match (&c.kind, c.modes) {
+        (&ClosedKind::Exp { hs, .. }, Some((a, b, g))) => {
+            // u = e^{level/H} ≥ e^{−7} unless the level is far below.
+            level < -7.0 * hs || a.abs() + b.abs() + g.abs() > 1e3
+        }
+        _ => true,
+    }
+}
+
 /// Where q' = q₁ Ch + q₂ Sh vanishes after τ.
 fn closed_next_turn(c: &Closed, tau: f64) -> f64 {
+    if let Some((alpha, _, gamma)) = c.modes {
+        // u' = κ(αE − γ/E) = 0 at E² = γ/α (accurate where tanh κτ = ratio
+        // near 1 would round the turn away).
+        let r = gamma / alpha;
+        let t = if r > 0.0 {
+            r.ln() / (2.0 * c.k2.sqrt())
+        } else {
+            f64::INFINITY
+        };
+        return if t > tau { t } else { f64::INFINITY };
+    }
     let (q1, q2, k2) = (c.q1, c.q2, c.k2);
     if q2 == 0.0 {
         return f64::INFINITY;

@@ -420,3 +420,84 @@ fn profile_validation_names_the_node_and_interpolation_stays_between_nodes() {
         );
     }
 }
+
+#[test]
+fn level_crossings_in_closed_form_match_the_quadrature() {
+    let lin = IndexField::Linear {
+        n0: 1.000_293,
+        m: 2e-5,
+        up: DVec3::Y,
+        base: 0.0,
+    };
+    let flat = IndexField::Constant { n: 1.000_293 };
+    let mut checked = 0;
+    for f in [hot_ground(), lin, flat] {
+        for (h, a) in [
+            (1.2, -0.0052),
+            (1.2, 0.004),
+            (7.3, -0.12),
+            (0.2, -1e-4),
+            (3.0, -0.005),
+        ] {
+            let p = DVec3::new(0.0, h, 0.0);
+            let mk = |quadrature| {
+                StratifiedRay::new(
+                    &f,
+                    -1.0,
+                    12.0,
+                    p,
+                    dir(a),
+                    Options {
+                        quadrature,
+                        branch: Branch::Turn,
+                    },
+                )
+                .unwrap()
+            };
+            let (mut c, mut q) = (mk(false), mk(true));
+            assert!(c.is_closed_form() && !q.is_closed_form());
+            // Within the height limits [-1, 12] (where the quadrature's legs end).
+            let t1 = [-1.0 - h, 12.0 - h]
+                .into_iter()
+                .filter_map(|l| c.first_height(&f, l, 0.0, 3000.0))
+                .fold(3000.0, f64::min);
+            for level in [-0.5, -0.1, -1e-3, 0.05, 0.5, 3.0] {
+                let (tc, tq) = (
+                    c.first_height(&f, level, 0.0, t1),
+                    q.first_height(&f, level, 0.0, t1),
+                );
+                match (tc, tq) {
+                    (Some(x), Some(y)) => {
+                        assert!(
+                            (x - y).abs() <= 1e-9 * y.max(1.0),
+                            "{} h {h} a {a} level {level}: {x} vs {y}",
+                            f.kind()
+                        );
+                        let at = c.point(&f, x);
+                        assert!(
+                            (at.dh - level).abs() < 1e-9,
+                            "{} level {level}: reached {}",
+                            f.kind(),
+                            at.dh
+                        );
+                        // The point the crossing reports (from the root, without
+                        // evaluating the path again) is the path's point there.
+                        let q = c.first_height_point(&f, level, None, 0.0, t1).unwrap();
+                        assert!(
+                            (q.p - at.p).abs() < 1e-9 * at.p.abs().max(1e-6) && (q.n - at.n).abs() < 1e-15,
+                            "{} level {level}: {q:?} vs {at:?}",
+                            f.kind()
+                        );
+                        checked += 1;
+                    }
+                    (None, None) => {}
+                    _ => panic!(
+                        "{} h {h} a {a} level {level}: closed {tc:?} vs quadrature {tq:?}",
+                        f.kind()
+                    ),
+                }
+            }
+        }
+    }
+    assert!(checked > 20, "{checked}");
+}
