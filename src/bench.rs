@@ -671,7 +671,14 @@ pub fn chord_sweep(
     };
     let mut images = Vec::new();
     for &tol in tolerances {
-        let m = crate::media::Medium::try_new(m0.field().clone(), m0.bounds(), m0.method(), tol, m0.step())
+        // Metres bound the ray-equation methods' chords; `invariant` chords
+        // follow the pixel footprint instead, so its media are swept as rk45.
+        let method = match m0.method() {
+            crate::media::Method::Invariant => crate::media::Method::Rk45,
+            other => other,
+        };
+        let m = m0
+            .retuned(method, tol)
             .map_err(|e| crate::Error::Invalid(format!("chord sweep: {e:?}")))?;
         scene.medium = Some(m);
         let r = crate::render::render(

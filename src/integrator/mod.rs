@@ -313,6 +313,7 @@ fn cast(
     for k in 0..MAX_CHORDS_PER_SEGMENT {
         let entered_medium = k > 0 || starts_inside;
         let chord = curved.next_chord(med);
+        travelled += chord.skipped;
         if chord.length == 0.0 && curved.failure().is_none() {
             // A zero-length chord is the ray leaving the bounds exactly where it
             // stands (at the box face): not a failure, nothing to cast. (These
@@ -331,8 +332,14 @@ fn cast(
             r.tfar = chord.length as f32;
         }
         st.chords += 1;
-        ray_log::record(|| ray_log::Logged::Nearest(r));
-        if let Some(th) = dielectric::trace(scene, tr.strategy, &r, list, st)? {
+        // A chord that meets no geometry's box needs no query.
+        let th = if med.chord_may_hit(&chord) {
+            ray_log::record(|| ray_log::Logged::Nearest(r));
+            dielectric::trace(scene, tr.strategy, &r, list, st)?
+        } else {
+            None
+        };
+        if let Some(th) = th {
             let p = r.org + r.dir * th.hit.t;
             let (_, tangent) = curved.refine_hit(
                 med,

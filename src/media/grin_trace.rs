@@ -239,6 +239,12 @@ fn over_budget(steps: u64, evals: u64) -> Result<(), String> {
 pub fn trace(q: &Query) -> Result<Answer, String> {
     let field = q.field.validated("field").map_err(|e| e.to_string())?;
     check_method(&field, q.method, "method").map_err(|e| e.to_string())?;
+    if q.method == Method::Invariant {
+        return Err(
+            "method: invariant traces scene media only; grin-trace takes rk45, rk4, exact or a paper method"
+                .into(),
+        );
+    }
     finite_vec("start", q.start)?;
     finite_vec("direction", q.direction)?;
     if q.direction.length().is_nan() || q.direction.length() <= 0.0 {

@@ -5,7 +5,10 @@
 //! Pure f64, no Embree. See docs/grin.md for the derivations.
 pub mod exact;
 pub mod field;
+pub mod footprint;
 pub mod grin_trace;
+pub mod invariant_cast;
+pub mod obstacles;
 pub mod paper;
 pub mod profile;
 pub mod quadrature;
@@ -20,7 +23,10 @@ use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
 pub use field::{Aabb, IndexField, Strata};
+pub use footprint::Footprint;
 pub use grin_trace::grin_trace_json;
+use invariant_cast::{InvariantCast, InvariantSetup, Step};
+pub use obstacles::Obstacles;
 use stepper::{State, Stepper};
 
 /// A user-facing error: the key (e.g. `medium.tolerance`) and what was expected.
@@ -64,11 +70,41 @@ pub enum Method {
     PaperRk4,
     /// Closed form (catenary) for linear and constant fields.
     Exact,
+    /// Stratified fields traced by their invariant n·cos θ (closed forms or a
+    /// 1-D quadrature, `stratified.rs`), chords only where geometry may be met,
+    /// their deviation a fraction of the pixel footprint.
+    Invariant,
+}
+
+/// The fraction of a pixel's footprint an invariant chord may deviate from its
+/// arc when the scene does not say (`medium.pixel_tolerance`). mirage_road at
+/// 480×160×4: 0.25 px leaves block means within the seed-to-seed noise of an
+/// rk45 render at a tenth of its metre tolerance (docs/grin.md).
+pub const DEFAULT_PIXEL_TOLERANCE: f64 = 0.1;
+
+/// Below this a chord tolerance means nothing to Embree's f32 chords (a
+/// micrometre; the footprint goes to 0 at the eye).
+const MIN_CHORD_TOLERANCE: f64 = 1e-6;
+
+impl Method {
+    /// What a scene's `method = "auto"` (the default) means for `field`:
+    /// `invariant` where n depends on height alone along a coordinate axis
+    /// and the path has a closed form (linear and exponential profiles),
+    /// rk45 otherwise: 3-D fields, oblique strata, and the fields that need
+    /// the quadrature (inversion, profile), which costs more than rk45 today
+    /// (mirage_sea 240×120×4: 24.7 s against 3.9 s, the same image).
+    pub fn auto_for(field: &IndexField) -> Method {
+        if stratified::has_closed_form(field) && check_method(field, Method::Invariant, "").is_ok() {
+            Method::Invariant
+        } else {
+            Method::Rk45
+        }
+    }
 }
 
 impl Method {
     /// Every method, in the order of [`Method::name`]'s listing.
-    pub const ALL: [Method; 7] = [
+    pub const ALL: [Method; 8] = [
         Method::Rk45,
         Method::Rk4,
         Method::Slab,
@@ -76,6 +112,7 @@ impl Method {
         Method::Euler,
         Method::PaperRk4,
         Method::Exact,
+        Method::Invariant,
     ];
 
     /// The name in scene files and JSON queries (`rk45`, `paper_rk4`, …);
@@ -89,6 +126,7 @@ impl Method {
             Method::Euler => "euler",
             Method::PaperRk4 => "paper_rk4",
             Method::Exact => "exact",
+            Method::Invariant => "invariant",
         }
     }
 
@@ -113,7 +151,9 @@ impl FromStr for Method {
         Method::ALL.into_iter().find(|m| m.name() == s).ok_or_else(|| {
             MediumError::invalid(
                 "medium.method",
-                format!("expected one of rk45, rk4, slab, length, euler, paper_rk4, exact; got {s:?}"),
+                format!(
+                    "expected one of rk45, rk4, slab, length, euler, paper_rk4, exact, invariant; got {s:?}"
+                ),
             )
         })
     }
@@ -130,6 +170,20 @@ pub fn check_method(field: &IndexField, method: Method, key: &str) -> Result<(),
             key,
             format!(
                 "method exact has a closed form for linear and constant fields only, not {}",
+                field.kind()
+            ),
+        ));
+    }
+    if method == Method::Invariant
+        && field
+            .strata()
+            .and_then(|s| invariant_cast::up_axis(s.up))
+            .is_none()
+    {
+        return Err(MediumError::invalid(
+            key,
+            format!(
+                "method invariant needs a stratified field whose `up` lies along a coordinate axis, not {}",
                 field.kind()
             ),
         ));
@@ -154,6 +208,15 @@ pub struct Medium {
     method: Method,
     tolerance: f64,
     step: f64,
+    /// Chord tolerance as a fraction of the pixel footprint (None: `tolerance`
+    /// metres everywhere).
+    pixel_tolerance: Option<f64>,
+    /// The eye and the pixel angle of the scene's camera.
+    view: Option<(DVec3, f64)>,
+    /// The scene's geometry as boxes.
+    obstacles: Obstacles,
+    /// What method `invariant`'s rays share (None for other methods).
+    invariant: Option<InvariantSetup>,
 }
 
 /// The largest index a medium may reach (real media are below ~4).
@@ -259,13 +322,112 @@ impl Medium {
                 format!("expected n > 0 everywhere in the bounds, but {what}"),
             ));
         }
+        let invariant = if method == Method::Invariant {
+            InvariantSetup::new(&field, &bounds, None)
+        } else {
+            None
+        };
         Ok(Medium {
             field,
             bounds,
             method,
             tolerance,
             step,
+            pixel_tolerance: None,
+            view: None,
+            invariant,
+            obstacles: Obstacles::unknown(),
         })
+    }
+
+    /// Bounds method `invariant`'s chords in the image: `fraction` of the
+    /// pixel footprint at the distance from the eye ([`Medium::with_view`]).
+    /// None: [`DEFAULT_PIXEL_TOLERANCE`]. Without a view (no camera:
+    /// grin-trace, tests) `tolerance` metres apply; the other methods always
+    /// use `tolerance` metres.
+    ///
+    /// # Errors
+    ///
+    /// [`MediumError::Invalid`] at `medium.pixel_tolerance` unless the
+    /// fraction is finite and in (0, 100].
+    pub fn with_pixel_tolerance(mut self, fraction: Option<f64>) -> Result<Medium, MediumError> {
+        if let Some(f) = fraction {
+            if !(f.is_finite() && f > 0.0 && f <= 100.0) {
+                return Err(MediumError::invalid(
+                    "medium.pixel_tolerance",
+                    format!("expected a fraction of a pixel in (0, 100], got {f}"),
+                ));
+            }
+        }
+        self.pixel_tolerance = fraction;
+        Ok(self)
+    }
+
+    /// The camera's eye and the angle one of its pixels subtends (radians):
+    /// what `pixel_tolerance` is a fraction of.
+    pub fn with_view(mut self, eye: DVec3, pixel_angle: f64) -> Medium {
+        self.view =
+            (eye.is_finite() && pixel_angle.is_finite() && pixel_angle > 0.0).then_some((eye, pixel_angle));
+        self
+    }
+
+    /// The scene's geometry as boxes (world min, max): stretches of a curved
+    /// ray that meet none need no chords, chords that meet none no query.
+    pub fn with_obstacles(self, boxes: impl IntoIterator<Item = Aabb>) -> Medium {
+        self.with_obstacle_set(Obstacles::new(boxes))
+    }
+
+    fn with_obstacle_set(mut self, obstacles: Obstacles) -> Medium {
+        self.obstacles = obstacles;
+        if self.method == Method::Invariant {
+            let known = (!self.obstacles.is_unknown()).then(|| self.obstacles.boxes());
+            self.invariant = InvariantSetup::new(&self.field, &self.bounds, known);
+        }
+        self
+    }
+
+    /// The fraction of a pixel chords may deviate, as given (None: the
+    /// default).
+    pub fn pixel_tolerance(&self) -> Option<f64> {
+        self.pixel_tolerance
+    }
+
+    /// The same medium traced by `method` at the metre `tolerance` (pixel
+    /// tolerance, view and geometry kept).
+    ///
+    /// # Errors
+    ///
+    /// As [`Medium::try_new`].
+    pub fn retuned(&self, method: Method, tolerance: f64) -> Result<Medium, MediumError> {
+        let mut m = Medium::try_new(self.field.clone(), self.bounds, method, tolerance, self.step)?
+            .with_pixel_tolerance(self.pixel_tolerance)?;
+        if let Some((eye, angle)) = self.view {
+            m = m.with_view(eye, angle);
+        }
+        Ok(m.with_obstacle_set(self.obstacles.clone()))
+    }
+
+    /// The footprint tolerance of method `invariant` once a view is set.
+    pub fn footprint(&self) -> Option<Footprint> {
+        let (eye, pixel_angle) = self.view?;
+        (self.method == Method::Invariant).then(|| Footprint {
+            eye,
+            pixel_angle,
+            fraction: self.pixel_tolerance.unwrap_or(DEFAULT_PIXEL_TOLERANCE),
+        })
+    }
+
+    /// The chord tolerance at `p`, metres: the footprint's (method
+    /// `invariant` with a view), else `tolerance`.
+    pub fn tolerance_at(&self, p: DVec3) -> f64 {
+        self.footprint()
+            .map_or(self.tolerance, |f| f.at(p, MIN_CHORD_TOLERANCE))
+    }
+
+    /// Can the straight chord meet geometry? (False only when it misses
+    /// every padded box of the scene's geometry: Embree would find nothing.)
+    pub fn chord_may_hit(&self, c: &Chord) -> bool {
+        self.obstacles.segment_meets(c.origin, c.dir, c.length)
     }
 
     /// The world-space box the field fills, metres.
@@ -322,6 +484,7 @@ impl Medium {
             ell_prev: f64::INFINITY,
             evals: 0,
             chords: 0,
+            inv: None,
         }
     }
 }
@@ -346,6 +509,10 @@ pub struct Chord {
     /// Length in metres: infinite for a ray that never enters the bounds, 0
     /// after a failure or when the ray leaves the box where it stands.
     pub length: f64,
+    /// Straight length of the stretch before the chord that needed no chord
+    /// (it could meet no geometry), metres: the path's length to the chord's
+    /// start grows by it.
+    pub skipped: f64,
 }
 
 /// A ray being traced through a [`Medium`], chord by chord.
@@ -361,6 +528,8 @@ pub struct CurvedRay {
     ell_prev: f64,
     evals: u64,
     chords: u64,
+    /// Method `invariant` while inside the bounds.
+    inv: Option<InvariantCast>,
 }
 
 /// Distance from q to the segment a–b.
@@ -409,68 +578,138 @@ impl CurvedRay {
         self.mode = Mode::Failed;
         self.failure = Some(msg);
         self.last_curved = false;
+        self.inv = None;
         Chord {
             origin: self.st.r,
             dir: self.st.t,
             length: 0.0,
+            skipped: 0.0,
         }
     }
 
     /// The next straight chord to cast: outside the bounds one chord to the entry (or
     /// of infinite length); inside, a chord whose deviation from the arc is at most the
-    /// tolerance (ray-equation methods) or one native piece (the paper's methods). The
-    /// ray state moves to the chord's end.
+    /// tolerance (ray-equation methods) or one native piece (the paper's methods);
+    /// method `invariant` skips the stretches that can meet no geometry (their
+    /// length in [`Chord::skipped`]). The ray state moves to the chord's end.
     pub fn next_chord(&mut self, medium: &Medium) -> Chord {
         self.chords += 1;
         self.prev = self.st;
         self.last_curved = false;
         self.last_arc = 0.0;
         let tol = medium.tolerance;
-        if self.mode == Mode::Failed {
-            return Chord {
-                origin: self.st.r,
-                dir: self.st.t,
-                length: 0.0,
-            };
-        }
-        if self.mode == Mode::Outside {
-            let r = self.st.r;
-            let t = self.st.t;
-            let straight = |length| Chord {
-                origin: r,
-                dir: t,
-                length,
-            };
-            match medium.bounds.clip(r, t) {
-                Some((t0, t1)) if t1 > tol => {
-                    let entry = t0.max(0.0);
-                    let p = r + t * entry;
-                    match State::new(&medium.field, p, t, &mut self.evals) {
-                        Ok(mut s) => {
-                            s.s = self.st.s;
-                            self.st = s;
+        let mut skipped = 0.0;
+        let mut exits = 0;
+        loop {
+            if self.mode == Mode::Failed {
+                return Chord {
+                    origin: self.st.r,
+                    dir: self.st.t,
+                    length: 0.0,
+                    skipped,
+                };
+            }
+            if self.mode == Mode::Outside {
+                let r = self.st.r;
+                let t = self.st.t;
+                let straight = |length| Chord {
+                    origin: r,
+                    dir: t,
+                    length,
+                    skipped,
+                };
+                match medium.bounds.clip(r, t) {
+                    Some((t0, t1)) if t1 > tol => {
+                        let entry = t0.max(0.0);
+                        let p = r + t * entry;
+                        if let Some(setup) = &medium.invariant {
+                            // The invariant cast keeps its own state; here only
+                            // position and direction.
+                            match InvariantCast::start(&medium.field, setup, p, t) {
+                                Ok(c) => self.inv = Some(c),
+                                Err(e) => return self.fail(e),
+                            }
+                            self.st.r = p;
+                        } else {
+                            match State::new(&medium.field, p, t, &mut self.evals) {
+                                Ok(mut s) => {
+                                    s.s = self.st.s;
+                                    self.st = s;
+                                }
+                                Err(e) => return self.fail(e),
+                            }
                         }
-                        Err(e) => return self.fail(e),
+                        self.prev = self.st;
+                        self.mode = Mode::Inside;
+                        if entry > 0.0 {
+                            return straight(entry);
+                        }
                     }
-                    self.prev = self.st;
-                    self.mode = Mode::Inside;
-                    if entry > 0.0 {
-                        return straight(entry);
+                    _ => return straight(f64::INFINITY),
+                }
+            }
+            if let (Some(cast), Some(setup)) = (&mut self.inv, &medium.invariant) {
+                let before = cast.evaluations();
+                let step = cast.next(&medium.field, setup, |p| medium.tolerance_at(p));
+                self.evals += cast.evaluations() - before;
+                match step {
+                    Step::Chord {
+                        origin,
+                        end,
+                        tangent,
+                        skipped: sk,
+                    } => {
+                        skipped += sk;
+                        let c = end - origin;
+                        let len = c.length();
+                        let bend = (tangent - self.st.t).length();
+                        // Arc length of a circular arc on the chord, to 4th order.
+                        self.st.s += sk + len * (1.0 + bend * bend / 24.0);
+                        self.st.r = end;
+                        self.st.t = tangent;
+                        self.last_curved = true;
+                        return Chord {
+                            origin,
+                            dir: if len > 0.0 { c / len } else { tangent },
+                            length: len,
+                            skipped,
+                        };
+                    }
+                    Step::Exit {
+                        at,
+                        tangent,
+                        skipped: sk,
+                    } => {
+                        skipped += sk;
+                        self.st.s += sk;
+                        self.st.r = at;
+                        self.st.t = tangent;
+                        self.inv = None;
+                        self.mode = Mode::Outside;
+                        // Outside, the ray returns a chord or re-enters where
+                        // it stands (on a face); exiting again without a chord
+                        // would repeat forever.
+                        exits += 1;
+                        if exits > 1 {
+                            return self.fail(format!(
+                                "ray stuck on the medium's boundary at {at:?}, tangent {tangent:?}"
+                            ));
+                        }
+                        continue;
                     }
                 }
-                _ => return straight(f64::INFINITY),
             }
-        }
-        let mut stepper = medium.stepper();
-        let res = if medium.method.is_paper() {
-            self.paper_chord(medium, &mut stepper)
-        } else {
-            self.arc_chord(medium, &mut stepper)
-        };
-        self.evals += stepper.evals;
-        match res {
-            Ok(c) => c,
-            Err(e) => self.fail(e),
+            let mut stepper = medium.stepper();
+            let res = if medium.method.is_paper() {
+                self.paper_chord(medium, &mut stepper)
+            } else {
+                self.arc_chord(medium, &mut stepper)
+            };
+            self.evals += stepper.evals;
+            return match res {
+                Ok(c) => Chord { skipped, ..c },
+                Err(e) => self.fail(e),
+            };
         }
     }
 
@@ -488,6 +727,7 @@ impl CurvedRay {
             origin,
             dir,
             length: d,
+            skipped: 0.0,
         }
     }
 
@@ -515,6 +755,7 @@ impl CurvedRay {
                         origin,
                         dir,
                         length: len,
+                        skipped: 0.0,
                     })
                 } else {
                     Ok(self.exit_straight(medium, dir))
@@ -607,6 +848,7 @@ impl CurvedRay {
             origin: st.r,
             dir: if len > 0.0 { c / len } else { st.t },
             length: len,
+            skipped: 0.0,
         })
     }
 
@@ -616,7 +858,7 @@ impl CurvedRay {
     /// Straight chords (outside the bounds, the paper's methods) return the chord
     /// point itself.
     pub fn refine_hit(
-        &self,
+        &mut self,
         medium: &Medium,
         chord: &Chord,
         t: f64,
@@ -624,7 +866,13 @@ impl CurvedRay {
         ng: DVec3,
     ) -> (DVec3, DVec3) {
         let straight = (chord.origin + chord.dir * t, chord.dir);
-        if !self.last_curved || self.last_arc <= 0.0 || ng.length().is_nan() || ng.length() <= 0.0 {
+        if !self.last_curved || ng.length().is_nan() || ng.length() <= 0.0 {
+            return straight;
+        }
+        if let Some(cast) = &mut self.inv {
+            return cast.refine(&medium.field, hit, ng).unwrap_or(straight);
+        }
+        if self.last_arc <= 0.0 {
             return straight;
         }
         let mut stepper = medium.stepper();

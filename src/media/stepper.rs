@@ -214,7 +214,9 @@ impl<'a> Stepper<'a> {
     /// the field is not linear.
     pub fn single(&mut self, st: &State, h: f64) -> Result<State, String> {
         match self.method {
-            Method::Rk45 => self.dp45(st, h).map(|x| x.0),
+            // `invariant` traces rays in media by their invariant; steps asked
+            // of the stepper itself are rk45's.
+            Method::Rk45 | Method::Invariant => self.dp45(st, h).map(|x| x.0),
             Method::Exact => {
                 self.evals += 1;
                 exact::advance(self.field, st, h)
@@ -243,7 +245,7 @@ impl<'a> Stepper<'a> {
                 self.evals += 1;
                 exact::advance(self.field, st, ell)
             }
-            Method::Rk45 => {
+            Method::Rk45 | Method::Invariant => {
                 let mut cur = *st;
                 let mut done = 0.0;
                 let mut guard = 0u32;

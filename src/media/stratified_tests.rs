@@ -501,3 +501,197 @@ fn level_crossings_in_closed_form_match_the_quadrature() {
     }
     assert!(checked > 20, "{checked}");
 }
+
+/// Dense rk45 (tol 1e-11) samples of the arc from (p, d) until it leaves `b`
+/// (or travels `max_len`): (arc length, position) every `ds` metres.
+fn dense_arc(f: &IndexField, b: &Aabb, p: DVec3, d: DVec3, ds: f64, max_len: f64) -> Vec<(f64, DVec3)> {
+    let mut ev = 0;
+    let mut st = State::new(f, p, d, &mut ev).unwrap();
+    let mut stepper = Stepper::new(f, Method::Rk45, 1e-11, 1.0);
+    let mut h = f64::INFINITY;
+    let mut out = vec![(0.0, p)];
+    while st.s < max_len && b.contains(st.r) {
+        st = stepper.advance(&st, ds, &mut h, &mut Vec::new()).unwrap();
+        out.push((st.s, st.r));
+    }
+    out
+}
+
+fn distance_to_polyline(q: DVec3, arc: &[(f64, DVec3)]) -> f64 {
+    arc.windows(2)
+        .map(|w| {
+            let (a, c) = (w[0].1, w[1].1);
+            let ab = c - a;
+            let u = ((q - a).dot(ab) / ab.length_squared()).clamp(0.0, 1.0);
+            (q - (a + ab * u)).length()
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// Casts `d` from `eye` through `m` until it leaves: the worst deviation of
+/// a chord from the rk45 `arc`, over `judge`'s tolerance at the chord (so a
+/// medium can be judged by another's tolerance), the chords and the length
+/// skipped. Skipped stretches must keep the arc out of `boxes`; the exit
+/// must be on the arc.
+fn chords_against_arc(
+    m: &Medium,
+    judge: &Medium,
+    eye: DVec3,
+    d: DVec3,
+    arc: &[(f64, DVec3)],
+    boxes: &[Aabb],
+) -> (f64, u32, f64) {
+    let (mut worst, mut chords, mut skipped) = (0.0f64, 0, 0.0);
+    let mut ray = m.start_ray(eye, d);
+    let mut at = eye;
+    for _ in 0..100_000 {
+        let c = ray.next_chord(m);
+        assert!(ray.failure().is_none(), "{:?}", ray.failure());
+        if c.skipped > 0.0 {
+            // The skipped stretch, from `at` to the chord's origin: its arc
+            // samples stay out of the (unpadded) boxes.
+            skipped += c.skipped;
+            let (lo, hi) = (at.z.max(c.origin.z), at.z.min(c.origin.z));
+            for (_, q) in arc.iter().filter(|(_, q)| q.z <= lo && q.z >= hi) {
+                assert!(
+                    boxes.iter().all(|b| !b.contains(*q)),
+                    "skipped over geometry at {q:?}"
+                );
+            }
+        }
+        if !c.length.is_finite() {
+            // Leaves where rk45 leaves (to 1e-6 of the path).
+            let exit = arc.last().unwrap();
+            let err = distance_to_polyline(c.origin, &arc[arc.len().saturating_sub(3)..]);
+            assert!(
+                err < 1e-6 * exit.0 + 1e-6,
+                "exit {:?} off the arc by {err:e}",
+                c.origin
+            );
+            return (worst, chords, skipped);
+        }
+        if c.length == 0.0 {
+            continue;
+        }
+        chords += 1;
+        let tol = judge
+            .tolerance_at(c.origin)
+            .min(judge.tolerance_at(c.origin + c.dir * c.length));
+        for i in 0..=8 {
+            let q = c.origin + c.dir * (c.length * f64::from(i) / 8.0);
+            worst = worst.max(distance_to_polyline(q, arc) / tol);
+        }
+        at = c.origin + c.dir * c.length;
+    }
+    panic!("the ray never left the medium");
+}
+
+/// Method invariant in a road-like medium: every chord lies within its
+/// footprint tolerance of the rk45 arc (tol 1e-11), the stretches it skips
+/// come near no geometry box, and the ray leaves the box where rk45 does.
+/// The same rays with the boxes unknown chord everything (no skipping), all
+/// within the tolerance too; with the pixel tolerance ×100 (the known-wrong
+/// variant) those chords fail the same threshold.
+#[test]
+fn invariant_chords_follow_the_arc_and_skip_only_clear_stretches() {
+    let f = hot_ground();
+    let bounds = Aabb::new(DVec3::new(-300.0, -1.0, -1200.0), DVec3::new(300.0, 12.0, 10.0));
+    let ground = Aabb::new(DVec3::new(-400.0, -0.08, -1300.0), DVec3::new(400.0, 0.0, 50.0));
+    let car = Aabb::new(DVec3::new(-5.0, 0.0, -301.0), DVec3::new(-1.0, 2.0, -299.0));
+    let eye = DVec3::new(0.0, 1.2, 0.0);
+    let pixel = 3f64.to_radians() / 160.0;
+    let medium = |fraction: f64, boxes: Option<[Aabb; 2]>| {
+        let m = Medium::try_new(f.clone(), bounds, Method::Invariant, 1e-3, 1.0)
+            .unwrap()
+            .with_pixel_tolerance(Some(fraction))
+            .unwrap()
+            .with_view(eye, pixel);
+        match boxes {
+            Some(b) => m.with_obstacles(b),
+            None => m,
+        }
+    };
+    let m = medium(DEFAULT_PIXEL_TOLERANCE, Some([ground, car]));
+    let blind = medium(DEFAULT_PIXEL_TOLERANCE, None);
+    let wrong = medium(100.0 * DEFAULT_PIXEL_TOLERANCE, None);
+    let (mut chords, mut skipped, mut worst) = (0, 0.0, [0.0f64; 3]);
+    for k in 0..40 {
+        let a = -0.007 + 0.009 * f64::from(k) / 40.0;
+        let d = DVec3::new(-0.01 * f64::from(k % 5) / 4.0, a, -1.0).normalize();
+        let arc = dense_arc(&f, &bounds, eye, d, 0.5, 5000.0);
+        let (w, c, s) = chords_against_arc(&m, &m, eye, d, &arc, &[ground, car]);
+        (worst[0], chords, skipped) = (worst[0].max(w), chords + c, skipped + s);
+        let (w, c, s) = chords_against_arc(&blind, &blind, eye, d, &arc, &[]);
+        assert!(c > 0 && s == 0.0, "without boxes every stretch is cast");
+        worst[1] = worst[1].max(w);
+        worst[2] = worst[2].max(chords_against_arc(&wrong, &blind, eye, d, &arc, &[]).0);
+    }
+    eprintln!(
+        "{chords} chords, {skipped:.0} m skipped; worst deviation / tolerance: {:.3} with boxes, {:.3} without, {:.1} at x100 the pixel tolerance",
+        worst[0], worst[1], worst[2]
+    );
+    assert!(chords > 0 && skipped > 1000.0);
+    // The dense arc is a polyline (0.5 m pieces): its own error is far below
+    // the tolerances here (≥ 1e-6·distance).
+    assert!(
+        worst[0] <= 1.05 && worst[1] <= 1.05,
+        "chords stray {worst:?} × their tolerance from the arc"
+    );
+    assert!(
+        worst[2] > 1.05,
+        "no power: chords at x100 the pixel tolerance stay within it ({:.3})",
+        worst[2]
+    );
+}
+
+/// Rays that enter through the box's faces where they start (from a floor
+/// below its bottom face, from an eye on its top edge) get through in a few
+/// chords without failing: a ray on the bottom face going up must not count
+/// that face as its way out (it did, and re-entered there forever).
+#[test]
+fn invariant_rays_starting_on_the_faces_get_through() {
+    let bounds = Aabb::new(DVec3::new(-3.0, 0.5, -3.0), DVec3::new(0.3, 1.5, 3.0));
+    let floor = Aabb::new(DVec3::new(-2.0, 0.0, -2.0), DVec3::new(2.0, 0.0, 2.0));
+    let light = Aabb::new(DVec3::new(-0.5, 2.0, -0.5), DVec3::new(0.5, 2.0, 0.5));
+    let eye = DVec3::new(0.0, 1.5, 3.0);
+    let mut seed = 12345u64;
+    let mut rnd = || {
+        seed = seed
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    };
+    for f in [IndexField::Constant { n: 1.000_293 }, hot_ground()] {
+        let m = Medium::try_new(f.clone(), bounds, Method::Invariant, 1e-3, 1.0)
+            .unwrap()
+            .with_view(eye, 0.05)
+            .with_obstacles([floor, light]);
+        let mut worst = 0;
+        for i in 0..4000 {
+            let (o, d) = if i % 2 == 0 {
+                let q = DVec3::new(4.0 * rnd() - 2.0, 0.0, 4.0 * rnd() - 2.0);
+                (eye, (q - eye).normalize())
+            } else {
+                let o = DVec3::new(4.0 * rnd() - 2.0, 0.0, 4.0 * rnd() - 2.0);
+                (o, DVec3::new(rnd() - 0.5, rnd(), rnd() - 0.5).normalize())
+            };
+            let mut ray = m.start_ray(o, d);
+            let mut n = 0;
+            while n < 1000 {
+                let c = ray.next_chord(&m);
+                n += 1;
+                assert!(
+                    ray.failure().is_none(),
+                    "{} from {o:?} along {d:?}: {:?}",
+                    f.kind(),
+                    ray.failure()
+                );
+                if !c.length.is_finite() {
+                    break;
+                }
+            }
+            worst = worst.max(n);
+        }
+        assert!(worst < 50, "{}: {worst} chords for one ray", f.kind());
+    }
+}

@@ -118,16 +118,24 @@ pub struct MediumDesc {
     pub field: crate::media::IndexField,
     /// `bounds`: the world-space box the field fills; outside it rays are straight.
     pub bounds: BoundsDesc,
-    /// rk45 (default), rk4, exact (linear fields), or the paper's slab/length/euler/paper_rk4.
+    /// auto (default: invariant for fields of height alone along a coordinate
+    /// axis, else rk45), invariant, rk45, rk4, exact (linear fields), or the
+    /// paper's slab/length/euler/paper_rk4.
     #[serde(default = "default_method")]
     pub method: String,
     /// Geometric chord tolerance in metres (chord–arc deviation), and rk45's
-    /// error target (default 1e-3, at least 1e-9).
+    /// error target (default 1e-3, at least 1e-9). Method invariant uses it
+    /// only without a camera; in renders its chords follow `pixel_tolerance`.
     #[serde(default = "default_tolerance")]
     pub tolerance: f64,
     /// Step in metres for fixed-step methods (default 1).
     #[serde(default = "one")]
     pub step: f64,
+    /// Method invariant: how far a chord may stray from its arc, as a
+    /// fraction of a pixel of the film (the pixel's footprint at the distance
+    /// from the camera; default 0.25). Ignored by the other methods.
+    #[serde(default)]
+    pub pixel_tolerance: Option<f64>,
 }
 
 /// An axis-aligned world-space box, `{ min = [..], max = [..] }`, metres.
@@ -141,7 +149,7 @@ pub struct BoundsDesc {
 }
 
 fn default_method() -> String {
-    "rk45".into()
+    "auto".into()
 }
 fn default_tolerance() -> f64 {
     1e-3

@@ -173,7 +173,18 @@ impl Builder<'_> {
             }
         }
         let up = self.upload(pending)?;
-        let medium = self.medium(d)?;
+        // The medium sees the camera (pixel tolerances) and the geometry as
+        // boxes (stretches that can meet nothing need no chords).
+        let medium = self.medium(d)?.map(|m| {
+            m.with_view(position, camera.pixel_angle() as f64)
+                .with_obstacles(up.geoms.iter().map(|g| {
+                    let (lo, hi) = match &g.shape {
+                        crate::scene::Shape::Mesh(m) => m.aabb(),
+                        crate::scene::Shape::Analytic(a) => a.aabb(),
+                    };
+                    crate::media::Aabb::new(lo, hi)
+                }))
+        });
         let film = &d.film;
         let mut scene = RenderScene {
             warp,
@@ -334,10 +345,13 @@ impl Builder<'_> {
         Ok(match &d.medium {
             None => None,
             Some(m) => {
-                let method: crate::media::Method = m
-                    .method
-                    .parse()
-                    .map_err(|e: crate::media::MediumError| self.medium_err(e))?;
+                let method: crate::media::Method = if m.method == "auto" {
+                    crate::media::Method::auto_for(&m.field)
+                } else {
+                    m.method
+                        .parse()
+                        .map_err(|e: crate::media::MediumError| self.medium_err(e))?
+                };
                 let bounds = crate::media::Aabb::new(
                     self.finite3("medium.bounds.min", m.bounds.min)?,
                     self.finite3("medium.bounds.max", m.bounds.max)?,
@@ -354,6 +368,7 @@ impl Builder<'_> {
                 }
                 Some(
                     crate::media::Medium::try_new(m.field.clone(), bounds, method, m.tolerance, m.step)
+                        .and_then(|x| x.with_pixel_tolerance(m.pixel_tolerance))
                         .map_err(|e| self.medium_err(e))?,
                 )
             }
