@@ -457,8 +457,8 @@ fn frame_row(
             &snell::render::RenderSettings::from_scene(&scene).with_spp(1),
             &snell::render::RenderOptions {
                 threads: None,
-                quiet: true,
                 want_aovs: false,
+                ..Default::default()
             },
         )?;
         Some(t.elapsed().as_secs_f64())

@@ -309,8 +309,8 @@ pub fn run_from(
                         &set.with_spp(1),
                         &RenderOptions {
                             threads: Some(1),
-                            quiet: true,
                             want_aovs: false,
+                            ..Default::default()
                         },
                     )
                     .map(|_| true)

@@ -38,7 +38,7 @@
 //! let scene = load_scene_str("ball.toml", text, std::path::Path::new("."), &BuildOptions::default())?;
 //! // Settings start from the file's film; override them here, never on the scene.
 //! let settings = RenderSettings::from_scene(&scene).with_spp(2);
-//! let opts = RenderOptions { threads: Some(1), quiet: true, want_aovs: false };
+//! let opts = RenderOptions { threads: Some(1), want_aovs: false, ..Default::default() };
 //! let image = render(&scene, &settings, &opts)?;
 //! assert_eq!((image.width, image.height), (32, 24));
 //! assert_eq!(image.stats.counters.samples, 32 * 24 * 2);
@@ -82,7 +82,7 @@
 //! let scene = load_scene_str("nested.toml", text, std::path::Path::new("."), &BuildOptions::default())?;
 //! let mut counters = Counters::default();
 //! let path = refraction_path(
-//!     Tracer::new(&scene), // the in-filter skip; `Tracer { strategy, .. }` for another
+//!     Tracer::new(&scene), // the in-filter skip; `.with_strategy(..)` for another
 //!     Vec3A::new(-3.0, 0.1, 0.2),
 //!     Vec3A::X,
 //!     &[],   // the ray starts outside every solid
@@ -105,7 +105,6 @@ pub mod bench;
 pub mod camera;
 pub mod ceiling;
 pub mod counters;
-pub mod cpu_time;
 pub mod dielectric;
 #[allow(unsafe_code)] // the one FFI module: every unsafe block says why it is sound
 pub mod embree;
@@ -125,6 +124,7 @@ pub mod render;
 pub mod report;
 pub mod sampling;
 pub mod scene;
+pub mod timing;
 pub mod warp;
 pub mod warp_render;
 

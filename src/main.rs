@@ -3,7 +3,7 @@
 #![deny(unsafe_code)]
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use snell::dielectric::NestedStrategy;
-use snell::render::{Aov, RenderOptions, RenderSettings, Rendered};
+use snell::render::{Aov, CancelToken, ProgressSink, RenderOptions, RenderSettings, Rendered};
 use snell::scene::{load_scene, BuildOptions, RenderScene};
 use snell::{Error, Result};
 use std::path::{Path, PathBuf};
@@ -494,15 +494,22 @@ fn render(mut a: RenderArgs) -> Result<()> {
                 .into(),
         ));
     }
-    snell::render::PROGRESS_LINES.store(farm.progress_lines, std::sync::atomic::Ordering::Relaxed);
-    stop_on_signals();
+    let progress = match (farm.progress_lines, quiet) {
+        (true, _) => ProgressSink::Lines,
+        (false, true) => ProgressSink::None,
+        (false, false) => ProgressSink::Bar,
+    };
+    let cancel = CancelToken::new();
+    stop_on_signals(&cancel);
     let r = snell::render::render_part(
         &s,
         &settings,
         &RenderOptions {
             threads: a.threads,
-            quiet,
+            progress,
             want_aovs: !aov.is_empty(),
+            cancel,
+            observer: None,
         },
         &plan.spec,
     )?;
@@ -590,14 +597,16 @@ fn render_settings(a: &RenderArgs, s: &RenderScene) -> Result<RenderSettings> {
     Ok(settings)
 }
 
-/// Ctrl-C (or SIGTERM, SIGHUP: a farm cancelling the task) stops at the next
-/// tile boundary and the image so far is written, clearly named; a second
-/// signal exits at once.
-fn stop_on_signals() {
-    let _ = ctrlc::set_handler(|| {
-        if snell::render::INTERRUPT.swap(true, std::sync::atomic::Ordering::SeqCst) {
+/// Ctrl-C (or SIGTERM, SIGHUP: a farm cancelling the task) cancels the
+/// render holding `cancel` at the next tile boundary and the image so far is
+/// written, clearly named; a second signal exits at once.
+fn stop_on_signals(cancel: &CancelToken) {
+    let cancel = cancel.clone();
+    let _ = ctrlc::set_handler(move || {
+        if cancel.is_cancelled() {
             std::process::exit(130);
         }
+        cancel.cancel();
         eprintln!("\ninterrupted: finishing the tiles in progress (Ctrl-C again to exit at once)");
     });
 }
@@ -612,7 +621,7 @@ fn render_stats(
     set: &[String],
 ) -> serde_json::Value {
     let mut st = r.stats.to_json(settings, r.spp_done);
-    st["cpu_s"] = serde_json::json!(snell::farm::cpu_seconds());
+    st["cpu_s"] = serde_json::json!(snell::timing::process_cpu_s());
     st["load_s"] = serde_json::json!(load_s);
     st["region"] = serde_json::json!(r.region.to_string());
     st["samples_range"] = serde_json::json!(format!("{}:{}", r.sample_start, r.sample_count));
@@ -704,7 +713,7 @@ fn audit_nested(a: AuditNestedArgs) -> Result<()> {
     let s = load_scene(&a.scene, &BuildOptions::default())?;
     for strategy in a.nested {
         let t = Instant::now();
-        let tr = snell::integrator::Tracer { scene: &s, strategy };
+        let tr = snell::integrator::Tracer::new(&s).with_strategy(strategy);
         let r = pool.install(|| snell::audit::audit_scene(tr, a.rays, a.seed))?;
         say!("{:<7} {r} [{:.1} s]", strategy.name(), t.elapsed().as_secs_f64());
         out.push(serde_json::json!({

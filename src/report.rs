@@ -273,8 +273,8 @@ impl Out {
 fn quiet() -> RenderOptions {
     RenderOptions {
         threads: None,
-        quiet: true,
         want_aovs: false,
+        ..Default::default()
     }
 }
 
@@ -484,10 +484,7 @@ fn nested(o: &ReportOptions, z: &Sizes, log: &mut dyn FnMut(&str)) -> Result<Sec
                 &o.scenes_dir.join(format!("{name}.toml")),
                 &BuildOptions::default(),
             )?;
-            let tr = Tracer {
-                scene: &s,
-                strategy: st,
-            };
+            let tr = Tracer::new(&s).with_strategy(st);
             let a = audit_scene(tr, z.audit_rays, 1)?;
             wrong[k].push([idx(name), a.wrong_rays as f64]);
             row.push(a.wrong_rays.to_string());
@@ -761,8 +758,8 @@ fn warp_row(path: &str, w: u32, h: u32, vertices: usize, reps: usize) -> Result<
     Ok(WarpRow {
         vertices: prep.vertices,
         pixels: f64::from(w * h),
-        frame_s: bench::median(ft),
-        exact_s: bench::median(et),
+        frame_s: crate::timing::median(&ft),
+        exact_s: crate::timing::median(&et),
         px_mean: cmp.px_mean,
         px_p95: cmp.px_p95,
         last: (frame, exact, heat),

@@ -18,8 +18,8 @@ const LAYERS: &[&[&str]] = &[
     &["ray", "optics", "sampling", "provenance", "counters"],
     // The one FFI module.
     &["embree"],
-    // Errors; the benchmarks' CPU clock (over the FFI module's binding).
-    &["error", "cpu_time"],
+    // Errors; the benchmarks' clocks and medians (over the FFI module's binding).
+    &["error", "timing"],
     // Pure models and solvers with no scene: the camera, gradient-index
     // media, the warp solvers (plate, tube, the paper's approximation),
     // exact per-pixel sums.

@@ -62,8 +62,8 @@ fn full_trace_of_a_warp_scene_renders() {
             &set,
             &snell::render::RenderOptions {
                 threads: Some(1),
-                quiet: true,
                 want_aovs: false,
+                ..Default::default()
             },
         )
         .unwrap();

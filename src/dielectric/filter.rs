@@ -36,9 +36,10 @@ pub(crate) fn near_edge(u: f32, v: f32) -> bool {
 /// Rejected hits recorded per query before the filter falls back.
 pub const REJECT_CAPACITY: usize = 32;
 
-/// The filter's record buffers. They live per thread (`RECORDS`) and are
-/// reused: initialising them on every query was ~200 instructions, 40% of the
-/// filter's cost over a plain query (callgrind, glass_of_water_nested).
+/// The filter's record buffers: per-query scratch, reused from query to
+/// query on each thread (`RECORDS`) because initialising them per query is a
+/// large share of the filter's cost over a plain query. Nothing in them
+/// outlives a query: each one writes what it reads.
 pub struct FilterRecords {
     /// False hits of the current query, in the order Embree reported them.
     pub rejected: [Rejected; REJECT_CAPACITY],
@@ -46,10 +47,6 @@ pub struct FilterRecords {
     /// accepted t seen so far: after the query these are the true hit and any
     /// solid surfaces coincident with it.
     pub near: [Rejected; NEAR_CAPACITY],
-    /// When on ([`time_list_updates`](super::time_list_updates)): seconds
-    /// spent applying false hits to interior lists, and the number of timed
-    /// applications (each adds one clock read pair of overhead).
-    pub(crate) update_timer: Option<(f64, u64)>,
 }
 
 impl Default for FilterRecords {
@@ -65,12 +62,12 @@ impl Default for FilterRecords {
         FilterRecords {
             rejected: [zero; REJECT_CAPACITY],
             near: [zero; NEAR_CAPACITY],
-            update_timer: None,
         }
     }
 }
 
 thread_local! {
+    /// Scratch only (see [`FilterRecords`]): nothing passes from one query to the next.
     pub(crate) static RECORDS: std::cell::RefCell<FilterRecords> = std::cell::RefCell::new(FilterRecords::default());
 }
 

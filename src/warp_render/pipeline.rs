@@ -31,7 +31,7 @@
 //! per-pixel passes (classification, shading, buffers) dominate, not the
 //! visibility query (docs/warp.md, "What did not pay").
 use super::{d3, f3, pixel_ray, shade, Frame, Originals, Prepared, Shown, VertexSolver};
-use crate::embree::warp_ffi::{Committed, DynamicMesh, Packet16};
+use crate::embree::{Committed, DynamicMesh, Packet16};
 use crate::error::{Error, Result};
 use crate::scene::RenderScene;
 use crate::warp::{CopyKey, Family, PlateStatus, WarpGlass, WarpSpec};
