@@ -347,7 +347,7 @@ impl ProgressSink {
                         "openjd_progress: {:.1}\nsnell: {done}/{total} tiles, {:.2} Msamples/s, {:.1} s",
                         100.0 * done as f64 / total as f64,
                         rate(),
-                        p.elapsed_s.max(1e-9)
+                        p.elapsed_s
                     );
                 }
             }
@@ -451,10 +451,10 @@ impl TileJob<'_> {
                 let mut sumsq = V3::ZERO;
                 let taken = self.count - held;
                 let inv = 1.0 / taken.max(1) as f32;
-                // The pixel's samples in groups of up to PATHS_PER_PACKET, traced side by
-                // side (without a medium): their camera rays (jittered within
-                // one pixel, nearly parallel) go to Embree as one packet, and so
-                // do their later plain-query segments and shadow rays.
+                // The pixel's samples in groups of up to PATHS_PER_PACKET, traced
+                // side by side (without a medium): their camera rays (jittered
+                // within one pixel, nearly parallel) go to Embree as one packet,
+                // and so do their later plain-query segments and shadow rays.
                 let mut s = self.start + held;
                 while s < self.start + self.count {
                     let lanes = (self.start + self.count - s).min(PATHS_PER_PACKET as u32) as usize;

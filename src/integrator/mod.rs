@@ -47,14 +47,6 @@ impl<'a> Tracer<'a> {
         Tracer { strategy, ..self }
     }
 
-    /// This tracer with `observer` told of its queries.
-    pub fn with_observer(self, observer: &'a dyn RayObserver) -> Self {
-        Tracer {
-            observer: Some(observer),
-            ..self
-        }
-    }
-
     /// Tell the observer, if any, of the query `q` makes.
     #[inline(always)]
     fn observe(self, q: impl FnOnce() -> RayQuery) {

@@ -237,6 +237,7 @@ struct Walk<'a> {
     extrema: Vec<Extremum>,
     /// Steps (or pieces) taken.
     steps: u64,
+    /// The query's budget, told the work done at every check.
     budget: &'a mut WorkBudget,
 }
 
@@ -604,5 +605,43 @@ fn trace_paper(
             return Ok(p);
         }
         cur = next;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An rk4 query of 1 m in steps of 1 mm through a linear field: a
+    /// thousand steps of four evaluations.
+    fn query() -> Query {
+        let field = IndexField::Linear {
+            n0: 1.0,
+            m: -0.01,
+            up: DVec3::Y,
+            base: 0.0,
+        };
+        Query::along(&field, DVec3::ZERO, DVec3::X, 1.0, Method::Rk4, 1e-9, 1e-3)
+    }
+
+    /// A query's budget bounds it and learns the work done; the budget is
+    /// the caller's, so a later trace of the same query (here, on the same
+    /// thread) is not bounded by it.
+    #[test]
+    fn a_budget_bounds_its_own_query_only() {
+        let mut budget = WorkBudget::new(500);
+        let e = trace_within(&query(), &mut budget).unwrap_err();
+        assert!(e.contains("work limit"), "{e}");
+        assert!(budget.done > 500 && budget.done < 600, "{budget:?}");
+        let a = trace(&query()).unwrap();
+        assert_eq!(a.steps, 1000);
+        assert!(a.evaluations + a.steps > 500);
+        let mut roomy = WorkBudget::new(u64::MAX);
+        let b = trace_within(&query(), &mut roomy).unwrap();
+        assert_eq!(b, a);
+        assert!(
+            roomy.done > 0 && roomy.done <= a.evaluations + a.steps,
+            "{roomy:?} {a:?}"
+        );
     }
 }
