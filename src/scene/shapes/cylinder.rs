@@ -50,16 +50,7 @@ impl Cylinder {
     /// out of the solid along ∓`axis`; the disk's own normal is `axis`.
     #[inline(always)]
     fn cap(&self, prim: u32) -> Disk {
-        Disk {
-            center: if prim == 1 {
-                self.p0
-            } else {
-                self.p0 + self.axis * self.height
-            },
-            normal: self.axis,
-            radius: self.radius,
-            inner: 0.0,
-        }
+        self.wall().end(prim != 1, 0.0)
     }
 
     /// The crossings of primitive `prim` with the segment, onto `out`.

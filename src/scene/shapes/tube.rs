@@ -37,20 +37,11 @@ impl Tube {
         }
     }
 
-    /// Primitive 2 (at `p0`) or 3 (at the far end); the annulus's own
-    /// normal is `axis`.
+    /// Primitive 2 (at `p0`) or 3 (at the far end), whose normal points
+    /// out of the solid along ∓`axis`; the annulus's own normal is `axis`.
     #[inline(always)]
     fn cap(&self, prim: u32) -> Disk {
-        Disk {
-            center: if prim == 2 {
-                self.p0
-            } else {
-                self.p0 + self.axis * self.height
-            },
-            normal: self.axis,
-            radius: self.outer,
-            inner: self.inner,
-        }
+        self.wall(self.outer).end(prim != 2, self.inner)
     }
 
     /// The crossings of primitive `prim` with the segment, onto `out`.

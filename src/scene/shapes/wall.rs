@@ -3,6 +3,7 @@
 use super::axis::{across_axis, Axis, AxisY};
 use super::bounds::cylinder_bounds;
 use super::callbacks::side_by_side;
+use super::disk::Disk;
 use super::normalize::normalize_or_f64;
 use super::segment::{candidate, Roots, Segment};
 use crate::embree::{Bounds, Candidates, LaneRay};
@@ -75,6 +76,22 @@ impl Wall<DVec3> {
     /// Embree's bounds.
     pub(super) fn bounds(&self) -> Bounds {
         cylinder_bounds(self.base, self.axis, self.height, self.radius)
+    }
+
+    /// The disk (annulus from `inner`) closing the wall at its base or, when
+    /// `far`, at its far end; its own normal is the axis.
+    #[inline(always)]
+    pub(super) fn end(&self, far: bool, inner: f64) -> Disk {
+        Disk {
+            center: if far {
+                self.base + self.axis * self.height
+            } else {
+                self.base
+            },
+            normal: self.axis,
+            radius: self.radius,
+            inner,
+        }
     }
 }
 
