@@ -223,7 +223,7 @@ impl ContainsGrid {
     }
 
     /// Is `p` inside the mesh? From its cell's class where the cell is whole
-    /// ([`InOutCells`]), else [`Self::parity_contains`].
+    /// (`InOutCells`), else [`Self::parity_contains`].
     #[inline]
     pub fn contains(&self, p: DVec3) -> bool {
         use std::sync::atomic::Ordering::Relaxed;
