@@ -18,20 +18,27 @@ pub const TILE: u32 = 16;
 
 /// A per-pixel diagnostic layer (AOV): per pixel, the mean over its samples
 /// of a per-sample count (the maximum for `list_depth`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Aov {
     /// False hits skipped per sample.
-    #[value(name = "false_hits")]
     FalseHits,
     /// Deepest interior list of any sample (a maximum).
-    #[value(name = "list_depth")]
     ListDepth,
     /// Total internal reflections per sample.
-    #[value(name = "tir")]
     Tir,
     /// Filtered queries finished by re-casting, per sample.
-    #[value(name = "fallbacks")]
     Fallbacks,
+}
+
+impl std::str::FromStr for Aov {
+    type Err = String;
+    /// Parses [`Aov::name`].
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        Aov::ALL
+            .into_iter()
+            .find(|a| a.name() == s)
+            .ok_or_else(|| format!("expected false_hits, list_depth, tir or fallbacks, got \"{s}\""))
+    }
 }
 
 impl Aov {
@@ -599,6 +606,7 @@ pub fn render_part(
     })
 }
 
+#[cfg(feature = "progress-bar")]
 fn progress_bar(total: u64, quiet: bool) -> Option<indicatif::ProgressBar> {
     use std::io::IsTerminal;
     if quiet || !std::io::stderr().is_terminal() {
@@ -610,4 +618,21 @@ fn progress_bar(total: u64, quiet: bool) -> Option<indicatif::ProgressBar> {
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
     Some(b)
+}
+
+/// Without the `progress-bar` feature there is no bar to draw.
+#[cfg(not(feature = "progress-bar"))]
+fn progress_bar(_total: u64, _quiet: bool) -> Option<NoProgressBar> {
+    None
+}
+
+/// The progress bar's methods the render calls, doing nothing.
+#[cfg(not(feature = "progress-bar"))]
+struct NoProgressBar;
+
+#[cfg(not(feature = "progress-bar"))]
+impl NoProgressBar {
+    fn inc(&self, _: u64) {}
+    fn set_message(&self, _: String) {}
+    fn finish_and_clear(&self) {}
 }
