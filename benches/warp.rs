@@ -24,7 +24,7 @@ use glam::{DVec3, Vec3A};
 use rayon::prelude::*;
 use snell::camera::Camera;
 use snell::warp::{
-    fastcyl::CylinderWarper, paper::paper_image, HollowCylinder, Plate, PlateStatus, WarpGlass,
+    approx_tube::approx_tube_image, CylinderWarper, HollowCylinder, Plate, PlateStatus, WarpGlass,
 };
 use snell::warp_render::pipeline::{render_exact_packets, Pipeline};
 use snell::warp_render::{
@@ -318,7 +318,7 @@ fn cylinder_solver(sum: &mut Summary, eye: DVec3) {
     let t = Instant::now();
     let paper: Vec<Option<snell::warp::CylImage>> = pts
         .par_iter()
-        .map(|p| paper_image(&c, eye, *p).ok().flatten())
+        .map(|p| approx_tube_image(&c, eye, *p).ok().flatten())
         .collect();
     let paper_s = t.elapsed().as_secs_f64();
     let mut errs: Vec<f64> = pts

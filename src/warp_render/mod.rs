@@ -26,7 +26,7 @@ use crate::embree::{BuildQuality, Ray, Scene, SceneBuilder, SceneFlags};
 use crate::error::{Error, Result};
 use crate::scene::shapes::Mesh;
 use crate::scene::{Environment, Light, Material, RenderScene, Shape};
-use crate::warp::paper::paper_image;
+use crate::warp::approx_tube::approx_tube_image;
 use crate::warp::{CopyKey, Family, PlateStatus, WarpGlass, WarpMethod, WarpSpec};
 use glam::{DVec3, Vec3A as V3};
 use rayon::prelude::*;
@@ -235,7 +235,7 @@ pub struct VertexSolver {
     glass: WarpGlass,
     method: WarpMethod,
     eye: DVec3,
-    fast: Option<crate::warp::fastcyl::CylinderWarper>,
+    fast: Option<crate::warp::CylinderWarper>,
 }
 
 impl VertexSolver {
@@ -244,7 +244,7 @@ impl VertexSolver {
     pub fn new(glass: WarpGlass, method: WarpMethod, eye: DVec3, points: &[DVec3]) -> Self {
         let fast = match (&glass, method) {
             (WarpGlass::Cylinder(c), WarpMethod::Exact) if !points.is_empty() => {
-                crate::warp::fastcyl::CylinderWarper::for_targets(*c, eye, points).ok()
+                crate::warp::CylinderWarper::for_targets(*c, eye, points).ok()
             }
             _ => None,
         };
@@ -315,7 +315,7 @@ pub fn vertex_images(
     method: WarpMethod,
     eye: DVec3,
     p: DVec3,
-    fast: Option<&crate::warp::fastcyl::CylinderWarper>,
+    fast: Option<&crate::warp::CylinderWarper>,
 ) -> VertexImages {
     let mut out = VertexImages::default();
     match glass {
@@ -345,7 +345,7 @@ pub fn vertex_images(
             }
             let ims = match method {
                 WarpMethod::Exact => c.images(eye, p).unwrap_or_default(),
-                WarpMethod::Paper => paper_image(c, eye, p).ok().flatten().into_iter().collect(),
+                WarpMethod::Paper => approx_tube_image(c, eye, p).ok().flatten().into_iter().collect(),
             };
             for im in ims {
                 let key = WarpGlass::key_for(im.family, im.impact);
