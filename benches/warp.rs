@@ -26,9 +26,10 @@ use snell::camera::Camera;
 use snell::warp::{
     approx_tube::approx_tube_image, CylinderWarper, HollowCylinder, Plate, PlateStatus, WarpGlass,
 };
-use snell::warp_render::pipeline::{render_exact_packets, Pipeline};
+use snell::warp_render::pipeline::Pipeline;
 use snell::warp_render::{
-    build_originals, compare, grid_scene as setup, render_exact, render_warped, warp_scene, Comparison, Frame,
+    build_originals, compare, grid_scene as setup, render_exact, render_exact_packets, render_warped,
+    warp_scene, Comparison, Frame,
 };
 use std::time::Instant;
 
