@@ -86,10 +86,10 @@ fn stage(v: DVec2, q: DVec2, rho: f64, n1: f64, n2: f64, phi0: f64) -> Option<(D
 
 /// The paper's image of `target` (one at most), or why there is none.
 ///
-/// We also tried repeating the construction with the virtual eyes moved to
-/// the refraction points found (plain and under-relaxed fixed point): in a
-/// thick tube it does not converge (a stage loses its root), so the method is
-/// the single pass the paper describes.
+/// The single pass the paper describes: repeating the construction with the
+/// virtual eyes moved to the refraction points found (plain or
+/// under-relaxed fixed point) does not converge in a thick tube (a stage
+/// loses its root).
 pub fn approx_tube_image(
     c: &HollowCylinder,
     eye: DVec3,
@@ -218,10 +218,9 @@ mod tests {
         assert!((on_axis.direction - DVec3::new(0.0, 0.0, -1.0)).length() < 1e-12);
         let (thin, thick) = (worst_for(0.95, 0.0), worst_for(0.8, 0.0));
         eprintln!("paper C->B->A worst angle: r=0.95 {thin:.3e} rad, r=0.8 {thick:.3e} rad");
-        // Measured: 3.3e-2 rad (r = 0.95) and 1.2e-1 rad (r = 0.8). A virtual
-        // eye close to the next surface (C a wall's thickness from D) makes the
-        // stage root very sensitive to the provisional eye's error, so a thin
-        // wall does not make the construction much better.
+        // A virtual eye close to the next surface (C a wall's thickness from
+        // D) makes the stage root very sensitive to the provisional eye's
+        // error, so a thin wall does not make the construction much better.
         assert!(thin < thick, "thin {thin} vs thick {thick}");
         assert!(thick > 1e-3 && thick < 0.3, "{thick}");
     }

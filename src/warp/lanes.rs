@@ -1,7 +1,7 @@
 //! The closed-form residual and Jacobian of `HollowCylinder::resid_jac`
 //! for four (b, β) at once, in the four f64 lanes of an AVX register: the
 //! fast cylinder solver's Newton polishes of several targets are
-//! evaluated together (issue 16).
+//! evaluated together.
 //!
 //! Each lane is the scalar `resid_jac` term by term (the same operations
 //! in the same order, none fused), so a lane gives the scalar function's
@@ -11,10 +11,10 @@
 //! code, then run four lanes per instruction.
 //!
 //! AVX2 is checked at run time; without it (or off x86-64) each lane is
-//! the scalar `resid_jac`. Plain `[f64; 4]` code compiled for AVX2 was
-//! tried first: LLVM vectorised it mostly in pairs and kept 80 scalar
-//! square roots and divisions (1,790 instructions per call, no faster than
-//! four scalar calls), hence the intrinsics. This module and `src/embree/`
+//! the scalar `resid_jac`. Intrinsics, because plain `[f64; 4]` code
+//! compiled for AVX2 is not enough: LLVM vectorises it mostly in pairs and
+//! keeps most square roots and divisions scalar, no faster than four scalar
+//! calls. This module and `src/embree/`
 //! are the crate's only `unsafe` (the dispatch, reading the lanes out and
 //! loading four rows of `Rows` into a register).
 #![allow(unsafe_code)]
@@ -158,12 +158,12 @@ pub(crate) const NEXT: u8 = 0;
 pub(crate) const ROOT: u8 = 1;
 pub(crate) const FAIL: u8 = 2;
 
-/// Running Newton polishes as a struct of arrays, one row each (issue 16,
-/// eighth round): the four lanes of an evaluation are loaded from four
-/// consecutive rows as vectors, and the next point is stored back the
-/// same way, instead of gathering each lane from a polish and scattering
-/// the step into it. The rows' count is kept a multiple of `LANES`
-/// (`pad`); padding rows repeat the last real one and are ignored.
+/// Running Newton polishes as a struct of arrays, one row each: the four
+/// lanes of an evaluation are loaded from four consecutive rows as
+/// vectors, and the next point is stored back the same way, instead of
+/// gathering each lane from a polish and scattering the step into it. The
+/// rows' count is kept a multiple of `LANES` (`pad`); padding rows repeat
+/// the last real one and are ignored.
 #[derive(Clone, Default)]
 pub(crate) struct Rows {
     pub fam: Vec<f64>,
