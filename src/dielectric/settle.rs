@@ -1,6 +1,5 @@
 //! The neighbourhood of a true hit: other solids' surfaces so close to it
-//! that no query crosses them (issue 12 §3; the diagnosis is in
-//! `docs/nested-wrong-rays.md`).
+//! that no query crosses them (docs/design.md, "The crossing window").
 //!
 //! A ray that meets its true hit at p does not go on from p: its child starts
 //! at q, a spawn offset (2·10⁻⁶ here) off the surface. A surface of another
@@ -8,8 +7,7 @@
 //! the hit stopped there (Embree clips the ray at an accepted hit, so a
 //! candidate 10⁻⁷ beyond it is never offered to the filter, and the re-cast
 //! and the plain query return the first true hit), and the child starts past
-//! it. The list was then wrong by that one solid: 29 rays in 10M on the mesh
-//! scenes. Two steps close it, both gated by an exact distance test so that a
+//! it, and the list would be wrong by that one solid. Two steps close it, both gated by an exact distance test so that a
 //! hit with no other surface near pays one bounds test per solid:
 //!
 //! 1. [`look_ahead`], inside `trace`, before the boundary event: each solid

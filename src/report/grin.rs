@@ -27,7 +27,7 @@ pub(super) fn grin(o: &ReportOptions, z: &Sizes, log: &mut dyn FnMut(&str)) -> R
             100.0,
         ),
         (
-            "hot ground (inferior mirage), 1.5 m, 0.5 deg down, 400 m",
+            "hot ground, inferior mirage: 1.5 m, 0.5 deg down, 400 m",
             IndexField::HotGround {
                 n_inf: 1.000_293,
                 dn: 1e-4,
