@@ -19,20 +19,27 @@ pub const TILE: u32 = 16;
 
 /// A per-pixel diagnostic layer (AOV): per pixel, the mean over its samples
 /// of a per-sample count (the maximum for `list_depth`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Aov {
     /// False hits skipped per sample.
-    #[value(name = "false_hits")]
     FalseHits,
     /// Deepest interior list of any sample (a maximum).
-    #[value(name = "list_depth")]
     ListDepth,
     /// Total internal reflections per sample.
-    #[value(name = "tir")]
     Tir,
     /// Filtered queries finished by re-casting, per sample.
-    #[value(name = "fallbacks")]
     Fallbacks,
+}
+
+impl std::str::FromStr for Aov {
+    type Err = String;
+    /// Parses [`Aov::name`].
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        Aov::ALL
+            .into_iter()
+            .find(|a| a.name() == s)
+            .ok_or_else(|| format!("expected false_hits, list_depth, tir or fallbacks, got \"{s}\""))
+    }
 }
 
 impl Aov {
@@ -308,7 +315,8 @@ pub enum ProgressSink {
     /// Nowhere.
     #[default]
     None,
-    /// A progress bar on stderr, when stderr is a terminal.
+    /// A progress bar on stderr, when stderr is a terminal and the crate
+    /// has the `progress-bar` feature (without it, nothing).
     Bar,
     /// Lines on stderr at every 10% (`openjd_progress: P`, which farm
     /// managers running Open Job Description read, and a human line).
@@ -330,7 +338,7 @@ impl std::fmt::Debug for ProgressSink {
 
 impl ProgressSink {
     /// Report `p` (`bar`: the progress bar, made for [`ProgressSink::Bar`]).
-    fn report(&self, p: &RenderProgress, bar: Option<&indicatif::ProgressBar>) {
+    fn report(&self, p: &RenderProgress, bar: Option<&ProgressBar>) {
         let rate = || p.samples_done as f64 / p.elapsed_s.max(1e-9) / 1e6;
         match self {
             ProgressSink::None => {}
@@ -700,8 +708,15 @@ pub fn render_part(
     })
 }
 
+/// The terminal progress bar [`ProgressSink::Bar`] draws.
+#[cfg(feature = "progress-bar")]
+type ProgressBar = indicatif::ProgressBar;
+#[cfg(not(feature = "progress-bar"))]
+type ProgressBar = NoProgressBar;
+
 /// A bar of `total` tiles on stderr, if it is a terminal.
-fn progress_bar(total: u64) -> Option<indicatif::ProgressBar> {
+#[cfg(feature = "progress-bar")]
+fn progress_bar(total: u64) -> Option<ProgressBar> {
     use std::io::IsTerminal;
     if !std::io::stderr().is_terminal() {
         return None;
@@ -712,6 +727,24 @@ fn progress_bar(total: u64) -> Option<indicatif::ProgressBar> {
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
     Some(b)
+}
+
+/// Without the `progress-bar` feature there is no bar to draw.
+#[cfg(not(feature = "progress-bar"))]
+fn progress_bar(_total: u64) -> Option<ProgressBar> {
+    None
+}
+
+/// The progress bar's methods the render calls, doing nothing: the library
+/// builds without indicatif, and [`ProgressSink::Bar`] then draws nothing.
+#[cfg(not(feature = "progress-bar"))]
+struct NoProgressBar;
+
+#[cfg(not(feature = "progress-bar"))]
+impl NoProgressBar {
+    fn inc(&self, _: u64) {}
+    fn set_message(&self, _: String) {}
+    fn finish_and_clear(&self) {}
 }
 
 #[cfg(test)]

@@ -122,9 +122,9 @@ fn rms_diff(a: &[f64], b: &[f64]) -> f64 {
     (a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>() / a.len() as f64).sqrt()
 }
 
-/// DESIGN.md "Comparing images honestly": block means, judged against the
+/// docs/design.md "Comparing images honestly": block means, judged against the
 /// difference between two renders of the reference with different seeds.
-/// Issue 12's criterion: 640×480×64, 16×16 block means, ≤ 1.3× the
+/// The criterion: 640×480×64, 16×16 block means, ≤ 1.3× the
 /// seed-to-seed RMSE. The same test shows its power: the flat-shaded lathe
 /// (facet streaks, a shifted checker in the water) must fail that threshold.
 #[test]
@@ -656,9 +656,9 @@ fn the_audits_wrong_rays_keep_their_lists() {
     );
 }
 
-/// The rays of issue 12 §3's diagnosis (`docs/nested-wrong-rays.md`, R1–R10,
-/// S1–S7, W1): wrong in 10M-ray audits before the neighbourhood of a true
-/// hit was settled, each with another solid's surface (or, W1, its own rim)
+/// Rays R1–R10, S1–S7 and W1, found wrong by 10M-ray audits of a tracer
+/// that did not settle the neighbourhood of a true hit (docs/design.md, "The
+/// crossing window"), each with another solid's surface (or, W1, its own rim)
 /// within the spawn offset of a hit.
 const SPAWN_OFFSET_RAYS: [(&str, &str, [f32; 3], [f32; 3]); 18] = {
     const GIB: &str = "scenes/glass_ice_bubbles.toml";

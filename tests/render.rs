@@ -345,7 +345,7 @@ fn empty_scene_and_inside_out_mesh_are_errors_and_flip_is_offered() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// Issue 12 regression: with a point light declared before a rect light, a
+/// Regression: with a point light declared before a rect light, a
 /// duplicate object name was reported at `objects[1].name` (the line of "b"),
 /// because the index subtracted every light while only rect and sphere lights
 /// are pending objects. The error must name the duplicate's own key and line.

@@ -5,7 +5,7 @@ use serde::{Deserialize, Serialize};
 
 use super::field::IndexField;
 use super::stepper::{State, Stepper};
-use super::{check_method, exact, paper, MediumError, Method};
+use super::{check_method, exact, mirage_study, MediumError, Method};
 
 #[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
@@ -542,7 +542,7 @@ fn trace_paper(
             ));
         }
         walk.check_work(stepper.evals)?;
-        let seg = paper::segment(
+        let seg = mirage_study::segment(
             stepper.field,
             stepper.method,
             stepper.step,
@@ -551,8 +551,8 @@ fn trace_paper(
         )?;
         walk.steps += 1;
         let next = match seg {
-            paper::Seg::To(n) => n,
-            paper::Seg::Forever => {
+            mirage_study::Seg::To(n) => n,
+            mirage_study::Seg::Forever => {
                 // Horizontal: straight forever. Go to the stop along the line.
                 let len = match stop_x {
                     Some(x) if cur.t.x != 0.0 && (x - cur.r.x) / cur.t.x >= 0.0 => (x - cur.r.x) / cur.t.x,
