@@ -115,3 +115,22 @@ lint: deps
 clean:
 	$(CARGO) clean
 	rm -rf $(OPENJD_VENV)
+
+# The Python package `snell` (python/): maturin (from PyPI, into the project's
+# venv with numpy and pytest) builds an abi3 wheel into the shared target
+# directory, so the library's dependencies are compiled once for both; pip
+# installs it. `make test` then runs python/tests with pytest.
+PYTHON_VENV ?= $(OPENJD_VENV)
+PYTHON_TOOLS ?= 'maturin>=1.7,<2' 'numpy>=1.21' 'pytest>=7'
+PYTHON_TARGET_DIR ?= $(or $(CARGO_TARGET_DIR),target)
+.PHONY: python test-python
+python: deps openjd
+	$(PYTHON_VENV)/bin/pip install --quiet --disable-pip-version-check $(PYTHON_TOOLS)
+	rm -f $(PYTHON_TARGET_DIR)/wheels/snell-*.whl
+	$(PYTHON_VENV)/bin/maturin build --release --locked --compatibility linux \
+	  --manifest-path python/Cargo.toml --interpreter $(PYTHON_VENV)/bin/python \
+	  --target-dir $(PYTHON_TARGET_DIR) --out $(PYTHON_TARGET_DIR)/wheels
+	$(PYTHON_VENV)/bin/pip install --quiet --disable-pip-version-check --force-reinstall --no-deps $(PYTHON_TARGET_DIR)/wheels/snell-*.whl
+
+test-python: python
+	$(PYTHON_VENV)/bin/python -m pytest python/tests -q

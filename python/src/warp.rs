@@ -1,0 +1,441 @@
+//! `snell.warp.plate` and `snell.warp.hollow_cylinder`: every image of each
+//! vertex of an (N, 3) array, solved in parallel (rayon) with the GIL
+//! released. Images, families and statuses are those of `snell warp-points`.
+use crate::arrays::{array1, points, points_array};
+use glam::DVec3;
+use numpy::{AllowTypeChange, PyArray1, PyArray2, PyArrayLike1, PyArrayLike2};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use rayon::prelude::*;
+use snell::warp::fastcyl::CylinderWarper;
+use snell::warp::paper::paper_image;
+use snell::warp::{CylImage, CylStatus, Family, HollowCylinder, Plate, PlateStatus};
+
+/// Vertices per parallel work item.
+const CHUNK: usize = 4096;
+
+/// Family codes of [`WarpImages::family`], in the order of `FAMILIES`.
+const FAMILY_ORDER: [Family; 5] = [
+    Family::Direct,
+    Family::Through4,
+    Family::Tir2,
+    Family::Wall2,
+    Family::Hollow2,
+];
+
+/// The names of the family codes (as `snell warp-points` spells them).
+const FAMILIES: [&str; 5] = ["direct", "through4", "tir2", "wall2", "hollow2"];
+
+/// A vertex's outcome, as `snell warp-points` words it; the code is the index.
+const STATUSES: [&str; 7] = [
+    "ok",
+    "ok: no image",
+    "error: point has non-finite coordinates",
+    "error: the point is inside the glass",
+    "error: the eye is not in front of the plate",
+    "error: the solver did not converge",
+    "error: the point is inside the glass wall",
+];
+const OK: u8 = 0;
+const NO_IMAGE: u8 = 1;
+const NOT_FINITE: u8 = 2;
+const PLATE_INSIDE: u8 = 3;
+const EYE_NOT_IN_FRONT: u8 = 4;
+const NOT_CONVERGED: u8 = 5;
+const TUBE_INSIDE: u8 = 6;
+/// The tube's status when the eye is within its outer radius (after the table above).
+const EYE_NOT_OUTSIDE_TEXT: &str = "error: the eye is not outside the tube";
+
+/// One image, in flat-array form.
+#[derive(Clone, Copy)]
+struct Image {
+    family: Family,
+    direction: DVec3,
+    position: DVec3,
+    refractions: u32,
+    parity: i8,
+}
+
+impl From<&CylImage> for Image {
+    fn from(im: &CylImage) -> Image {
+        Image {
+            family: im.family,
+            direction: im.direction,
+            position: im.position,
+            refractions: im.refractions,
+            parity: im.parity,
+        }
+    }
+}
+
+/// The images of a run of vertices, flat: `counts[i]` images for vertex i.
+#[derive(Default)]
+struct Flat {
+    images: Vec<Image>,
+    counts: Vec<u32>,
+    status: Vec<u8>,
+}
+
+impl Flat {
+    fn push(&mut self, status: u8, images: impl IntoIterator<Item = Image>) {
+        let before = self.images.len();
+        self.images.extend(images);
+        self.counts.push((self.images.len() - before) as u32);
+        self.status.push(status);
+    }
+
+    fn append(mut self, other: Flat) -> Flat {
+        self.images.extend(other.images);
+        self.counts.extend(other.counts);
+        self.status.extend(other.status);
+        self
+    }
+}
+
+/// Every image of every vertex: flat arrays of images, and per vertex the
+/// number of its images, where they start and its status.
+///
+/// The images of vertex ``i`` are rows ``offsets[i]:offsets[i + 1]`` of
+/// ``positions``, ``directions``, ``family``, ``refractions`` and ``parity``.
+#[pyclass(frozen, module = "snell.warp")]
+pub struct WarpImages {
+    /// Where each image's vertex must move (eye + direction · distance to the
+    /// vertex), float64 (M, 3), metres.
+    #[pyo3(get)]
+    positions: Py<PyArray2<f64>>,
+    /// Unit direction of the straight eye ray that sees each image, float64 (M, 3).
+    #[pyo3(get)]
+    directions: Py<PyArray2<f64>>,
+    /// Path family of each image, uint8 (M,): an index into ``FAMILIES``.
+    #[pyo3(get)]
+    family: Py<PyArray1<u8>>,
+    /// Refractions along each image's path, uint32 (M,).
+    #[pyo3(get)]
+    refractions: Py<PyArray1<u32>>,
+    /// +1 upright, -1 mirrored relative to a direct view, int8 (M,).
+    #[pyo3(get)]
+    parity: Py<PyArray1<i8>>,
+    /// Images per vertex, uint32 (N,).
+    #[pyo3(get)]
+    counts: Py<PyArray1<u32>>,
+    /// Start of each vertex's images, int64 (N + 1,); the last is M.
+    #[pyo3(get)]
+    offsets: Py<PyArray1<i64>>,
+    /// Vertex index of each image, int64 (M,).
+    #[pyo3(get)]
+    vertex: Py<PyArray1<i64>>,
+    /// Outcome per vertex, uint8 (N,): an index into ``STATUSES`` (0 and 1 are "ok").
+    #[pyo3(get)]
+    status: Py<PyArray1<u8>>,
+    /// The texts of the status codes, as ``snell warp-points`` reports them.
+    #[pyo3(get)]
+    statuses: Vec<String>,
+}
+
+#[pymethods]
+impl WarpImages {
+    /// The names of the family codes: ``("direct", "through4", "tir2", "wall2", "hollow2")``.
+    #[classattr]
+    #[allow(non_snake_case)]
+    fn FAMILIES() -> Vec<&'static str> {
+        FAMILIES.to_vec()
+    }
+
+    /// Each vertex's status as text (``"ok"``, ``"ok: no image"`` or ``"error: ..."``).
+    fn messages(&self, py: Python<'_>) -> PyResult<Vec<String>> {
+        use numpy::PyArrayMethods;
+        let codes = self.status.bind(py).readonly();
+        Ok(codes
+            .as_array()
+            .iter()
+            .map(|&c| self.statuses[c as usize].clone())
+            .collect())
+    }
+
+    fn __len__(&self, py: Python<'_>) -> usize {
+        use numpy::PyUntypedArrayMethods;
+        self.counts.bind(py).len()
+    }
+
+    fn __repr__(&self, py: Python<'_>) -> String {
+        use numpy::PyUntypedArrayMethods;
+        format!(
+            "<snell.warp.WarpImages {} vertices, {} images>",
+            self.counts.bind(py).len(),
+            self.family.bind(py).len()
+        )
+    }
+}
+
+fn images_object(py: Python<'_>, f: Flat, statuses: Vec<String>) -> WarpImages {
+    let positions: Vec<DVec3> = f.images.iter().map(|i| i.position).collect();
+    let directions: Vec<DVec3> = f.images.iter().map(|i| i.direction).collect();
+    let family: Vec<u8> = f
+        .images
+        .iter()
+        .map(|i| FAMILY_ORDER.iter().position(|&x| x == i.family).unwrap_or(0) as u8)
+        .collect();
+    let refractions: Vec<u32> = f.images.iter().map(|i| i.refractions).collect();
+    let parity: Vec<i8> = f.images.iter().map(|i| i.parity).collect();
+    let mut offsets = Vec::with_capacity(f.counts.len() + 1);
+    let mut vertex = Vec::with_capacity(f.images.len());
+    let mut at = 0i64;
+    offsets.push(0);
+    for (v, &c) in f.counts.iter().enumerate() {
+        at += c as i64;
+        offsets.push(at);
+        vertex.extend(std::iter::repeat_n(v as i64, c as usize));
+    }
+    WarpImages {
+        positions: points_array(py, &positions).unbind(),
+        directions: points_array(py, &directions).unbind(),
+        family: array1(py, family).unbind(),
+        refractions: array1(py, refractions).unbind(),
+        parity: array1(py, parity).unbind(),
+        counts: array1(py, f.counts).unbind(),
+        offsets: array1(py, offsets).unbind(),
+        vertex: array1(py, vertex).unbind(),
+        status: array1(py, f.status).unbind(),
+        statuses,
+    }
+}
+
+fn vec3(name: &str, a: &PyArrayLike1<'_, f64, AllowTypeChange>) -> PyResult<DVec3> {
+    match a.as_slice() {
+        Ok([x, y, z]) => Ok(DVec3::new(*x, *y, *z)),
+        _ => Err(PyValueError::new_err(format!("{name}: expected three numbers"))),
+    }
+}
+
+fn statuses() -> Vec<String> {
+    STATUSES.iter().map(|s| s.to_string()).collect()
+}
+
+/// Solve every chunk of `pts` in parallel and join the chunks in order.
+fn solve(pts: &[DVec3], each: impl Fn(&[DVec3], &mut Flat) + Sync) -> Flat {
+    pts.par_chunks(CHUNK)
+        .map(|ch| {
+            let mut f = Flat::default();
+            each(ch, &mut f);
+            f
+        })
+        .reduce(Flat::default, Flat::append)
+}
+
+/// Warp vertices behind a glass plate with parallel faces (Mukai et al.).
+///
+/// For each vertex: its one image (where the vertex must move so that a
+/// straight eye ray sees it where refraction through the plate would), or
+/// the vertex itself (family ``direct``) when it is between the eye and the
+/// plate. The numbers are those of ``snell warp-points``.
+///
+/// Args:
+///     vertices: (N, 3) points, metres.
+///     eye: the eye (3 numbers), in front of the near face.
+///     near_face_point: a point on the face nearer the eye.
+///     normal: the faces' normal, pointing away from the eye (normalised).
+///     thickness: the plate's thickness W > 0, metres.
+///     ior: the glass's index n > 0 (the surroundings have index 1).
+///
+/// Returns:
+///     :class:`WarpImages`.
+///
+/// Raises:
+///     ValueError: an invalid plate or arrays of the wrong shape.
+#[pyfunction]
+pub fn plate(
+    py: Python<'_>,
+    vertices: PyArrayLike2<'_, f64, AllowTypeChange>,
+    eye: PyArrayLike1<'_, f64, AllowTypeChange>,
+    near_face_point: PyArrayLike1<'_, f64, AllowTypeChange>,
+    normal: PyArrayLike1<'_, f64, AllowTypeChange>,
+    thickness: f64,
+    ior: f64,
+) -> PyResult<WarpImages> {
+    let pts = points("vertices", &vertices)?;
+    let eye = vec3("eye", &eye)?;
+    if !eye.is_finite() {
+        return Err(PyValueError::new_err("eye: expected finite coordinates"));
+    }
+    let pl = Plate::try_new(
+        vec3("near_face_point", &near_face_point)?,
+        vec3("normal", &normal)?,
+        thickness,
+        ior,
+    )
+    .map_err(|e| PyValueError::new_err(format!("plate: {e}")))?;
+    let flat = py.detach(|| {
+        solve(&pts, |ch, out| {
+            for &p in ch {
+                if !p.is_finite() {
+                    out.push(NOT_FINITE, []);
+                    continue;
+                }
+                match pl.warp(eye, p) {
+                    Ok(im) => out.push(
+                        OK,
+                        [Image {
+                            family: Family::Wall2,
+                            direction: im.eye_dir,
+                            position: im.position,
+                            refractions: 2,
+                            parity: 1,
+                        }],
+                    ),
+                    Err(PlateStatus::InFront) => out.push(
+                        OK,
+                        [Image {
+                            family: Family::Direct,
+                            direction: (p - eye).normalize_or_zero(),
+                            position: p,
+                            refractions: 0,
+                            parity: 1,
+                        }],
+                    ),
+                    Err(PlateStatus::InsideGlass) => out.push(PLATE_INSIDE, []),
+                    Err(PlateStatus::EyeNotInFront) => out.push(EYE_NOT_IN_FRONT, []),
+                    Err(PlateStatus::NotConverged) => out.push(NOT_CONVERGED, []),
+                }
+            }
+        })
+    });
+    Ok(images_object(py, flat, statuses()))
+}
+
+/// Warp vertices seen through a thick glass tube (a hollow cylinder,
+/// infinitely tall), exactly in 3-D.
+///
+/// A vertex can have several images (through the hollow, by total internal
+/// reflection at the inner wall, through the wall only, or directly), or
+/// none. The images, families and parities are those of ``snell warp-points``.
+///
+/// Args:
+///     vertices: (N, 3) points, metres.
+///     eye: the eye (3 numbers), outside the tube.
+///     axis_point: a point on the axis.
+///     axis_direction: the axis (normalised).
+///     outer_radius, inner_radius: 0 < inner < outer, metres.
+///     ior: the glass's index (>= 1; the surroundings have index 1).
+///     method: ``"exact"`` (default) or ``"paper"`` (Mukai et al.'s C→B→A
+///         approximation: one image at most).
+///     solver: for ``"exact"``: ``"tables"`` (default: the warp renderer's
+///         tabulated solver with a Newton polish, directions within 1e-12 of
+///         the sampler's) or ``"sampler"`` (the robust sampler ``snell
+///         warp-points`` runs: the same numbers bit for bit, ~100x slower).
+///
+/// Returns:
+///     :class:`WarpImages`.
+///
+/// Raises:
+///     ValueError: an invalid tube, method or solver, or arrays of the wrong shape.
+#[pyfunction]
+#[pyo3(signature = (vertices, eye, axis_point, axis_direction, outer_radius, inner_radius, ior, method="exact", solver="tables"))]
+#[allow(clippy::too_many_arguments)]
+pub fn hollow_cylinder(
+    py: Python<'_>,
+    vertices: PyArrayLike2<'_, f64, AllowTypeChange>,
+    eye: PyArrayLike1<'_, f64, AllowTypeChange>,
+    axis_point: PyArrayLike1<'_, f64, AllowTypeChange>,
+    axis_direction: PyArrayLike1<'_, f64, AllowTypeChange>,
+    outer_radius: f64,
+    inner_radius: f64,
+    ior: f64,
+    method: &str,
+    solver: &str,
+) -> PyResult<WarpImages> {
+    let pts = points("vertices", &vertices)?;
+    let eye = vec3("eye", &eye)?;
+    if !eye.is_finite() {
+        return Err(PyValueError::new_err("eye: expected finite coordinates"));
+    }
+    let c = HollowCylinder::try_new(
+        vec3("axis_point", &axis_point)?,
+        vec3("axis_direction", &axis_direction)?,
+        outer_radius,
+        inner_radius,
+        ior,
+    )
+    .map_err(|e| PyValueError::new_err(format!("hollow_cylinder: {e}")))?;
+    #[derive(Clone, Copy)]
+    enum How {
+        Tables,
+        Sampler,
+        Paper,
+    }
+    let how = match (method, solver) {
+        ("exact", "tables") => How::Tables,
+        ("exact", "sampler") => How::Sampler,
+        ("paper", _) => How::Paper,
+        ("exact", s) => {
+            return Err(PyValueError::new_err(format!(
+                "solver: expected \"tables\" or \"sampler\", got \"{s}\""
+            )))
+        }
+        (m, _) => {
+            return Err(PyValueError::new_err(format!(
+                "method: expected \"exact\" or \"paper\", got \"{m}\""
+            )))
+        }
+    };
+    let mut texts = statuses();
+    let eye_not_outside = texts.len() as u8;
+    texts.push(EYE_NOT_OUTSIDE_TEXT.to_string());
+    let outcome = |r: Result<&[CylImage], CylStatus>, out: &mut Flat| match r {
+        Ok(ims) => out.push(
+            if ims.is_empty() { NO_IMAGE } else { OK },
+            ims.iter().map(Image::from),
+        ),
+        Err(CylStatus::InsideGlass) => out.push(TUBE_INSIDE, []),
+        Err(CylStatus::EyeNotOutside) => out.push(eye_not_outside, []),
+    };
+    let flat = py.detach(|| match how {
+        How::Tables => {
+            let finite: Vec<DVec3> = pts.iter().copied().filter(|p| p.is_finite()).collect();
+            match CylinderWarper::for_targets(c, eye, &finite) {
+                Err(status) => {
+                    let mut f = Flat::default();
+                    for p in &pts {
+                        if p.is_finite() {
+                            outcome(Err(status), &mut f);
+                        } else {
+                            f.push(NOT_FINITE, []);
+                        }
+                    }
+                    f
+                }
+                Ok(w) => solve(&pts, |ch, out| {
+                    if ch.iter().all(|p| p.is_finite()) {
+                        w.images_batch(ch, true, |_, r| outcome(r, out));
+                    } else {
+                        for &p in ch {
+                            if p.is_finite() {
+                                w.images_batch(&[p], true, |_, r| outcome(r, out));
+                            } else {
+                                out.push(NOT_FINITE, []);
+                            }
+                        }
+                    }
+                }),
+            }
+        }
+        How::Sampler | How::Paper => solve(&pts, |ch, out| {
+            for &p in ch {
+                if !p.is_finite() {
+                    out.push(NOT_FINITE, []);
+                    continue;
+                }
+                match how {
+                    How::Paper => {
+                        let r = paper_image(&c, eye, p).map(|o| o.into_iter().collect::<Vec<_>>());
+                        outcome(r.as_deref().map_err(|e| *e), out);
+                    }
+                    _ => {
+                        let r = c.images(eye, p);
+                        outcome(r.as_deref().map_err(|e| *e), out);
+                    }
+                }
+            }
+        }),
+    });
+    Ok(images_object(py, flat, texts))
+}
