@@ -1,7 +1,7 @@
 //! (N, 3) NumPy arrays in and out of the solvers.
 use glam::DVec3;
 use numpy::ndarray::{Array1, Array2};
-use numpy::{AllowTypeChange, IntoPyArray, PyArray1, PyArray2, PyArrayLike2, PyUntypedArrayMethods};
+use numpy::{AllowTypeChange, IntoPyArray, PyArray1, PyArray2, PyArrayLikeDyn, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
@@ -9,7 +9,7 @@ use pyo3::prelude::*;
 ///
 /// # Errors
 /// `ValueError` naming `name` when the shape is not (N, 3).
-pub fn points(name: &str, a: &PyArrayLike2<'_, f64, AllowTypeChange>) -> PyResult<Vec<DVec3>> {
+pub fn points(name: &str, a: &PyArrayLikeDyn<'_, f64, AllowTypeChange>) -> PyResult<Vec<DVec3>> {
     let shape = a.shape();
     if shape.len() != 2 || shape[1] != 3 {
         return Err(PyValueError::new_err(format!(
@@ -22,7 +22,10 @@ pub fn points(name: &str, a: &PyArrayLike2<'_, f64, AllowTypeChange>) -> PyResul
             .chunks_exact(3)
             .map(|c| DVec3::new(c[0], c[1], c[2]))
             .collect(),
-        None => v.outer_iter().map(|r| DVec3::new(r[0], r[1], r[2])).collect(),
+        None => v
+            .outer_iter()
+            .map(|r| DVec3::new(r[[0]], r[[1]], r[[2]]))
+            .collect(),
     })
 }
 

@@ -3,7 +3,7 @@
 use crate::arrays::{array1, points, points_array};
 use crate::convert::plain;
 use glam::DVec3;
-use numpy::{AllowTypeChange, PyArray1, PyArray2, PyArrayLike2};
+use numpy::{AllowTypeChange, PyArray1, PyArray2, PyArrayLikeDyn};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use rayon::prelude::*;
@@ -84,8 +84,8 @@ impl GrinTrace {
 pub fn trace(
     py: Python<'_>,
     field: &Bound<'_, PyAny>,
-    origins: PyArrayLike2<'_, f64, AllowTypeChange>,
-    directions: PyArrayLike2<'_, f64, AllowTypeChange>,
+    origins: PyArrayLikeDyn<'_, f64, AllowTypeChange>,
+    directions: PyArrayLikeDyn<'_, f64, AllowTypeChange>,
     method: &str,
     length: Option<f64>,
     x: Option<f64>,

@@ -2,7 +2,7 @@
 //! and writers (EXR linear float32, PNG sRGB 8-bit, written atomically).
 use numpy::ndarray::Array3;
 use numpy::AllowTypeChange;
-use numpy::{IntoPyArray, PyArray3, PyArrayLike2, PyArrayLike3, PyUntypedArrayMethods};
+use numpy::{IntoPyArray, PyArray3, PyArrayLikeDyn, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyOSError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -46,7 +46,7 @@ pub fn read(py: Python<'_>, path: PathBuf) -> PyResult<Bound<'_, PyArray3<f32>>>
 pub fn write(
     py: Python<'_>,
     path: PathBuf,
-    image: PyArrayLike3<'_, f32, AllowTypeChange>,
+    image: PyArrayLikeDyn<'_, f32, AllowTypeChange>,
     aovs: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<()> {
     let shape = image.shape().to_vec();
@@ -61,7 +61,7 @@ pub fn write(
         .outer_iter()
         .flat_map(|row| {
             row.outer_iter()
-                .map(|p| glam::Vec3A::new(p[0], p[1], p[2]))
+                .map(|p| glam::Vec3A::new(p[[0]], p[[1]], p[[2]]))
                 .collect::<Vec<_>>()
         })
         .collect();
@@ -69,9 +69,9 @@ pub fn write(
     if let Some(d) = aovs {
         for (k, v) in d.iter() {
             let name: String = k.extract()?;
-            let a: PyArrayLike2<'_, f32, AllowTypeChange> = v
-                .extract()
-                .map_err(|e| PyValueError::new_err(format!("aovs[{name:?}]: expected a 2-D array: {e}")))?;
+            let a: PyArrayLikeDyn<'_, f32, AllowTypeChange> = v.extract().map_err(|e| {
+                PyValueError::new_err(format!("aovs[{name:?}]: expected an array of numbers: {e}"))
+            })?;
             if a.shape() != [h, w] {
                 return Err(PyValueError::new_err(format!(
                     "aovs[{name:?}]: expected shape ({h}, {w}), got {:?}",

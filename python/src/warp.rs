@@ -3,7 +3,7 @@
 //! released. Images, families and statuses are those of `snell warp-points`.
 use crate::arrays::{array1, points, points_array};
 use glam::DVec3;
-use numpy::{AllowTypeChange, PyArray1, PyArray2, PyArrayLike1, PyArrayLike2};
+use numpy::{AllowTypeChange, PyArray1, PyArray2, PyArrayLike1, PyArrayLikeDyn};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use rayon::prelude::*;
@@ -245,7 +245,7 @@ fn solve(pts: &[DVec3], each: impl Fn(&[DVec3], &mut Flat) + Sync) -> Flat {
 #[pyfunction]
 pub fn plate(
     py: Python<'_>,
-    vertices: PyArrayLike2<'_, f64, AllowTypeChange>,
+    vertices: PyArrayLikeDyn<'_, f64, AllowTypeChange>,
     eye: PyArrayLike1<'_, f64, AllowTypeChange>,
     near_face_point: PyArrayLike1<'_, f64, AllowTypeChange>,
     normal: PyArrayLike1<'_, f64, AllowTypeChange>,
@@ -333,7 +333,7 @@ pub fn plate(
 #[allow(clippy::too_many_arguments)]
 pub fn hollow_cylinder(
     py: Python<'_>,
-    vertices: PyArrayLike2<'_, f64, AllowTypeChange>,
+    vertices: PyArrayLikeDyn<'_, f64, AllowTypeChange>,
     eye: PyArrayLike1<'_, f64, AllowTypeChange>,
     axis_point: PyArrayLike1<'_, f64, AllowTypeChange>,
     axis_direction: PyArrayLike1<'_, f64, AllowTypeChange>,
