@@ -171,6 +171,7 @@ def plate(
     normal: _Vec3,
     thickness: float,
     ior: float,
+    solver: str = "batch",
 ) -> WarpImages: ...
 def hollow_cylinder(
     vertices: _Points,
@@ -182,4 +183,5 @@ def hollow_cylinder(
     ior: float,
     method: str = "exact",
     solver: str = "tables",
+    parity: bool = True,
 ) -> WarpImages: ...

@@ -37,6 +37,14 @@ pub fn points_array<'py>(py: Python<'py>, p: &[DVec3]) -> Bound<'py, PyArray2<f6
     a.into_pyarray(py)
 }
 
+/// Flat x, y, z triples as a C-contiguous float64 array of shape (N, 3).
+pub fn rows3(py: Python<'_>, flat: Vec<f64>) -> Bound<'_, PyArray2<f64>> {
+    let n = flat.len() / 3;
+    // The length is 3·N by construction.
+    let a = Array2::from_shape_vec((n, 3), flat).unwrap_or_else(|_| Array2::zeros((0, 3)));
+    a.into_pyarray(py)
+}
+
 /// A vector as a 1-D array.
 pub fn array1<T: numpy::Element>(py: Python<'_>, v: Vec<T>) -> Bound<'_, PyArray1<T>> {
     Array1::from_vec(v).into_pyarray(py)

@@ -284,7 +284,9 @@ fn result(py: Python<'_>, r: &Rendered, req: &Request) -> PyResult<RenderResult>
 /// :class:`RenderResult`.
 #[pyfunction]
 #[pyo3(signature = (scene, spp=None, seed=None, threads=None, nested="filter", aovs=Vec::new(), region=None, samples=None, width=None, height=None, progress=None))]
-#[pyo3(text_signature = "(scene, spp=None, seed=None, threads=None, nested='filter', aovs=(), region=None, samples=None, width=None, height=None, progress=None)")]
+#[pyo3(
+    text_signature = "(scene, spp=None, seed=None, threads=None, nested='filter', aovs=(), region=None, samples=None, width=None, height=None, progress=None)"
+)]
 #[allow(clippy::too_many_arguments)]
 pub fn render_result(
     py: Python<'_>,
@@ -343,7 +345,9 @@ pub fn render_result(
 /// Ctrl-C stops the render at the next tile and raises ``KeyboardInterrupt``.
 #[pyfunction]
 #[pyo3(signature = (scene, spp=None, seed=None, threads=None, nested="filter", aovs=Vec::new(), region=None, samples=None, width=None, height=None, progress=None))]
-#[pyo3(text_signature = "(scene, spp=None, seed=None, threads=None, nested='filter', aovs=(), region=None, samples=None, width=None, height=None, progress=None)")]
+#[pyo3(
+    text_signature = "(scene, spp=None, seed=None, threads=None, nested='filter', aovs=(), region=None, samples=None, width=None, height=None, progress=None)"
+)]
 #[allow(clippy::too_many_arguments)]
 pub fn render<'py>(
     py: Python<'py>,

@@ -1,7 +1,7 @@
 //! `snell.warp.plate` and `snell.warp.hollow_cylinder`: every image of each
 //! vertex of an (N, 3) array, solved in parallel (rayon) with the GIL
 //! released. Images, families and statuses are those of `snell warp-points`.
-use crate::arrays::{array1, points, points_array};
+use crate::arrays::{array1, points, rows3};
 use glam::DVec3;
 use numpy::{AllowTypeChange, PyArray1, PyArray2, PyArrayLike1, PyArrayLikeDyn};
 use pyo3::exceptions::PyValueError;
@@ -84,11 +84,19 @@ impl Flat {
         self.status.push(status);
     }
 
-    fn append(mut self, other: Flat) -> Flat {
-        self.images.extend(other.images);
-        self.counts.extend(other.counts);
-        self.status.extend(other.status);
-        self
+    /// The chunks' images one after the other (one copy, in order).
+    fn concat(chunks: Vec<Flat>) -> Flat {
+        let mut f = Flat {
+            images: Vec::with_capacity(chunks.iter().map(|c| c.images.len()).sum()),
+            counts: Vec::with_capacity(chunks.iter().map(|c| c.counts.len()).sum()),
+            status: Vec::with_capacity(chunks.iter().map(|c| c.status.len()).sum()),
+        };
+        for c in chunks {
+            f.images.extend(c.images);
+            f.counts.extend(c.counts);
+            f.status.extend(c.status);
+        }
+        f
     }
 }
 
@@ -168,17 +176,18 @@ impl WarpImages {
 }
 
 fn images_object(py: Python<'_>, f: Flat, statuses: Vec<String>) -> WarpImages {
-    let positions: Vec<DVec3> = f.images.iter().map(|i| i.position).collect();
-    let directions: Vec<DVec3> = f.images.iter().map(|i| i.direction).collect();
-    let family: Vec<u8> = f
-        .images
-        .iter()
-        .map(|i| FAMILY_ORDER.iter().position(|&x| x == i.family).unwrap_or(0) as u8)
-        .collect();
-    let refractions: Vec<u32> = f.images.iter().map(|i| i.refractions).collect();
-    let parity: Vec<i8> = f.images.iter().map(|i| i.parity).collect();
+    let ims = &f.images;
+    let (positions, directions, family, refractions, parity) = py.detach(|| {
+        let xyz = |v: DVec3| v.to_array();
+        let positions: Vec<f64> = ims.par_iter().flat_map_iter(|i| xyz(i.position)).collect();
+        let directions: Vec<f64> = ims.par_iter().flat_map_iter(|i| xyz(i.direction)).collect();
+        let family: Vec<u8> = ims.iter().map(|i| family_code(i.family)).collect();
+        let refractions: Vec<u32> = ims.iter().map(|i| i.refractions).collect();
+        let parity: Vec<i8> = ims.iter().map(|i| i.parity).collect();
+        (positions, directions, family, refractions, parity)
+    });
     let mut offsets = Vec::with_capacity(f.counts.len() + 1);
-    let mut vertex = Vec::with_capacity(f.images.len());
+    let mut vertex = Vec::with_capacity(ims.len());
     let mut at = 0i64;
     offsets.push(0);
     for (v, &c) in f.counts.iter().enumerate() {
@@ -187,8 +196,8 @@ fn images_object(py: Python<'_>, f: Flat, statuses: Vec<String>) -> WarpImages {
         vertex.extend(std::iter::repeat_n(v as i64, c as usize));
     }
     WarpImages {
-        positions: points_array(py, &positions).unbind(),
-        directions: points_array(py, &directions).unbind(),
+        positions: rows3(py, positions).unbind(),
+        directions: rows3(py, directions).unbind(),
         family: array1(py, family).unbind(),
         refractions: array1(py, refractions).unbind(),
         parity: array1(py, parity).unbind(),
@@ -198,6 +207,10 @@ fn images_object(py: Python<'_>, f: Flat, statuses: Vec<String>) -> WarpImages {
         status: array1(py, f.status).unbind(),
         statuses,
     }
+}
+
+fn family_code(f: Family) -> u8 {
+    FAMILY_ORDER.iter().position(|&x| x == f).unwrap_or(0) as u8
 }
 
 fn vec3(name: &str, a: &PyArrayLike1<'_, f64, AllowTypeChange>) -> PyResult<DVec3> {
@@ -213,13 +226,15 @@ fn statuses() -> Vec<String> {
 
 /// Solve every chunk of `pts` in parallel and join the chunks in order.
 fn solve(pts: &[DVec3], each: impl Fn(&[DVec3], &mut Flat) + Sync) -> Flat {
-    pts.par_chunks(CHUNK)
+    let chunks: Vec<Flat> = pts
+        .par_chunks(CHUNK)
         .map(|ch| {
             let mut f = Flat::default();
             each(ch, &mut f);
             f
         })
-        .reduce(Flat::default, Flat::append)
+        .collect();
+    Flat::concat(chunks)
 }
 
 /// Warp vertices behind a glass plate with parallel faces (Mukai et al.).
@@ -227,7 +242,7 @@ fn solve(pts: &[DVec3], each: impl Fn(&[DVec3], &mut Flat) + Sync) -> Flat {
 /// For each vertex: its one image (where the vertex must move so that a
 /// straight eye ray sees it where refraction through the plate would), or
 /// the vertex itself (family ``direct``) when it is between the eye and the
-/// plate. The numbers are those of ``snell warp-points``.
+/// plate. The images and statuses are those of ``snell warp-points``.
 ///
 /// Args:
 ///     vertices: (N, 3) points, metres.
@@ -236,13 +251,19 @@ fn solve(pts: &[DVec3], each: impl Fn(&[DVec3], &mut Flat) + Sync) -> Flat {
 ///     normal: the faces' normal, pointing away from the eye (normalised).
 ///     thickness: the plate's thickness W > 0, metres.
 ///     ior: the glass's index n > 0 (the surroundings have index 1).
+///     solver: ``"batch"`` (default: the mesh warp's solver, four vertices
+///         at a time, positions within rounding of the scalar one's) or
+///         ``"scalar"`` (the one ``snell warp-points`` runs: the same
+///         numbers bit for bit, slower).
 ///
 /// Returns:
 ///     :class:`WarpImages`.
 ///
 /// Raises:
-///     ValueError: an invalid plate or arrays of the wrong shape.
+///     ValueError: an invalid plate or solver, or arrays of the wrong shape.
 #[pyfunction]
+#[pyo3(signature = (vertices, eye, near_face_point, normal, thickness, ior, solver="batch"))]
+#[allow(clippy::too_many_arguments)]
 pub fn plate(
     py: Python<'_>,
     vertices: PyArrayLikeDyn<'_, f64, AllowTypeChange>,
@@ -251,6 +272,7 @@ pub fn plate(
     normal: PyArrayLike1<'_, f64, AllowTypeChange>,
     thickness: f64,
     ior: f64,
+    solver: &str,
 ) -> PyResult<WarpImages> {
     let pts = points("vertices", &vertices)?;
     let eye = vec3("eye", &eye)?;
@@ -264,37 +286,65 @@ pub fn plate(
         ior,
     )
     .map_err(|e| PyValueError::new_err(format!("plate: {e}")))?;
+    let scalar = match solver {
+        "batch" => false,
+        "scalar" => true,
+        s => {
+            return Err(PyValueError::new_err(format!(
+                "solver: expected \"batch\" or \"scalar\", got \"{s}\""
+            )))
+        }
+    };
+    // A solved vertex as `snell warp-points` reports it: its warped image,
+    // itself when it is seen directly, or no image with a status.
+    let outcome = |p: DVec3, r: Result<(DVec3, DVec3), PlateStatus>, out: &mut Flat| match r {
+        Ok((position, direction)) => out.push(
+            OK,
+            [Image {
+                family: Family::Wall2,
+                direction,
+                position,
+                refractions: 2,
+                parity: 1,
+            }],
+        ),
+        Err(PlateStatus::InFront) => out.push(
+            OK,
+            [Image {
+                family: Family::Direct,
+                direction: (p - eye).normalize_or_zero(),
+                position: p,
+                refractions: 0,
+                parity: 1,
+            }],
+        ),
+        Err(PlateStatus::InsideGlass) => out.push(PLATE_INSIDE, []),
+        Err(PlateStatus::EyeNotInFront) => out.push(EYE_NOT_IN_FRONT, []),
+        Err(PlateStatus::NotConverged) => out.push(NOT_CONVERGED, []),
+    };
     let flat = py.detach(|| {
         solve(&pts, |ch, out| {
-            for &p in ch {
-                if !p.is_finite() {
-                    out.push(NOT_FINITE, []);
-                    continue;
+            if scalar {
+                for &p in ch {
+                    if p.is_finite() {
+                        outcome(p, pl.warp(eye, p).map(|im| (im.position, im.eye_dir)), out);
+                    } else {
+                        out.push(NOT_FINITE, []);
+                    }
                 }
-                match pl.warp(eye, p) {
-                    Ok(im) => out.push(
-                        OK,
-                        [Image {
-                            family: Family::Wall2,
-                            direction: im.eye_dir,
-                            position: im.position,
-                            refractions: 2,
-                            parity: 1,
-                        }],
-                    ),
-                    Err(PlateStatus::InFront) => out.push(
-                        OK,
-                        [Image {
-                            family: Family::Direct,
-                            direction: (p - eye).normalize_or_zero(),
-                            position: p,
-                            refractions: 0,
-                            parity: 1,
-                        }],
-                    ),
-                    Err(PlateStatus::InsideGlass) => out.push(PLATE_INSIDE, []),
-                    Err(PlateStatus::EyeNotInFront) => out.push(EYE_NOT_IN_FRONT, []),
-                    Err(PlateStatus::NotConverged) => out.push(NOT_CONVERGED, []),
+                return;
+            }
+            for four in ch.chunks(4) {
+                // Padding lanes repeat the first point (their answers are dropped).
+                let lanes: [DVec3; 4] = std::array::from_fn(|l| four.get(l).copied().unwrap_or(four[0]));
+                let r = pl.warp_lanes(eye, &lanes);
+                for (&p, r) in four.iter().zip(r) {
+                    if p.is_finite() {
+                        // The direction as `Plate::warp` derives it from the position.
+                        outcome(p, r.map(|w| (w, (w - eye).normalize())), out);
+                    } else {
+                        out.push(NOT_FINITE, []);
+                    }
                 }
             }
         })
@@ -321,7 +371,10 @@ pub fn plate(
 ///     solver: for ``"exact"``: ``"tables"`` (default: the warp renderer's
 ///         tabulated solver with a Newton polish, directions within 1e-12 of
 ///         the sampler's) or ``"sampler"`` (the robust sampler ``snell
-///         warp-points`` runs: the same numbers bit for bit, ~100x slower).
+///         warp-points`` runs: the same numbers bit for bit, two orders of
+///         magnitude slower).
+///     parity: find each image's parity (default True); without it
+///         ``parity`` is 0 and the tables solver does less work.
 ///
 /// Returns:
 ///     :class:`WarpImages`.
@@ -329,7 +382,7 @@ pub fn plate(
 /// Raises:
 ///     ValueError: an invalid tube, method or solver, or arrays of the wrong shape.
 #[pyfunction]
-#[pyo3(signature = (vertices, eye, axis_point, axis_direction, outer_radius, inner_radius, ior, method="exact", solver="tables"))]
+#[pyo3(signature = (vertices, eye, axis_point, axis_direction, outer_radius, inner_radius, ior, method="exact", solver="tables", parity=true))]
 #[allow(clippy::too_many_arguments)]
 pub fn hollow_cylinder(
     py: Python<'_>,
@@ -342,6 +395,7 @@ pub fn hollow_cylinder(
     ior: f64,
     method: &str,
     solver: &str,
+    parity: bool,
 ) -> PyResult<WarpImages> {
     let pts = points("vertices", &vertices)?;
     let eye = vec3("eye", &eye)?;
@@ -405,11 +459,11 @@ pub fn hollow_cylinder(
                 }
                 Ok(w) => solve(&pts, |ch, out| {
                     if ch.iter().all(|p| p.is_finite()) {
-                        w.images_batch(ch, true, |_, r| outcome(r, out));
+                        w.images_batch(ch, parity, |_, r| outcome(r, out));
                     } else {
                         for &p in ch {
                             if p.is_finite() {
-                                w.images_batch(&[p], true, |_, r| outcome(r, out));
+                                w.images_batch(&[p], parity, |_, r| outcome(r, out));
                             } else {
                                 out.push(NOT_FINITE, []);
                             }
@@ -437,5 +491,10 @@ pub fn hollow_cylinder(
             }
         }),
     });
+    let mut flat = flat;
+    if !parity {
+        // The sampler and the paper's method find it anyway: drop it, as asked.
+        flat.images.iter_mut().for_each(|i| i.parity = 0);
+    }
     Ok(images_object(py, flat, texts))
 }

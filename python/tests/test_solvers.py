@@ -124,8 +124,11 @@ def test_plate_equals_the_cli(cli, tmp_path):
     glass = {"kind": "plate", "near_face_point": [0, 0, 1], "normal": [0.2, -0.1, -1.0], "thickness": 0.3, "ior": 1.5}
     eye = [0.0, 0.0, 4.0]
     pts = np.vstack([_grid(9, -3.0), [[0, 0, 3.0], [0, 0, 0.9]]])
-    w = snell.warp.plate(pts, eye, glass["near_face_point"], glass["normal"], glass["thickness"], glass["ior"])
-    _assert_same(w, _cli_warp(cli, tmp_path, glass, eye, pts))
+    args = (pts, eye, glass["near_face_point"], glass["normal"], glass["thickness"], glass["ior"])
+    answers = _cli_warp(cli, tmp_path, glass, eye, pts)
+    _assert_same(snell.warp.plate(*args, solver="scalar"), answers, exact=True)
+    w = snell.warp.plate(*args)
+    _assert_same(w, answers, exact=False)
     assert set(w.messages()) >= {"ok", "error: the point is inside the glass"}
 
 
@@ -151,6 +154,8 @@ def test_hollow_cylinder_equals_the_cli(cli, tmp_path):
     answers = _cli_warp(cli, tmp_path, TUBE, [0, 0, 4], pts)
     _assert_same(_tube(pts, solver="sampler"), answers, exact=True)
     _assert_same(_tube(pts), answers, exact=False)
+    no_parity = _tube(pts, parity=False)
+    assert (no_parity.parity == 0).all() and np.array_equal(no_parity.counts, _tube(pts).counts)
     assert sum(len(a["images"]) > 1 for a in answers) > 5
     paper = _cli_warp(cli, tmp_path, TUBE, [0, 0, 4], pts, method="paper")
     _assert_same(_tube(pts, method="paper"), paper, exact=True)
@@ -173,5 +178,7 @@ def test_warp_arrays_and_errors():
     assert nan.counts[1] > 0
     inside = snell.warp.hollow_cylinder(pts, [0, 0, 0.5], [0, 0, 0], [0, 1, 0], 1.0, 0.8, 1.5)
     assert set(inside.messages()) == {"error: the eye is not outside the tube"}
+    with pytest.raises(ValueError, match="solver"):
+        snell.warp.plate(pts, [0, 0, 4], [0, 0, 1], [0, 0, -1], 0.3, 1.5, solver="magic")
     with pytest.raises(ValueError, match="thickness"):
         snell.warp.plate(pts, [0, 0, 4], [0, 0, 1], [0, 0, -1], 0.0, 1.5)
