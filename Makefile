@@ -127,7 +127,7 @@ PYTHON_VENV ?= $(OPENJD_VENV)
 PYTHON_TOOLS ?= 'maturin>=1.7,<2' 'numpy>=1.21' 'pytest>=7'
 PYTHON_TARGET_DIR ?= $(or $(CARGO_TARGET_DIR),target)
 PYTHON_PROFILE ?= release
-.PHONY: python test-python
+.PHONY: python test-python lint-python
 python: deps openjd
 	$(PYTHON_VENV)/bin/pip install --quiet --disable-pip-version-check $(PYTHON_TOOLS)
 	rm -f $(PYTHON_TARGET_DIR)/wheels/snell-*.whl
@@ -139,3 +139,8 @@ python: deps openjd
 test-python:
 	$(MAKE) --no-print-directory python PYTHON_PROFILE=dev
 	$(PYTHON_VENV)/bin/python -m pytest python/tests -q
+
+# fmt and clippy on the binding crate (its own workspace, so `make lint` does not see it).
+lint-python: deps
+	$(CARGO) fmt --manifest-path python/Cargo.toml -- --check
+	$(CARGO) clippy --manifest-path python/Cargo.toml --all-targets --locked --target-dir $(abspath $(PYTHON_TARGET_DIR)) -- -D warnings

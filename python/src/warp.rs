@@ -175,36 +175,56 @@ impl WarpImages {
     }
 }
 
-fn images_object(py: Python<'_>, f: Flat, statuses: Vec<String>) -> WarpImages {
-    let ims = &f.images;
-    let (positions, directions, family, refractions, parity) = py.detach(|| {
+/// The images as the arrays of a [`WarpImages`] (structure of arrays).
+struct Rows {
+    positions: Vec<f64>,
+    directions: Vec<f64>,
+    family: Vec<u8>,
+    refractions: Vec<u32>,
+    parity: Vec<i8>,
+    counts: Vec<u32>,
+    status: Vec<u8>,
+}
+
+impl Rows {
+    fn from_flat(f: Flat) -> Rows {
+        let ims = &f.images;
         let xyz = |v: DVec3| v.to_array();
-        let positions: Vec<f64> = ims.par_iter().flat_map_iter(|i| xyz(i.position)).collect();
-        let directions: Vec<f64> = ims.par_iter().flat_map_iter(|i| xyz(i.direction)).collect();
-        let family: Vec<u8> = ims.iter().map(|i| family_code(i.family)).collect();
-        let refractions: Vec<u32> = ims.iter().map(|i| i.refractions).collect();
-        let parity: Vec<i8> = ims.iter().map(|i| i.parity).collect();
-        (positions, directions, family, refractions, parity)
-    });
-    let mut offsets = Vec::with_capacity(f.counts.len() + 1);
-    let mut vertex = Vec::with_capacity(ims.len());
-    let mut at = 0i64;
-    offsets.push(0);
-    for (v, &c) in f.counts.iter().enumerate() {
-        at += c as i64;
-        offsets.push(at);
-        vertex.extend(std::iter::repeat_n(v as i64, c as usize));
+        Rows {
+            positions: ims.iter().flat_map(|i| xyz(i.position)).collect(),
+            directions: ims.iter().flat_map(|i| xyz(i.direction)).collect(),
+            family: ims.iter().map(|i| family_code(i.family)).collect(),
+            refractions: ims.iter().map(|i| i.refractions).collect(),
+            parity: ims.iter().map(|i| i.parity).collect(),
+            counts: f.counts,
+            status: f.status,
+        }
     }
+}
+
+fn images_object(py: Python<'_>, r: Rows, statuses: Vec<String>) -> WarpImages {
+    let (offsets, vertex) = py.detach(|| {
+        let mut offsets = Vec::with_capacity(r.counts.len() + 1);
+        let mut vertex = Vec::with_capacity(r.family.len());
+        let mut at = 0i64;
+        offsets.push(0);
+        for (v, &c) in r.counts.iter().enumerate() {
+            at += c as i64;
+            offsets.push(at);
+            vertex.extend(std::iter::repeat_n(v as i64, c as usize));
+        }
+        (offsets, vertex)
+    });
     WarpImages {
-        positions: rows3(py, positions).unbind(),
-        directions: rows3(py, directions).unbind(),
-        family: array1(py, family).unbind(),
-        refractions: array1(py, refractions).unbind(),
-        parity: array1(py, parity).unbind(),
-        counts: array1(py, f.counts).unbind(),
+        positions: rows3(py, r.positions).unbind(),
+        directions: rows3(py, r.directions).unbind(),
+        family: array1(py, r.family).unbind(),
+        refractions: array1(py, r.refractions).unbind(),
+        parity: array1(py, r.parity).unbind(),
+        counts: array1(py, r.counts).unbind(),
         offsets: array1(py, offsets).unbind(),
         vertex: array1(py, vertex).unbind(),
-        status: array1(py, f.status).unbind(),
+        status: array1(py, r.status).unbind(),
         statuses,
     }
 }
@@ -295,61 +315,107 @@ pub fn plate(
             )))
         }
     };
-    // A solved vertex as `snell warp-points` reports it: its warped image,
-    // itself when it is seen directly, or no image with a status.
-    let outcome = |p: DVec3, r: Result<(DVec3, DVec3), PlateStatus>, out: &mut Flat| match r {
-        Ok((position, direction)) => out.push(
-            OK,
-            [Image {
-                family: Family::Wall2,
-                direction,
-                position,
-                refractions: 2,
-                parity: 1,
-            }],
-        ),
-        Err(PlateStatus::InFront) => out.push(
-            OK,
-            [Image {
-                family: Family::Direct,
-                direction: (p - eye).normalize_or_zero(),
-                position: p,
-                refractions: 0,
-                parity: 1,
-            }],
-        ),
-        Err(PlateStatus::InsideGlass) => out.push(PLATE_INSIDE, []),
-        Err(PlateStatus::EyeNotInFront) => out.push(EYE_NOT_IN_FRONT, []),
-        Err(PlateStatus::NotConverged) => out.push(NOT_CONVERGED, []),
-    };
-    let flat = py.detach(|| {
-        solve(&pts, |ch, out| {
-            if scalar {
-                for &p in ch {
-                    if p.is_finite() {
-                        outcome(p, pl.warp(eye, p).map(|im| (im.position, im.eye_dir)), out);
-                    } else {
-                        out.push(NOT_FINITE, []);
-                    }
-                }
-                return;
+    let rows = py.detach(|| plate_rows(&pl, eye, &pts, scalar));
+    Ok(images_object(py, rows, statuses()))
+}
+
+/// One plate image per vertex, or none (with the status `snell
+/// warp-points` gives): solved in place, in parallel, one row per vertex,
+/// then the rows without an image dropped.
+fn plate_rows(pl: &Plate, eye: DVec3, pts: &[DVec3], scalar: bool) -> Rows {
+    let n = pts.len();
+    let mut pos = vec![0.0; 3 * n];
+    let mut dir = vec![0.0; 3 * n];
+    let mut family = vec![0u8; n];
+    let mut status = vec![0u8; n];
+    // Vertex p's outcome into its row: its warped image, itself when it is
+    // seen directly, or no image.
+    let row =
+        |p: DVec3, r: Result<(DVec3, DVec3), PlateStatus>, pos: &mut [f64], dir: &mut [f64], fam: &mut u8| {
+            let (code, image) = match r {
+                Ok(w) => (OK, Some((Family::Wall2, w))),
+                Err(PlateStatus::InFront) => (OK, Some((Family::Direct, (p, (p - eye).normalize_or_zero())))),
+                Err(PlateStatus::InsideGlass) => (PLATE_INSIDE, None),
+                Err(PlateStatus::EyeNotInFront) => (EYE_NOT_IN_FRONT, None),
+                Err(PlateStatus::NotConverged) => (NOT_CONVERGED, None),
+            };
+            if let Some((f, (position, direction))) = image {
+                pos.copy_from_slice(&position.to_array());
+                dir.copy_from_slice(&direction.to_array());
+                *fam = family_code(f);
             }
-            for four in ch.chunks(4) {
-                // Padding lanes repeat the first point (their answers are dropped).
-                let lanes: [DVec3; 4] = std::array::from_fn(|l| four.get(l).copied().unwrap_or(four[0]));
-                let r = pl.warp_lanes(eye, &lanes);
-                for (&p, r) in four.iter().zip(r) {
-                    if p.is_finite() {
+            code
+        };
+    pos.par_chunks_mut(3 * CHUNK)
+        .zip(dir.par_chunks_mut(3 * CHUNK))
+        .zip(family.par_chunks_mut(CHUNK))
+        .zip(status.par_chunks_mut(CHUNK))
+        .zip(pts.par_chunks(CHUNK))
+        .for_each(|((((pos, dir), family), status), ch)| {
+            let mut solved = [Err(PlateStatus::NotConverged); 4];
+            for (k, four) in ch.chunks(4).enumerate() {
+                if scalar {
+                    for (s, &p) in solved.iter_mut().zip(four) {
+                        *s = pl.warp(eye, p).map(|im| (im.position, im.eye_dir));
+                    }
+                } else {
+                    // Padding lanes repeat the first point (their answers are dropped).
+                    let lanes: [DVec3; 4] = std::array::from_fn(|l| four.get(l).copied().unwrap_or(four[0]));
+                    for (s, r) in solved.iter_mut().zip(pl.warp_lanes(eye, &lanes)) {
                         // The direction as `Plate::warp` derives it from the position.
-                        outcome(p, r.map(|w| (w, (w - eye).normalize())), out);
-                    } else {
-                        out.push(NOT_FINITE, []);
+                        *s = r.map(|w| (w, (w - eye).normalize()));
                     }
                 }
+                for (l, &p) in four.iter().enumerate() {
+                    let i = 4 * k + l;
+                    status[i] = if p.is_finite() {
+                        row(
+                            p,
+                            solved[l],
+                            &mut pos[3 * i..3 * i + 3],
+                            &mut dir[3 * i..3 * i + 3],
+                            &mut family[i],
+                        )
+                    } else {
+                        NOT_FINITE
+                    };
+                }
             }
-        })
-    });
-    Ok(images_object(py, flat, statuses()))
+        });
+    let refraction = |f: u8| {
+        if FAMILY_ORDER[f as usize] == Family::Direct {
+            0
+        } else {
+            2
+        }
+    };
+    if status.iter().all(|&c| c == OK) {
+        return Rows {
+            positions: pos,
+            directions: dir,
+            refractions: family.iter().map(|&f| refraction(f)).collect(),
+            parity: vec![1; n],
+            counts: vec![1; n],
+            family,
+            status,
+        };
+    }
+    // Some vertices have no image: keep the rows of those that have one.
+    let keep: Vec<usize> = (0..n).filter(|&i| status[i] == OK).collect();
+    let pick3 = |v: &[f64]| {
+        keep.iter()
+            .flat_map(|&i| [v[3 * i], v[3 * i + 1], v[3 * i + 2]])
+            .collect()
+    };
+    Rows {
+        positions: pick3(&pos),
+        directions: pick3(&dir),
+        family: keep.iter().map(|&i| family[i]).collect(),
+        refractions: keep.iter().map(|&i| refraction(family[i])).collect(),
+        parity: vec![1; keep.len()],
+        counts: status.iter().map(|&c| u32::from(c == OK)).collect(),
+        status,
+    }
 }
 
 /// Warp vertices seen through a thick glass tube (a hollow cylinder,
@@ -491,10 +557,10 @@ pub fn hollow_cylinder(
             }
         }),
     });
-    let mut flat = flat;
+    let mut rows = py.detach(|| Rows::from_flat(flat));
     if !parity {
         // The sampler and the paper's method find it anyway: drop it, as asked.
-        flat.images.iter_mut().for_each(|i| i.parity = 0);
+        rows.parity.fill(0);
     }
-    Ok(images_object(py, flat, texts))
+    Ok(images_object(py, rows, texts))
 }
