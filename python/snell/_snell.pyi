@@ -173,6 +173,15 @@ def plate(
     ior: float,
     solver: str = "batch",
 ) -> WarpImages: ...
+def plate_positions(
+    vertices: _Points,
+    eye: _Vec3,
+    near_face_point: _Vec3,
+    normal: _Vec3,
+    thickness: float,
+    ior: float,
+    out: Optional[npt.NDArray[np.float32]] = None,
+) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.int8]]: ...
 def hollow_cylinder(
     vertices: _Points,
     eye: _Vec3,

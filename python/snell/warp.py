@@ -13,11 +13,14 @@ Each result is a :class:`WarpImages`: flat arrays of images (``positions``,
                                    axis_direction=[0, 1, 0], outer_radius=1.0,
                                    inner_radius=0.8, ior=1.5)
     first = w.positions[w.offsets[0]:w.offsets[1]]   # the images of vertex 0
+
+For a mesh behind a plate, :func:`plate_positions` writes only the moved
+float32 positions (into a reused array if given): the warp renderer's call.
 """
 
-from ._snell import WarpImages, hollow_cylinder, plate
+from ._snell import WarpImages, hollow_cylinder, plate, plate_positions
 
 #: The names of ``WarpImages.family`` codes.
 FAMILIES = tuple(WarpImages.FAMILIES)
 
-__all__ = ["FAMILIES", "WarpImages", "hollow_cylinder", "plate"]
+__all__ = ["FAMILIES", "WarpImages", "hollow_cylinder", "plate", "plate_positions"]

@@ -34,6 +34,7 @@ fn _snell(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(grin::trace, m)?)?;
     m.add_class::<warp::WarpImages>()?;
     m.add_function(wrap_pyfunction!(warp::plate, m)?)?;
+    m.add_function(wrap_pyfunction!(warp::plate_positions, m)?)?;
     m.add_function(wrap_pyfunction!(warp::hollow_cylinder, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

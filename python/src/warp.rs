@@ -129,9 +129,6 @@ pub struct WarpImages {
     /// Start of each vertex's images, int64 (N + 1,); the last is M.
     #[pyo3(get)]
     offsets: Py<PyArray1<i64>>,
-    /// Vertex index of each image, int64 (M,).
-    #[pyo3(get)]
-    vertex: Py<PyArray1<i64>>,
     /// Outcome per vertex, uint8 (N,): an index into ``STATUSES`` (0 and 1 are "ok").
     #[pyo3(get)]
     status: Py<PyArray1<u8>>,
@@ -147,6 +144,20 @@ impl WarpImages {
     #[allow(non_snake_case)]
     fn FAMILIES() -> Vec<&'static str> {
         FAMILIES.to_vec()
+    }
+
+    /// Vertex index of each image, int64 (M,) (made when asked for).
+    #[getter]
+    fn vertex<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<i64>> {
+        use numpy::PyArrayMethods;
+        let counts = self.counts.bind(py).readonly();
+        let v: Vec<i64> = counts
+            .as_array()
+            .iter()
+            .enumerate()
+            .flat_map(|(i, &c)| std::iter::repeat_n(i as i64, c as usize))
+            .collect();
+        array1(py, v)
     }
 
     /// Each vertex's status as text (``"ok"``, ``"ok: no image"`` or ``"error: ..."``).
@@ -203,17 +214,15 @@ impl Rows {
 }
 
 fn images_object(py: Python<'_>, r: Rows, statuses: Vec<String>) -> WarpImages {
-    let (offsets, vertex) = py.detach(|| {
+    let offsets = py.detach(|| {
         let mut offsets = Vec::with_capacity(r.counts.len() + 1);
-        let mut vertex = Vec::with_capacity(r.family.len());
         let mut at = 0i64;
         offsets.push(0);
-        for (v, &c) in r.counts.iter().enumerate() {
+        for &c in &r.counts {
             at += c as i64;
             offsets.push(at);
-            vertex.extend(std::iter::repeat_n(v as i64, c as usize));
         }
-        (offsets, vertex)
+        offsets
     });
     WarpImages {
         positions: rows3(py, r.positions).unbind(),
@@ -223,7 +232,6 @@ fn images_object(py: Python<'_>, r: Rows, statuses: Vec<String>) -> WarpImages {
         parity: array1(py, r.parity).unbind(),
         counts: array1(py, r.counts).unbind(),
         offsets: array1(py, offsets).unbind(),
-        vertex: array1(py, vertex).unbind(),
         status: array1(py, r.status).unbind(),
         statuses,
     }
@@ -416,6 +424,99 @@ fn plate_rows(pl: &Plate, eye: DVec3, pts: &[DVec3], scalar: bool) -> Rows {
         counts: status.iter().map(|&c| u32::from(c == OK)).collect(),
         status,
     }
+}
+
+/// `plate_positions`' result: the positions and what happened to each vertex.
+type Positions<'py> = (Bound<'py, PyArray2<f32>>, Bound<'py, PyArray1<i8>>);
+
+/// Warp a mesh's vertices behind a glass plate: only the moved positions,
+/// float32 as a mesh stores them (the warp renderer's call).
+///
+/// ``out[i]`` gets the warped position of ``vertices[i]``, or the vertex
+/// itself when it is seen directly or has no image. The positions are those
+/// of :func:`plate`'s default solver, rounded to float32.
+///
+/// Args:
+///     vertices: (N, 3) points, metres (float32; other dtypes are converted).
+///     eye, near_face_point, normal, thickness, ior: the plate, as :func:`plate`.
+///     out: a C-contiguous float32 array of shape (N, 3) to write into
+///         (default: a new one); reusing one saves its allocation.
+///
+/// Returns:
+///     ``(positions, warped)``: the (N, 3) float32 positions (``out`` when
+///     given) and an int8 array (N,): 1 warped, 0 seen directly, -1 no image
+///     (inside the glass, or the eye not in front of the plate).
+#[pyfunction]
+#[pyo3(signature = (vertices, eye, near_face_point, normal, thickness, ior, out=None))]
+#[allow(clippy::too_many_arguments)]
+pub fn plate_positions<'py>(
+    py: Python<'py>,
+    vertices: PyArrayLikeDyn<'py, f32, AllowTypeChange>,
+    eye: PyArrayLike1<'py, f64, AllowTypeChange>,
+    near_face_point: PyArrayLike1<'py, f64, AllowTypeChange>,
+    normal: PyArrayLike1<'py, f64, AllowTypeChange>,
+    thickness: f64,
+    ior: f64,
+    out: Option<Bound<'py, PyArray2<f32>>>,
+) -> PyResult<Positions<'py>> {
+    use numpy::{PyArrayMethods, PyUntypedArrayMethods};
+    let shape = vertices.shape().to_vec();
+    if shape.len() != 2 || shape[1] != 3 {
+        return Err(PyValueError::new_err(format!(
+            "vertices: expected an array of shape (N, 3), got {shape:?}"
+        )));
+    }
+    let n = shape[0];
+    let eye = vec3("eye", &eye)?;
+    let pl = Plate::try_new(
+        vec3("near_face_point", &near_face_point)?,
+        vec3("normal", &normal)?,
+        thickness,
+        ior,
+    )
+    .map_err(|e| PyValueError::new_err(format!("plate: {e}")))?;
+    let out = match out {
+        Some(o) => {
+            if o.shape() != [n, 3] {
+                return Err(PyValueError::new_err(format!(
+                    "out: expected shape ({n}, 3), got {:?}",
+                    o.shape()
+                )));
+            }
+            o
+        }
+        None => PyArray2::<f32>::zeros(py, [n, 3], false),
+    };
+    let flat = vertices
+        .as_slice()
+        .map_err(|_| PyValueError::new_err("vertices: expected a C-contiguous array"))?;
+    let pts: &[[f32; 3]] = flat.as_chunks::<3>().0;
+    let mut warped = vec![0i8; n];
+    {
+        let mut w = out.try_readwrite()?;
+        let dst = w
+            .as_slice_mut()
+            .map_err(|_| PyValueError::new_err("out: expected a C-contiguous array"))?;
+        let dst: &mut [[f32; 3]] = dst.as_chunks_mut::<3>().0;
+        py.detach(|| {
+            dst.par_chunks_mut(CHUNK)
+                .zip(warped.par_chunks_mut(CHUNK))
+                .zip(pts.par_chunks(CHUNK))
+                .for_each(|((o, wc), p)| {
+                    let mut class = [Ok(false); CHUNK];
+                    let class = &mut class[..p.len()];
+                    pl.warp_batch(eye, p, o, class);
+                    for (w, c) in wc.iter_mut().zip(class.iter()) {
+                        *w = match c {
+                            Ok(true) => 1,
+                            Ok(false) => 0,
+                            Err(_) => -1,
+                        };
+                    }
+                })
+        });
+    }
+    Ok((out, array1(py, warped)))
 }
 
 /// Warp vertices seen through a thick glass tube (a hollow cylinder,

@@ -182,3 +182,25 @@ def test_warp_arrays_and_errors():
         snell.warp.plate(pts, [0, 0, 4], [0, 0, 1], [0, 0, -1], 0.3, 1.5, solver="magic")
     with pytest.raises(ValueError, match="thickness"):
         snell.warp.plate(pts, [0, 0, 4], [0, 0, 1], [0, 0, -1], 0.0, 1.5)
+
+
+def test_plate_positions_are_the_plates_in_float32():
+    plate = ([0.0, 0.0, 1.0], [0.2, -0.1, -1.0], 0.3, 1.5)
+    eye = [0.0, 0.0, 4.0]
+    pts = np.vstack([_grid(40, -3.0), [[0, 0, 3.0], [0, 0, 0.9]]]).astype(np.float32)
+    out = np.full(pts.shape, np.nan, dtype=np.float32)
+    pos, warped = snell.warp.plate_positions(pts, eye, *plate, out=out)
+    assert pos is out and warped.dtype == np.int8
+    full = snell.warp.plate(pts.astype(np.float64), eye, *plate)
+    names = [snell.warp.FAMILIES[f] for f in full.family]
+    rows = full.offsets[:-1][full.counts == 1]
+    moved = np.array([names[k] == "wall2" for k in rows])
+    has = full.counts == 1
+    assert np.array_equal(warped[has], np.where(moved, 1, 0)) and (warped[~has] == -1).all()
+    # Warped vertices: the plate's positions rounded to float32; the others stay.
+    assert np.array_equal(pos[has][moved], full.positions[rows][moved].astype(np.float32))
+    assert np.array_equal(pos[warped != 1], pts[warped != 1])
+    new, _ = snell.warp.plate_positions(pts.astype(np.float64), eye, *plate)
+    assert np.array_equal(new, pos)
+    with pytest.raises(ValueError, match="out"):
+        snell.warp.plate_positions(pts, eye, *plate, out=np.zeros((3, 3), dtype=np.float32))
