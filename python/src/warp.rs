@@ -7,9 +7,8 @@ use numpy::{AllowTypeChange, PyArray1, PyArray2, PyArrayLike1, PyArrayLikeDyn};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use rayon::prelude::*;
-use snell::warp::fastcyl::CylinderWarper;
-use snell::warp::paper::paper_image;
-use snell::warp::{CylImage, CylStatus, Family, HollowCylinder, Plate, PlateStatus};
+use snell::warp::approx_tube::approx_tube_image;
+use snell::warp::{CylImage, CylStatus, CylinderWarper, Family, HollowCylinder, Plate, PlateStatus};
 
 /// Vertices per parallel work item.
 const CHUNK: usize = 4096;
@@ -647,7 +646,7 @@ pub fn hollow_cylinder(
                 }
                 match how {
                     How::Paper => {
-                        let r = paper_image(&c, eye, p).map(|o| o.into_iter().collect::<Vec<_>>());
+                        let r = approx_tube_image(&c, eye, p).map(|o| o.into_iter().collect::<Vec<_>>());
                         outcome(r.as_deref().map_err(|e| *e), out);
                     }
                     _ => {
