@@ -165,7 +165,14 @@ fn run(py: Python<'_>, scene: &Scene, req: &Request, progress: &ProgressOut<'_>)
             let (got, back) = py.detach(move || (rx.recv_timeout(POLL), rx));
             rx = back;
             match got {
-                Ok(r) => break Ok(r),
+                Ok(r) => {
+                    // The last tiles' progress, so that a callback sees the end.
+                    let now = control.progress();
+                    match now.filter(|_| now != last) {
+                        Some(p) => break progress.report(py, &p).map(|()| r),
+                        None => break Ok(r),
+                    }
+                }
                 Err(mpsc::RecvTimeoutError::Disconnected) => {
                     break Err(PyRuntimeError::new_err(
                         "the render thread ended without a result",
