@@ -50,35 +50,40 @@ def render_pair(binary, scene, size, threads, reps):
     )
 
 
-def warps(reps):
-    n = 1000
-    i = np.arange(n * n)
-    # The bench's plate grid (benches/warp.rs, `solvers`): f32 vertices.
-    grid = np.column_stack([-6.0 + 12.0 * (i % n) / n, -4.5 + 9.0 * (i // n) / n, np.full(n * n, -3.0)])
-    grid = grid.astype(np.float32).astype(np.float64)
-    eye = [0.0, 0.0, 4.0]
+def _median_s(f, reps):
     times = []
     for _ in range(reps):
         t = time.perf_counter()
-        w = snell.warp.plate(grid, eye, [0.0, 0.0, 1.0], [0.2, -0.1, -1.0], 0.3, 1.5)
+        f()
         times.append(time.perf_counter() - t)
-    assert (w.status == 0).all()
-    print(f"plate warp, {len(grid)} vertices from NumPy: {len(grid) / statistics.median(times) / 1e6:.2f} M vertices/s")
+    return statistics.median(times)
+
+
+def warps(reps):
+    """The bench's grids (benches/warp.rs, `solvers`): a plate behind 1M
+    float32 vertices, the tube behind 316² vertices."""
+    n = 1000
+    i = np.arange(n * n)
+    grid32 = np.column_stack([-6.0 + 12.0 * (i % n) / n, -4.5 + 9.0 * (i // n) / n, np.full(n * n, -3.0)])
+    grid32 = grid32.astype(np.float32)
+    grid = grid32.astype(np.float64)
+    plate = ([0.0, 0.0, 4.0], [0.0, 0.0, 1.0], [0.2, -0.1, -1.0], 0.3, 1.5)
+    out = np.empty_like(grid32)
+    for label, f in (
+        ("plate_positions into a reused array (the bench's batch call)", lambda: snell.warp.plate_positions(grid32, *plate, out=out)),
+        ("plate, every image (batch solver)", lambda: snell.warp.plate(grid, *plate)),
+        ("plate, every image (scalar solver)", lambda: snell.warp.plate(grid, *plate, solver="scalar")),
+    ):
+        print(f"{label}, {len(grid)} vertices from NumPy: {len(grid) / _median_s(f, reps) / 1e6:.2f} M vertices/s")
     m = 316
     i = np.arange(m * m)
     tube = np.column_stack([-6.0 + 12.0 * (i % m) / m, -4.5 + 9.0 * (i // m) / m, np.full(m * m, -3.0)])
-    big = np.tile(tube, (10, 1))
-    for pts, label in ((tube, "the bench's grid"), (big, "the grid ten times")):
-        times = []
-        for _ in range(reps):
-            t = time.perf_counter()
-            w = snell.warp.hollow_cylinder(pts, eye, [0, 0, 0], [0, 1, 0], 1.0, 0.8, 1.5)
-            times.append(time.perf_counter() - t)
-        med = statistics.median(times)
-        print(
-            f"tube warp (tables, with parity), {len(pts)} vertices ({label}) from NumPy: "
-            f"{med * 1e5 / len(pts) * 1e3:.1f} ms per 100k vertices, {len(w.family) / len(pts):.2f} images/vertex"
+    for parity in (False, True):
+        med = _median_s(
+            lambda: snell.warp.hollow_cylinder(tube, [0, 0, 4], [0, 0, 0], [0, 1, 0], 1.0, 0.8, 1.5, parity=parity),
+            reps,
         )
+        print(f"tube (tables, parity={parity}), {len(tube)} vertices from NumPy: {med * 1e5 / len(tube) * 1e3:.1f} ms per 100k vertices")
 
 
 def main():
