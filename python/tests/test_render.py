@@ -90,7 +90,7 @@ def _seconds(scene, **kw):
 
 def test_other_threads_run_while_rendering(scenes):
     s = snell.load_file(str(scenes / "glass_of_water_nested.toml"))
-    kw = dict(spp=8, width=160, height=120, threads=1)
+    kw = dict(spp=16, width=160, height=120, threads=1)
     ticks = []
     done = threading.Event()
 
