@@ -84,7 +84,7 @@ pub fn trace_path<'py>(
     let path = py
         .detach(|| {
             refraction_path(
-                Tracer { scene: s, strategy },
+                Tracer::new(s).with_strategy(strategy),
                 o.as_vec3a(),
                 d.as_vec3a(),
                 &start,

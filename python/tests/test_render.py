@@ -136,6 +136,23 @@ def test_ctrl_c_stops_a_long_render(scenes):
     assert r.complete and r.stats["tiles_done"] == r.stats["tiles_total"]
 
 
+def test_progress_reaches_every_tile(scenes):
+    s = snell.load_file(str(scenes / "nested_spheres_a.toml"))
+    seen = []
+    snell.render(s, spp=8, width=96, height=64, threads=1, progress=seen.append)
+    assert seen, "no progress was reported"
+    done = [p["tiles_done"] for p in seen]
+    assert done == sorted(done) and seen[-1]["tiles_total"] == 6 * 4
+    assert done[-1] == 24 and seen[-1]["samples_done"] == 96 * 64 * 8
+
+    def stop(p):
+        raise RuntimeError("enough")
+
+    # A callback that raises stops the render and the error reaches the caller.
+    with pytest.raises(RuntimeError, match="enough"):
+        snell.render(s, spp=64, width=320, height=240, threads=1, progress=stop)
+
+
 def test_write_and_read_back(tmp_path):
     rng = np.random.default_rng(1)
     image = rng.random((12, 20, 3), dtype=np.float32) * 4
