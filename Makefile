@@ -130,7 +130,7 @@ PYTHON_VENV ?= $(OPENJD_VENV)
 PYTHON_TOOLS ?= 'maturin>=1.7,<2' 'numpy>=1.21' 'pytest>=7'
 PYTHON_TARGET_DIR ?= $(or $(CARGO_TARGET_DIR),target)
 PYTHON_PROFILE ?= release
-.PHONY: python test-python lint-python
+.PHONY: python test-python lint-python bench-python
 python: deps openjd
 	$(PYTHON_VENV)/bin/pip install --quiet --disable-pip-version-check $(PYTHON_TOOLS)
 	rm -f $(PYTHON_TARGET_DIR)/wheels/snell-*.whl
@@ -142,6 +142,13 @@ python: deps openjd
 test-python:
 	$(MAKE) --no-print-directory python PYTHON_PROFILE=dev
 	$(PYTHON_VENV)/bin/python -m pytest python/tests -q
+
+# The binding's overhead against the CLI and the Rust warp bench, all release
+# builds (python/benchmarks/overhead.py; the wheel replaces test-python's).
+bench-python: build
+	$(MAKE) --no-print-directory python PYTHON_PROFILE=release
+	$(CARGO) bench --bench warp --no-run --locked
+	$(PYTHON_VENV)/bin/python python/benchmarks/overhead.py --snell target/release/snell $(OVERHEAD_ARGS)
 
 # fmt and clippy on the binding crate (its own workspace, so `make lint` does not see it).
 lint-python: deps
