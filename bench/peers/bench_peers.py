@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""The peer race of issue 14: snell against Mitsuba 3 on the reference scenes.
+"""The peer race: snell against Mitsuba 3 on the reference scenes.
 
 Run through `make bench-peers` (which builds snell, prepares the venv and sets
 DRJIT_LIBLLVM_PATH); see docs/peers.md. Per reference scene of

@@ -2,7 +2,7 @@
 //! [`InteriorList`], and the three ways of finding the first *true* hit:
 //!
 //! - [`NestedStrategy::Filter`] (default): false hits are skipped inside an
-//!   Embree context filter ([`FalseHitFilter`]). The rule (DESIGN.md): with P0
+//!   Embree context filter ([`FalseHitFilter`]). The rule (docs/design.md): with P0
 //!   the highest rank in the list at the ray origin, the first true hit is the
 //!   nearest hit on any object of rank ≥ P0, so the filter is stateless and
 //!   traversal order does not matter. Rejected hits are recorded and applied to
@@ -38,7 +38,7 @@ pub use filter::{
 };
 pub use list::InteriorList;
 pub use settle::settle_child;
-pub use trace::{plain_hit_is_true, plain_query_suffices, time_list_updates, trace};
+pub use trace::{plain_hit_is_true, plain_query_suffices, trace, trace_timing_list_updates, ListUpdateTimer};
 
 /// A test scene: water (priority 1, the unit box at the origin) whose right
 /// half lies inside a glass box (priority 2, x from -0.2 to 0.8), then the
