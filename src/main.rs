@@ -44,8 +44,10 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Cmd {
-    /// Render a TOML scene to .png (sRGB 8-bit) or .exr (linear float32).
+    /// Render a scene (TOML, glTF .gltf/.glb, Mitsuba .xml) to .png (sRGB 8-bit) or .exr (linear float32).
     Render(RenderArgs),
+    /// Write a glTF or Mitsuba scene as snell TOML (docs/import-gltf.md, docs/import-mitsuba.md).
+    Convert(ConvertArgs),
     /// Merge part EXRs (regions, sample ranges; directories stand for their .exr files)
     /// into the whole render, bit for bit equal to a single render.
     Merge(MergeArgs),
@@ -131,6 +133,52 @@ struct RenderArgs {
     sweep_index: Option<u32>,
     #[command(flatten)]
     farm: FarmFlags,
+    #[command(flatten)]
+    import: ImportFlags,
+}
+
+/// How glTF and Mitsuba scenes are imported (docs/import-gltf.md, docs/import-mitsuba.md).
+#[derive(Args)]
+struct ImportFlags {
+    /// A Mitsuba parameter: -D spp=16 gives $spp the value 16 (repeatable).
+    #[arg(short = 'D', value_name = "NAME=VALUE")]
+    define: Vec<String>,
+    /// Refuse what cannot be mapped exactly (roughness, metals, ...) instead of warning.
+    #[arg(long)]
+    strict: bool,
+    /// Skip unknown plugins and parameters with a warning instead of refusing the scene.
+    #[arg(long)]
+    lenient: bool,
+}
+
+impl ImportFlags {
+    fn options(&self) -> Result<snell::scene::ImportOptions> {
+        let mut defines = Vec::new();
+        for d in &self.define {
+            let (k, v) = d
+                .split_once('=')
+                .filter(|(k, _)| !k.is_empty())
+                .ok_or_else(|| Error::Invalid(format!("-D {d}: expected NAME=VALUE")))?;
+            defines.push((k.to_string(), v.to_string()));
+        }
+        Ok(snell::scene::ImportOptions {
+            defines,
+            strict: self.strict,
+            lenient: self.lenient,
+        })
+    }
+}
+
+// `snell convert`.
+#[derive(Args)]
+struct ConvertArgs {
+    /// The glTF (.gltf, .glb) or Mitsuba (.xml) scene.
+    input: PathBuf,
+    /// The TOML to write (default: print it).
+    #[arg(short, long)]
+    output: Option<PathBuf>,
+    #[command(flatten)]
+    import: ImportFlags,
 }
 
 /// Render-farm options of `snell render` (docs/farm.md).
@@ -393,6 +441,7 @@ fn main() -> ExitCode {
 fn run(cli: Cli) -> Result<()> {
     match cli.cmd {
         Cmd::Render(a) => render(a),
+        Cmd::Convert(a) => convert(a),
         Cmd::Merge(a) => merge(a),
         Cmd::Table(a) => table(a),
         Cmd::Audit {
@@ -463,7 +512,11 @@ fn render(mut a: RenderArgs) -> Result<()> {
         snell::farm::make_parent(output)?;
     }
     let load_t = Instant::now();
-    let (s, scene_id) = snell::farm::load(&a.scene, &a.set, &BuildOptions::default(), a.nested)?;
+    let build = BuildOptions {
+        import: a.import.options()?,
+        ..BuildOptions::default()
+    };
+    let (s, scene_id) = snell::farm::load(&a.scene, &a.set, &build, a.nested)?;
     let load_s = load_t.elapsed().as_secs_f64();
     for w in &s.warnings {
         eprintln!("warning: {w}");
@@ -638,6 +691,19 @@ fn save_aov_pngs(output: &Path, r: &Rendered, layers: &[(&str, &[f32])], quiet: 
 
 // ---------------------------------------------------------------------------
 // `snell merge` and `snell table`.
+
+/// `snell convert`: the imported scene as TOML, its warnings on stderr.
+fn convert(a: ConvertArgs) -> Result<()> {
+    let dir = a
+        .output
+        .as_ref()
+        .map(|o| o.parent().map(Path::to_path_buf).unwrap_or_default());
+    let (toml, warnings) = snell::scene::import::convert(&a.input, dir.as_deref(), &a.import.options()?)?;
+    for w in &warnings {
+        eprintln!("warning: {w}");
+    }
+    write_or_print(a.output, &toml)
+}
 
 fn merge(a: MergeArgs) -> Result<()> {
     if a.mkdir {
