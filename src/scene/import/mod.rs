@@ -13,8 +13,8 @@ mod cie;
 pub mod gltf;
 mod meshes;
 pub mod mitsuba;
-mod ply;
-mod serialized;
+pub mod ply;
+pub mod serialized;
 mod toml_out;
 
 pub use meshes::load_mesh;

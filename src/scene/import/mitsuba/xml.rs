@@ -87,8 +87,7 @@ impl Document {
     }
 }
 
-struct Reader<'a> {
-    opts: &'a ImportOptions,
+struct Reader {
     params: HashMap<String, String>,
     search: Vec<PathBuf>,
     stack: Vec<PathBuf>,
@@ -99,7 +98,6 @@ struct Reader<'a> {
 pub fn read(path: &Path, opts: &ImportOptions) -> Result<Document> {
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
     let mut r = Reader {
-        opts,
         params: opts.defines.iter().cloned().collect(),
         search: vec![dir],
         stack: Vec::new(),
@@ -116,7 +114,6 @@ pub fn read(path: &Path, opts: &ImportOptions) -> Result<Document> {
 /// are followed outside `dir`'s files).
 pub fn read_str(file: &str, text: &str, dir: &Path, opts: &ImportOptions) -> Result<Document> {
     let mut r = Reader {
-        opts,
         params: opts.defines.iter().cloned().collect(),
         search: vec![dir.to_path_buf()],
         stack: vec![PathBuf::from(file)],
@@ -129,7 +126,7 @@ pub fn read_str(file: &str, text: &str, dir: &Path, opts: &ImportOptions) -> Res
     })
 }
 
-impl Reader<'_> {
+impl Reader {
     fn file(&mut self, path: &Path, from: Option<&Location>) -> Result<Node> {
         let canon = path.canonicalize().unwrap_or_else(|_| path.to_path_buf());
         if self.stack.contains(&canon) {
@@ -304,7 +301,6 @@ impl Reader<'_> {
             rest = &after[end..];
         }
         out.push_str(rest);
-        let _ = self.opts;
         Ok(out)
     }
 }
