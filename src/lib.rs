@@ -112,6 +112,7 @@ pub mod embree;
 pub mod error;
 pub mod farm;
 pub mod fuzz;
+pub mod fuzz_import;
 pub mod image_io;
 pub mod integrator;
 pub mod media;

@@ -339,6 +339,9 @@ struct FuzzArgs {
     json_cases: Option<u64>,
     #[arg(long, default_value = "tests/data/fuzz")]
     json_dir: PathBuf,
+    /// Mutated Mitsuba XML / glTF scenes of --scenes-dir (default: as many as --cases), from --first.
+    #[arg(long)]
+    import_cases: Option<u64>,
 }
 
 // `snell report`.
@@ -916,7 +919,30 @@ fn fuzz(a: FuzzArgs) -> Result<()> {
         say!("warning: no JSON seeds in {}", a.json_dir.display());
     }
     let json_ok = jr.panics.is_empty() && jr.unlocated.is_empty() && jr.slow.is_empty();
-    if json_ok && rep.panics.is_empty() && rep.unlocated_errors.is_empty() && rep.slow.is_empty() {
+    let t = Instant::now();
+    let ir = snell::fuzz_import::run_from(
+        &a.scenes_dir,
+        a.first,
+        a.import_cases.unwrap_or(a.cases),
+        a.seed,
+        limit,
+    );
+    say!(
+        "{} imported scenes (Mitsuba XML, glTF) in {:.1} s: {} rendered, {} refused with a located error, {} unlocated, {} panics, {} slower than 1 s; slowest {:.3} s ({})",
+        ir.cases,
+        t.elapsed().as_secs_f64(),
+        ir.rendered,
+        ir.refused,
+        ir.unlocated.len(),
+        ir.panics.len(),
+        ir.slow.len(),
+        ir.slowest.0,
+        ir.slowest.1
+    );
+    print_findings(&ir.panics, &ir.unlocated, &ir.slow);
+    let import_ok = ir.panics.is_empty() && ir.unlocated.is_empty() && ir.slow.is_empty();
+    if json_ok && import_ok && rep.panics.is_empty() && rep.unlocated_errors.is_empty() && rep.slow.is_empty()
+    {
         Ok(())
     } else {
         Err(Error::Invalid("the fuzzer found problems (see above)".into()))

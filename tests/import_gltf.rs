@@ -180,7 +180,8 @@ fn a_plain_triangle_imports() {
 
 #[test]
 fn hostile_files_are_refused_at_a_pointer() {
-    let cases: Vec<(Box<dyn FnOnce(&mut serde_json::Value)>, &str)> = vec![
+    type Edit = Box<dyn FnOnce(&mut serde_json::Value)>;
+    let cases: Vec<(Edit, &str)> = vec![
         (
             Box::new(|v| v["nodes"][1]["children"] = serde_json::json!([1])),
             "/nodes/1",

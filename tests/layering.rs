@@ -33,7 +33,7 @@ const LAYERS: &[&[&str]] = &[
     &["render", "audit"],
     // What drives renders: parts, overrides, benchmarks, the warp renderer.
     &["part", "overrides", "bench", "ceiling", "warp_render"],
-    &["merge", "farm", "fuzz"],
+    &["merge", "farm", "fuzz", "fuzz_import"],
     &["report"],
 ];
 

@@ -571,7 +571,7 @@ impl Builder<'_> {
         let m = DMat4::from_cols_array_2d(rows).transpose();
         let lin = DMat3::from_mat4(m);
         let size = lin.x_axis.length() * lin.y_axis.length() * lin.z_axis.length();
-        if !(lin.determinant().abs() > 1e-12 * size) || size == 0.0 {
+        if lin.determinant().is_nan() || lin.determinant().abs() <= 1e-12 * size || size == 0.0 {
             return Err(self.err(key, "expected an invertible matrix"));
         }
         Ok(m)

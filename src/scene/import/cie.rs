@@ -8,7 +8,7 @@ pub const CIE_MIN: f64 = 360.0;
 /// Last tabulated wavelength, nm.
 pub const CIE_MAX: f64 = 830.0;
 /// Scale making a unit spectrum integrate to luminance 1 (∫ȳ dλ of the table).
-pub const CIE_Y_NORMALIZATION: f64 = 1.0 / 106.7502593994140625;
+pub const CIE_Y_NORMALIZATION: f64 = 1.0 / 106.750_259_399_414_06;
 /// Scale making D65 integrate to luminance 1.
 pub const CIE_D65_NORMALIZATION: f64 = 1.0 / 98.99741751876255;
 

@@ -365,7 +365,7 @@ impl GltfData {
             Some(a) => self.indices(&a)?,
             None => (0..n as u32).collect(),
         };
-        if flat.len() % 3 != 0 {
+        if !flat.len().is_multiple_of(3) {
             return Err((
                 format!("{at}/indices"),
                 "the index count is not a multiple of 3".into(),

@@ -44,7 +44,7 @@ pub fn sensor(ctx: &Ctx<'_>, n: &Node) -> Result<(CameraDesc, FilmDesc)> {
                 f.trim().trim_end_matches("mm").trim().parse().map_err(|_| {
                     at.error(format!("expected a focal length such as \"50mm\", got \"{f}\""))
                 })?;
-            if !(mm > 0.0) {
+            if mm.is_nan() || mm <= 0.0 {
                 return Err(at.error("expected a focal length > 0"));
             }
             // 35 mm film equivalent: the diagonal of a 36 × 24 mm frame.
@@ -180,7 +180,7 @@ fn film(ctx: &Ctx<'_>, o: &Obj<'_, '_>) -> Result<FilmDesc> {
         let size = |k: &str, d: u64| -> Result<u64> {
             match f.int(k)? {
                 None => Ok(d),
-                Some(v) if v >= 1 && v <= 1 << 16 => Ok(v as u64),
+                Some(v) if (1..=1 << 16).contains(&v) => Ok(v as u64),
                 Some(v) => Err(f.at().error(format!("{k} {v}: expected 1..=65536 pixels"))),
             }
         };
@@ -285,9 +285,7 @@ pub fn integrator(ctx: &Ctx<'_>, n: &Node) -> Result<IntegratorDesc> {
             }
         }
         "moment" | "aov" => {
-            for k in ["aovs"] {
-                o.string(k)?;
-            }
+            o.string("aovs")?;
             let inner = o.objects("integrator")?;
             let Some(first) = inner.first() else {
                 return Err(o.at().error(format!("<integrator type=\"{plugin}\"> wraps no integrator")));

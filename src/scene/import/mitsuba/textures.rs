@@ -36,7 +36,7 @@ pub fn color(ctx: &Ctx<'_>, c: ColorParam<'_>, uv: Uv, emitter: bool) -> Result<
         ColorParam::Texture(n) => {
             let o = Obj::new(ctx, n)?;
             let t = match o.plugin()? {
-                "checkerboard" => checkerboard(ctx, &o, uv, emitter)?,
+                "checkerboard" => checkerboard(&o, uv, emitter)?,
                 "bitmap" => bitmap(ctx, &o, uv)?,
                 other => {
                     return Err(o.at().error(format!(
@@ -50,16 +50,12 @@ pub fn color(ctx: &Ctx<'_>, c: ColorParam<'_>, uv: Uv, emitter: bool) -> Result<
     }
 }
 
-fn constant(ctx: &Ctx<'_>, o: &Obj<'_, '_>, key: &str, default: f64, emitter: bool) -> Result<[f64; 3]> {
+fn constant(o: &Obj<'_, '_>, key: &str, default: f64, emitter: bool) -> Result<[f64; 3]> {
     match o.color(key, emitter)? {
         None => Ok([default; 3]),
         Some(ColorParam::Rgb(v)) => Ok(v),
         Some(ColorParam::Texture(t)) => Err(t.at.error("a texture inside a checkerboard is not supported")),
     }
-    .map(|v| {
-        let _ = ctx;
-        v
-    })
 }
 
 /// 2-D affine map of `to_uv` (Mitsuba keeps the x, y rows and columns and
@@ -71,9 +67,9 @@ fn uv_affine(m: &DMat4) -> [[f64; 3]; 2] {
     ]
 }
 
-fn checkerboard(ctx: &Ctx<'_>, o: &Obj<'_, '_>, uv: Uv, emitter: bool) -> Result<TextureDesc> {
-    let c0 = constant(ctx, o, "color0", 0.4, emitter)?;
-    let c1 = constant(ctx, o, "color1", 0.2, emitter)?;
+fn checkerboard(o: &Obj<'_, '_>, uv: Uv, emitter: bool) -> Result<TextureDesc> {
+    let c0 = constant(o, "color0", 0.4, emitter)?;
+    let c1 = constant(o, "color1", 0.2, emitter)?;
     let (m, _) = o.transform("to_uv")?;
     let Uv::Frame(f) = uv else {
         return Err(o.at().error(

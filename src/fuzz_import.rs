@@ -1,0 +1,211 @@
+//! The mutation fuzzer for imported scenes: the shipped Mitsuba XML and glTF
+//! files (their text, a GLB's JSON chunk re-wrapped with correct lengths, or
+//! its raw bytes) mutated 1–3 times each case. Every case must end in a
+//! built scene (rendered at 4×3 pixels, 1 spp) or an error naming its file
+//! and place; a panic, an unlocated error or a case slower than the limit is
+//! a finding. `snell fuzz` runs it after the TOML fuzzer;
+//! `tests/import_fuzz.rs` runs a smaller count.
+use crate::error::Error;
+use crate::fuzz::mutate;
+use crate::render::{render, RenderOptions, RenderSettings};
+use crate::sampling::Rng;
+use crate::scene::import::{mitsuba, to_toml, ImportOptions};
+use crate::scene::{load_scene, load_scene_str, BuildOptions};
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// Outcome counts of an import fuzz run.
+#[derive(Debug, Clone, Default)]
+pub struct ImportFuzzReport {
+    /// Cases run.
+    pub cases: u64,
+    /// Cases imported, built and rendered.
+    pub rendered: u64,
+    /// Cases refused with an error naming the file and place.
+    pub refused: u64,
+    /// Findings: panics, `case i (name): message`.
+    pub panics: Vec<String>,
+    /// Findings: errors naming no place (not an input or file error).
+    pub unlocated: Vec<String>,
+    /// Findings: cases slower than the limit, and their seconds.
+    pub slow: Vec<(String, f64)>,
+    /// The slowest case: seconds and `case i (name)`.
+    pub slowest: (f64, String),
+}
+
+/// A seed file: its name and bytes.
+enum Seed {
+    Xml(String, String),
+    Gltf(String, Vec<u8>),
+}
+
+/// The shipped `.xml`, `.gltf` and `.glb` scenes of `dir`.
+fn seeds(dir: &Path) -> Vec<Seed> {
+    let mut paths: Vec<PathBuf> = std::fs::read_dir(dir)
+        .map(|rd| rd.filter_map(|e| e.ok()).map(|e| e.path()).collect())
+        .unwrap_or_default();
+    paths.sort();
+    paths
+        .into_iter()
+        .filter_map(|p| {
+            let name = p.file_name()?.to_string_lossy().into_owned();
+            match p.extension()?.to_str()? {
+                "xml" => Some(Seed::Xml(name, std::fs::read_to_string(&p).ok()?)),
+                "gltf" | "glb" => Some(Seed::Gltf(name, std::fs::read(&p).ok()?)),
+                _ => None,
+            }
+        })
+        .collect()
+}
+
+/// `bytes` mutated: the JSON of a GLB (re-wrapped so the container stays
+/// valid and the mutation reaches the document) or of a `.gltf`, or a raw
+/// byte flip or truncation.
+fn mutate_gltf(bytes: &[u8], rng: &mut Rng) -> Vec<u8> {
+    let glb = bytes.starts_with(b"glTF") && bytes.len() >= 20;
+    if rng.next_u32().is_multiple_of(4) {
+        let mut b = bytes.to_vec();
+        if b.is_empty() {
+            return b;
+        }
+        let i = rng.next_u32() as usize % b.len();
+        if rng.next_u32().is_multiple_of(2) {
+            b[i] ^= 1 << (rng.next_u32() % 8);
+        } else {
+            b.truncate(i);
+        }
+        return b;
+    }
+    if !glb {
+        return mutate(&String::from_utf8_lossy(bytes), rng).into_bytes();
+    }
+    let jlen = u32::from_le_bytes([bytes[12], bytes[13], bytes[14], bytes[15]]) as usize;
+    let Some(json) = bytes.get(20..20 + jlen) else {
+        return bytes.to_vec();
+    };
+    let rest = &bytes[20 + jlen..];
+    let mut js = mutate(&String::from_utf8_lossy(json), rng).into_bytes();
+    while !js.len().is_multiple_of(4) {
+        js.push(b' ');
+    }
+    let total = 20 + js.len() + rest.len();
+    let mut out = Vec::with_capacity(total);
+    out.extend(b"glTF");
+    out.extend(2u32.to_le_bytes());
+    out.extend((total as u32).to_le_bytes());
+    out.extend((js.len() as u32).to_le_bytes());
+    out.extend(b"JSON");
+    out.extend(js);
+    out.extend(rest);
+    out
+}
+
+/// Run `cases` mutated imported scenes from the `.xml`/`.gltf`/`.glb` files
+/// in `scene_dir`. Case i draws from `Rng::for_sample(seed, i, 1)`. Mutated
+/// glTF files are written to a private temporary directory beside copies of
+/// the files they refer to (their meshes are read from there when built).
+pub fn run(scene_dir: &Path, cases: u64, seed: u64, limit: Duration) -> ImportFuzzReport {
+    run_from(scene_dir, 0, cases, seed, limit)
+}
+
+/// `run` from case `first` (case i is the same for any `first`: reproduce
+/// one with `snell fuzz --cases 0 --json-cases 0 --first i --import-cases 1`).
+pub fn run_from(scene_dir: &Path, first: u64, cases: u64, seed: u64, limit: Duration) -> ImportFuzzReport {
+    let mut rep = ImportFuzzReport::default();
+    let seeds = seeds(scene_dir);
+    if seeds.is_empty() {
+        return rep;
+    }
+    let tmp = std::env::temp_dir().join(format!("snell-import-fuzz-{}-{seed}", std::process::id()));
+    let _ = std::fs::create_dir_all(&tmp);
+    // Images and buffers a glTF may refer to, beside the mutated copies.
+    if let Ok(rd) = std::fs::read_dir(scene_dir) {
+        for p in rd.filter_map(|e| e.ok()).map(|e| e.path()) {
+            if p.extension().is_some_and(|x| x == "png" || x == "bin") {
+                if let Some(n) = p.file_name() {
+                    let _ = std::fs::copy(&p, tmp.join(n));
+                }
+            }
+        }
+    }
+    let prev = std::panic::take_hook();
+    std::panic::set_hook(Box::new(|_| {}));
+    for i in first..first.saturating_add(cases) {
+        let mut rng = Rng::for_sample(seed, i, 1);
+        let s = &seeds[rng.next_u32() as usize % seeds.len()];
+        let n = 1 + rng.next_u32() % 3;
+        let t = Instant::now();
+        let (name, outcome) = match s {
+            Seed::Xml(name, text) => {
+                let mut m = text.clone();
+                for _ in 0..n {
+                    m = mutate(&m, &mut rng);
+                }
+                let outcome = catch_unwind(AssertUnwindSafe(|| {
+                    let imp = mitsuba::import_str(name, &m, scene_dir, &ImportOptions::default())?;
+                    let toml = to_toml(&imp.desc)?;
+                    load_scene_str(
+                        &format!("{name} (imported)"),
+                        &toml,
+                        scene_dir,
+                        &BuildOptions::default(),
+                    )
+                }));
+                (name, outcome)
+            }
+            Seed::Gltf(name, bytes) => {
+                let mut m = bytes.clone();
+                for _ in 0..n {
+                    m = mutate_gltf(&m, &mut rng);
+                }
+                let path = tmp.join(name);
+                let _ = std::fs::write(&path, &m);
+                let outcome = catch_unwind(AssertUnwindSafe(|| load_scene(&path, &BuildOptions::default())));
+                (name, outcome)
+            }
+        };
+        let rendered = match outcome {
+            Ok(Ok(scene)) => catch_unwind(AssertUnwindSafe(|| {
+                let (w, h) = (4.min(scene.width), 3.min(scene.height));
+                let set = RenderSettings::from_scene(&scene)
+                    .with_resolution(w, h)?
+                    .with_spp(1);
+                let opts = RenderOptions {
+                    threads: Some(1),
+                    quiet: true,
+                    want_aovs: false,
+                };
+                render(&scene, &set, &opts).map(|_| ())
+            }))
+            .map(|r| r.map(|_| true)),
+            Ok(Err(e)) => Ok(Err(e)),
+            Err(p) => Err(p),
+        };
+        let el = t.elapsed().as_secs_f64();
+        rep.cases += 1;
+        let label = format!("case {i} ({name})");
+        if el > rep.slowest.0 {
+            rep.slowest = (el, label.clone());
+        }
+        if el > limit.as_secs_f64() {
+            rep.slow.push((label.clone(), el));
+        }
+        match rendered {
+            Ok(Ok(_)) => rep.rendered += 1,
+            Ok(Err(Error::Input { .. } | Error::Io { .. })) => rep.refused += 1,
+            Ok(Err(e)) => rep.unlocated.push(format!("{label}: {e}")),
+            Err(p) => {
+                let msg = p
+                    .downcast_ref::<&str>()
+                    .map(|s| s.to_string())
+                    .or_else(|| p.downcast_ref::<String>().cloned())
+                    .unwrap_or_default();
+                rep.panics.push(format!("{label}: {msg}"));
+            }
+        }
+    }
+    std::panic::set_hook(prev);
+    let _ = std::fs::remove_dir_all(&tmp);
+    rep
+}
