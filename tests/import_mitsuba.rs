@@ -323,3 +323,41 @@ fn build_errors_are_placed_in_the_xml() {
         "{e}"
     );
 }
+
+/// `ply` and `serialized` shapes: snell reads the files itself; a shape
+/// index past the file's shapes is an error placed at the XML element.
+#[test]
+fn ply_and_serialized_meshes_load_and_bad_indices_are_placed() {
+    use snell::scene::import::serialized;
+    use snell::scene::shapes::Mesh;
+    let dir = std::env::temp_dir().join(format!("snell-import-meshes-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let quad = Mesh {
+        positions: vec![[-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [1.0, 1.0, 0.0], [-1.0, 1.0, 0.0]],
+        indices: vec![[0, 1, 2], [0, 2, 3]],
+        normals: None,
+        uvs: None,
+    };
+    std::fs::write(dir.join("quad.serialized"), serialized::write_v4(&quad, "quad")).unwrap();
+    std::fs::write(
+        dir.join("quad.ply"),
+        "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n-1 -1 0\n1 -1 0\n1 1 0\n-1 1 0\n4 0 1 2 3\n",
+    )
+    .unwrap();
+    let scene = |index: u32| {
+        format!(
+            "<scene version=\"3.0.0\">\n{SENSOR}\n<shape type=\"ply\"><string name=\"filename\" value=\"quad.ply\"/></shape>\n<shape type=\"serialized\">\n<string name=\"filename\" value=\"quad.serialized\"/>\n<integer name=\"shape_index\" value=\"{index}\"/>\n<transform name=\"to_world\"><translate z=\"-1\"/></transform>\n</shape>\n</scene>"
+        )
+    };
+    let f = dir.join("meshes.xml");
+    std::fs::write(&f, scene(0)).unwrap();
+    let s = load_scene(&f, &BuildOptions::default()).unwrap();
+    assert_eq!(s.geoms.len(), 2);
+    std::fs::write(&f, scene(5)).unwrap();
+    let e = load_scene(&f, &BuildOptions::default()).err().map(|e| e.to_string()).unwrap_or_default();
+    let _ = std::fs::remove_dir_all(&dir);
+    assert!(
+        e.contains("meshes.xml:4:1: <shape type=\"serialized\">: objects[1].shape.shape_index") && e.contains("out of range"),
+        "{e}"
+    );
+}
