@@ -2,8 +2,9 @@
 //! files (their text, a GLB's JSON chunk re-wrapped with correct lengths, or
 //! its raw bytes) mutated 1–3 times each case. Every case must end in a
 //! built scene (rendered at 4×3 pixels, 1 spp) or an error naming its file
-//! and place; a panic, an unlocated error or a case slower than the limit is
-//! a finding. `snell fuzz` runs it after the TOML fuzzer;
+//! and place; a panic, an unlocated error or a case that spends more CPU
+//! time than the limit is a finding (CPU time, not wall time: the machine's
+//! load must not make findings). `snell fuzz` runs it after the TOML fuzzer;
 //! `tests/import_fuzz.rs` runs a smaller count.
 use crate::error::Error;
 use crate::fuzz::mutate;
@@ -28,9 +29,9 @@ pub struct ImportFuzzReport {
     pub panics: Vec<String>,
     /// Findings: errors naming no place (not an input or file error).
     pub unlocated: Vec<String>,
-    /// Findings: cases slower than the limit, and their seconds.
+    /// Findings: cases over the limit, and their CPU seconds.
     pub slow: Vec<(String, f64)>,
-    /// The slowest case: seconds and `case i (name)`.
+    /// The costliest case: CPU seconds and `case i (name)`.
     pub slowest: (f64, String),
 }
 
@@ -136,6 +137,7 @@ pub fn run_from(scene_dir: &Path, first: u64, cases: u64, seed: u64, limit: Dura
         let s = &seeds[rng.next_u32() as usize % seeds.len()];
         let n = 1 + rng.next_u32() % 3;
         let t = Instant::now();
+        let cpu0 = crate::farm::cpu_seconds();
         let (name, outcome) = match s {
             Seed::Xml(name, text) => {
                 let mut m = text.clone();
@@ -182,7 +184,10 @@ pub fn run_from(scene_dir: &Path, first: u64, cases: u64, seed: u64, limit: Dura
             Ok(Err(e)) => Ok(Err(e)),
             Err(p) => Err(p),
         };
-        let el = t.elapsed().as_secs_f64();
+        let el = match (cpu0, crate::farm::cpu_seconds()) {
+            (Some(a), Some(b)) => b - a,
+            _ => t.elapsed().as_secs_f64(),
+        };
         rep.cases += 1;
         let label = format!("case {i} ({name})");
         if el > rep.slowest.0 {

@@ -333,7 +333,12 @@ fn ply_and_serialized_meshes_load_and_bad_indices_are_placed() {
     let dir = std::env::temp_dir().join(format!("snell-import-meshes-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let quad = Mesh {
-        positions: vec![[-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [1.0, 1.0, 0.0], [-1.0, 1.0, 0.0]],
+        positions: vec![
+            [-1.0, -1.0, 0.0],
+            [1.0, -1.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [-1.0, 1.0, 0.0],
+        ],
         indices: vec![[0, 1, 2], [0, 2, 3]],
         normals: None,
         uvs: None,
@@ -354,10 +359,14 @@ fn ply_and_serialized_meshes_load_and_bad_indices_are_placed() {
     let s = load_scene(&f, &BuildOptions::default()).unwrap();
     assert_eq!(s.geoms.len(), 2);
     std::fs::write(&f, scene(5)).unwrap();
-    let e = load_scene(&f, &BuildOptions::default()).err().map(|e| e.to_string()).unwrap_or_default();
+    let e = load_scene(&f, &BuildOptions::default())
+        .err()
+        .map(|e| e.to_string())
+        .unwrap_or_default();
     let _ = std::fs::remove_dir_all(&dir);
     assert!(
-        e.contains("meshes.xml:4:1: <shape type=\"serialized\">: objects[1].shape.shape_index") && e.contains("out of range"),
+        e.contains("meshes.xml:4:1: <shape type=\"serialized\">: objects[1].shape.shape_index")
+            && e.contains("out of range"),
         "{e}"
     );
 }

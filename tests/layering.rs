@@ -33,7 +33,9 @@ const LAYERS: &[&[&str]] = &[
     &["render", "audit"],
     // What drives renders: parts, overrides, benchmarks, the warp renderer.
     &["part", "overrides", "bench", "ceiling", "warp_render"],
-    &["merge", "farm", "fuzz", "fuzz_import"],
+    &["merge", "farm", "fuzz"],
+    // The importers' fuzzer (it reuses the scene fuzzer's mutations).
+    &["fuzz_import"],
     &["report"],
 ];
 
