@@ -40,8 +40,11 @@ demo: build
 	./target/release/snell render $(DEMO_SCENE) -o $(DEMO_OUT) --quiet
 	@echo "snell: demo image written to $(abspath $(DEMO_OUT))"
 
+# The core library builds without the command line's dependencies (clap,
+# ctrlc, indicatif, plotters): checked here so that CI keeps it so.
 test: deps openjd
 	$(CARGO) test --workspace --locked
+	$(CARGO) build -p snell --lib --no-default-features --locked
 
 # openjd-cli (Open Job Description) in a venv for tests/farm.rs and docs/farm.md.
 # Debian's python3 needs python3-venv for `python3 -m venv`: installed when missing.
@@ -87,7 +90,7 @@ fuzz: build
 bench: deps
 	$(CARGO) bench --locked
 
-# The peer race (issue 14, docs/peers.md): snell against Mitsuba 3 (from PyPI, in
+# The peer race (docs/peers.md): snell against Mitsuba 3 (from PyPI, in
 # PEERS_VENV, with Debian's libllvm19 for its llvm_* variants) on the three
 # reference scenes, equal spp and threads, images checked by block means.
 # Options through PEERS_ARGS: make bench-peers PEERS_ARGS='--reps 5 --json peers.json'
@@ -107,6 +110,7 @@ fmt:
 lint: deps
 	$(CARGO) fmt --all -- --check
 	$(CARGO) clippy --all-targets --locked -- -D warnings
+	$(CARGO) clippy -p snell --lib --no-default-features --locked -- -D warnings
 
 clean:
 	$(CARGO) clean

@@ -10,7 +10,7 @@ use std::time::Instant;
 use glam::DVec3;
 use snell::media::grin_trace::{trace, Query};
 use snell::media::stepper::State;
-use snell::media::{paper, IndexField, Method};
+use snell::media::{mirage_study, IndexField, Method};
 
 /// (end, evaluations, steps, seconds per trace) or the failure message.
 fn run(q: &Query) -> Result<(DVec3, u64, u64, f64), String> {
@@ -147,7 +147,7 @@ fn main() {
             100.0,
         ),
         (
-            "hot_ground (inferior mirage), 1.5 m, 0.5° down, 400 m",
+            "hot_ground, inferior mirage: 1.5 m, 0.5° down, 400 m",
             IndexField::HotGround {
                 n_inf: 1.000_293,
                 dn: 1e-4,
@@ -308,8 +308,8 @@ fn main() {
                 };
                 let mut ok = true;
                 for _ in 0..n_steps {
-                    match paper::segment(&field, m, h, &st, &mut ev) {
-                        Ok(paper::Seg::To(s)) => st = s,
+                    match mirage_study::segment(&field, m, h, &st, &mut ev) {
+                        Ok(mirage_study::Seg::To(s)) => st = s,
                         _ => ok = false,
                     }
                 }

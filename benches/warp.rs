@@ -15,63 +15,112 @@
 //!   per-frame error.
 //! - Vertex sweep (Tables 1, 2) and resolution sweep (Table 3).
 //!
-//! SNELL_BENCH_QUICK=1: a short run (smaller sizes, fewer repetitions).
-//! SNELL_BENCH_ONLY=solvers|cylinder|frames|orbit|pipeline:SCENE|rays:SCENE: one part.
-//! SNELL_BENCH_REPS=N: N repetitions instead of 5 (3 quick).
-//! SNELL_BENCH_NO_PARITY=1 (with `cylinder`): time only the warp's call
-//! (`images_into` without parity), e.g. for callgrind counts.
+//! Arguments (after `--`; `USAGE`):
+//! - `--quick`: a short run (smaller sizes, fewer repetitions).
+//! - `--only PART`: one part alone, no JSON: `solvers`, `cylinder`,
+//!   `frames`, `orbit`, `pipeline:SCENE` (the warp frame of one scene at
+//!   1600×1200, CPU seconds per phase) or `rays:SCENE` (its ray pass).
+//! - `--reps N`: N repetitions instead of 5 (3 with `--quick`).
+//! - `--no-parity` (with `--only cylinder`): time only the warp's call
+//!   (`images_batch` without parity), e.g. for instruction counts.
+//! - `--json FILE`: write the figures (not with `--only`).
 use glam::{DVec3, Vec3A};
 use rayon::prelude::*;
 use snell::camera::Camera;
+use snell::timing::{self, median};
 use snell::warp::{
-    fastcyl::CylinderWarper, paper::paper_image, HollowCylinder, Plate, PlateStatus, WarpGlass,
+    approx_tube::approx_tube_image, CylinderWarper, HollowCylinder, Plate, PlateStatus, WarpGlass,
 };
-use snell::warp_render::pipeline::{render_exact_packets, Pipeline};
+use snell::warp_render::pipeline::Pipeline;
 use snell::warp_render::{
-    build_originals, compare, grid_scene as setup, render_exact, render_warped, warp_scene, Comparison, Frame,
+    build_originals, compare, grid_scene as setup, render_exact, render_exact_packets, render_warped,
+    warp_scene, Comparison, Frame,
 };
 use std::time::Instant;
 
-fn quick() -> bool {
-    std::env::var("SNELL_BENCH_QUICK").is_ok()
+const USAGE: &str = "usage: cargo bench --bench warp -- [--quick] \
+[--only solvers|cylinder|frames|orbit|pipeline:SCENE|rays:SCENE] [--reps N] [--no-parity] [--json FILE]";
+
+/// One part of the bench run alone (`--only`), for profiling and A/B runs.
+#[derive(Debug, Clone, PartialEq)]
+enum Part {
+    Solvers,
+    Cylinder,
+    Frames,
+    Orbit,
+    /// The warp frame of one scene, CPU seconds per phase.
+    Pipeline(String),
+    /// The warp frame's ray pass of one scene.
+    Rays(String),
 }
 
-/// `SNELL_BENCH_ONLY=solvers` or `=frames`: run that part alone (for
-/// profiling and A/B runs; the JSON is then not written).
-fn only() -> Option<String> {
-    std::env::var("SNELL_BENCH_ONLY").ok()
+/// The bench's command line.
+#[derive(Debug, Default)]
+struct Options {
+    /// A short run: smaller sizes, fewer repetitions.
+    quick: bool,
+    /// One part alone (no JSON).
+    only: Option<Part>,
+    /// Repetitions of the timed runs.
+    reps: usize,
+    /// With `--only cylinder`: skip the parity pass.
+    no_parity: bool,
+    /// Where to write the figures as JSON.
+    json: Option<String>,
 }
 
-fn reps() -> usize {
-    if let Some(n) = std::env::var("SNELL_BENCH_REPS")
-        .ok()
-        .and_then(|v| v.parse().ok())
-    {
-        return n;
+impl Options {
+    /// The options of `args` (the arguments after the program's name).
+    /// `--bench`, which cargo passes to every bench, is ignored.
+    fn parse(args: impl IntoIterator<Item = String>) -> Result<Options, String> {
+        let mut o = Options::default();
+        let mut reps = None;
+        let mut args = args.into_iter();
+        while let Some(a) = args.next() {
+            let mut value = |name: &str| args.next().ok_or_else(|| format!("{name}: expected a value"));
+            match a.as_str() {
+                "--bench" => {}
+                "--quick" => o.quick = true,
+                "--no-parity" => o.no_parity = true,
+                "--json" => o.json = Some(value("--json")?),
+                "--reps" => {
+                    let v = value("--reps")?;
+                    match v.parse::<usize>() {
+                        Ok(n) if n >= 1 => reps = Some(n),
+                        _ => return Err(format!("--reps: expected a whole number >= 1, got \"{v}\"")),
+                    }
+                }
+                "--only" => {
+                    let v = value("--only")?;
+                    o.only = Some(match v.as_str() {
+                        "solvers" => Part::Solvers,
+                        "cylinder" => Part::Cylinder,
+                        "frames" => Part::Frames,
+                        "orbit" => Part::Orbit,
+                        _ => match (v.strip_prefix("pipeline:"), v.strip_prefix("rays:")) {
+                            (Some(scene), _) if !scene.is_empty() => Part::Pipeline(scene.into()),
+                            (_, Some(scene)) if !scene.is_empty() => Part::Rays(scene.into()),
+                            _ => {
+                                return Err(format!(
+                                    "--only: expected solvers, cylinder, frames, orbit, pipeline:SCENE or \
+                                     rays:SCENE, got \"{v}\""
+                                ))
+                            }
+                        },
+                    });
+                }
+                _ => return Err(format!("unknown argument \"{a}\"")),
+            }
+        }
+        if o.no_parity && o.only != Some(Part::Cylinder) {
+            return Err("--no-parity: only with --only cylinder".into());
+        }
+        if o.json.is_some() && o.only.is_some() {
+            return Err("--json: not with --only (one part alone writes no JSON)".into());
+        }
+        o.reps = reps.unwrap_or(if o.quick { 3 } else { 5 });
+        Ok(o)
     }
-    if quick() {
-        3
-    } else {
-        5
-    }
-}
-
-/// CPU seconds of every thread of the process, to the nanosecond (the
-/// scheduler's run time per task in /proc; `farm::cpu_seconds` counts
-/// 10 ms ticks).
-fn cpu_ns() -> f64 {
-    let Ok(dir) = std::fs::read_dir("/proc/self/task") else {
-        return 0.0;
-    };
-    dir.filter_map(|e| std::fs::read_to_string(e.ok()?.path().join("schedstat")).ok())
-        .filter_map(|s| s.split_whitespace().next()?.parse::<f64>().ok())
-        .sum::<f64>()
-        * 1e-9
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
 }
 
 fn pool(threads: usize) -> rayon::ThreadPool {
@@ -100,13 +149,13 @@ struct Summary {
     orbit: Option<serde_json::Value>,
 }
 
-fn solvers(sum: &mut Summary) {
+fn solvers(sum: &mut Summary, opts: &Options) {
     println!("\n## Solvers\n");
     let eye = DVec3::new(0.0, 0.0, 4.0);
-    if only().as_deref() == Some("cylinder") {
-        return cylinder_solver(sum, eye);
+    if opts.only == Some(Part::Cylinder) {
+        return cylinder_solver(sum, eye, opts);
     }
-    let n = if quick() { 300 } else { 1000 };
+    let n = if opts.quick { 300 } else { 1000 };
     // Plate: tilted, 0.3 thick, targets behind it, as a mesh stores them (f32).
     let plate = Plate::try_new(DVec3::new(0.0, 0.0, 1.0), DVec3::new(0.2, -0.1, -1.0), 0.3, 1.5).unwrap();
     let pts: Vec<[f32; 3]> = (0..n * n)
@@ -161,7 +210,7 @@ fn solvers(sum: &mut Summary) {
     );
     let (mut tb, mut tb1, mut ts, mut tc) = (vec![], vec![], vec![], vec![]);
     let one = pool(1);
-    for _ in 0..reps() {
+    for _ in 0..opts.reps {
         tb.push(batch(&mut out, &mut class));
         tb1.push(one.install(|| batch(&mut out, &mut class)));
         let t = Instant::now();
@@ -178,7 +227,7 @@ fn solvers(sum: &mut Summary) {
             .for_each(|(d, s)| d.copy_from_slice(s));
         tc.push(t.elapsed().as_secs_f64());
     }
-    let (tb, tb1, ts, tc) = (median(tb), median(tb1), median(ts), median(tc));
+    let (tb, tb1, ts, tc) = (median(&tb), median(&tb1), median(&ts), median(&tc));
     let nv = pts.len() as f64;
     let bytes = (12 + 12 + std::mem::size_of::<Result<bool, PlateStatus>>()) as f64;
     // Re-trace a sample (f64 lanes) with vector Snell through the plate.
@@ -206,7 +255,7 @@ fn solvers(sum: &mut Summary) {
     println!(
         "plate warp, {} vertices (f32 in and out), median of {} interleaved runs:\n  batch (4 f64 lanes) 2 threads {:.1} M vertices/s, 1 thread {:.1} M/s; scalar solver 2 threads {:.1} M/s ({:.2}x)\n  batch moves {:.0} bytes/vertex = {:.2} GB/s; a plain parallel copy of the same f32 arrays: {:.2} GB/s ({:.0} M vertices/s)\n  re-traced miss / distance <= {:.1e}",
         pts.len(),
-        reps(),
+        opts.reps,
         sum.plate_vps / 1e6,
         sum.plate_vps_1t / 1e6,
         sum.plate_scalar_vps / 1e6,
@@ -217,14 +266,14 @@ fn solvers(sum: &mut Summary) {
         nv / tc / 1e6,
         worst
     );
-    cylinder_solver(sum, eye);
+    cylinder_solver(sum, eye, opts);
 }
 
 /// The hollow-cylinder solvers on the warp_cylinder plane.
-fn cylinder_solver(sum: &mut Summary, eye: DVec3) {
+fn cylinder_solver(sum: &mut Summary, eye: DVec3, opts: &Options) {
     // Cylinder: the warp_cylinder plane, ~100k vertices.
     let c = HollowCylinder::try_new(DVec3::ZERO, DVec3::Y, 1.0, 0.8, 1.5).unwrap();
-    let m = if quick() { 100 } else { 316 };
+    let m = if opts.quick { 100 } else { 316 };
     let pts: Vec<DVec3> = (0..m * m)
         .map(|i| {
             DVec3::new(
@@ -246,7 +295,7 @@ fn cylinder_solver(sum: &mut Summary, eye: DVec3) {
     // and `images` with the parity `warp-points` reports, interleaved.
     let (mut tt, mut tf, mut tp) = (vec![], vec![], vec![]);
     let mut imgs = 0usize;
-    for _ in 0..reps() {
+    for _ in 0..opts.reps {
         // The renderer's call: tables for these targets (their β range and
         // the families they need).
         let t = Instant::now();
@@ -263,8 +312,8 @@ fn cylinder_solver(sum: &mut Summary, eye: DVec3) {
             })
             .sum();
         tf.push(t.elapsed().as_secs_f64());
-        if std::env::var("SNELL_BENCH_NO_PARITY").is_ok() {
-            // Instruction counts of the warp's call alone (callgrind).
+        if opts.no_parity {
+            // The warp's call alone (e.g. its instruction counts).
             tp.push(0.0);
             continue;
         }
@@ -275,8 +324,8 @@ fn cylinder_solver(sum: &mut Summary, eye: DVec3) {
             .sum();
         tp.push(t.elapsed().as_secs_f64());
     }
-    let (tables, fast, with_parity) = (median(tt), median(tf), median(tp));
-    if only().as_deref() == Some("cylinder") {
+    let (tables, fast, with_parity) = (median(&tt), median(&tf), median(&tp));
+    if opts.only == Some(Part::Cylinder) {
         // Profiling the fast solver alone.
         println!(
             "cylinder fast: {:.3} s + tables {:.3} s per {} vertices, {:.2} images/vertex (with parity {:.3} s)",
@@ -318,7 +367,7 @@ fn cylinder_solver(sum: &mut Summary, eye: DVec3) {
     let t = Instant::now();
     let paper: Vec<Option<snell::warp::CylImage>> = pts
         .par_iter()
-        .map(|p| paper_image(&c, eye, *p).ok().flatten())
+        .map(|p| approx_tube_image(&c, eye, *p).ok().flatten())
         .collect();
     let paper_s = t.elapsed().as_secs_f64();
     let mut errs: Vec<f64> = pts
@@ -457,16 +506,16 @@ fn frame_row(
             &snell::render::RenderSettings::from_scene(&scene).with_spp(1),
             &snell::render::RenderOptions {
                 threads: None,
-                quiet: true,
                 want_aovs: false,
+                ..Default::default()
             },
         )?;
         Some(t.elapsed().as_secs_f64())
     } else {
         None
     };
-    let (warp_s, copies_s, rays_s) = (median(warp), median(copies), median(rays));
-    let (refit_s, refit_rays_s) = (median(refit), median(refit_rays));
+    let (warp_s, copies_s, rays_s) = (median(&warp), median(&copies), median(&rays));
+    let (refit_s, refit_rays_s) = (median(&refit), median(&refit_rays));
     Ok(FrameFigures {
         vertices: prep.vertices,
         width: w,
@@ -479,9 +528,9 @@ fn frame_row(
         frame_s: warp_s + copies_s + rays_s,
         refit_frame_s: warp_s + refit_s + refit_rays_s,
         refit_cmp: refit_cmp.unwrap(),
-        old_frame_s: median(old),
-        exact_s: median(ex),
-        exact_packets_s: median(exp),
+        old_frame_s: median(&old),
+        exact_s: median(&ex),
+        exact_packets_s: median(&exp),
         render_1spp_s,
         cmp: cmp.unwrap(),
     })
@@ -600,59 +649,60 @@ fn orbit(n: usize, w: u32, h: u32, vertices: usize) -> snell::Result<serde_json:
         "\norbit, {n} frames at {w}x{h}, {} vertices: warp {:.2} frames/s (median frame {:.3} s), exact {:.2} frames/s (median {:.3} s; in packets {:.2} frames/s), speed-up {:.2}x (vs packets {:.2}x); worst per-frame mean error {:.4} px",
         prep.vertices,
         n as f64 / tw,
-        median(fw.clone()),
+        median(&fw),
         n as f64 / te,
-        median(fe.clone()),
+        median(&fe),
         n as f64 / tep,
-        median(fe.clone()) / median(fw.clone()),
-        median(fep.clone()) / median(fw.clone()),
+        median(&fe) / median(&fw),
+        median(&fep) / median(&fw),
         worst
     );
     Ok(serde_json::json!({
         "frames": n, "width": w, "height": h, "vertices": prep.vertices,
         "warp_frames_per_s": n as f64 / tw, "exact_frames_per_s": n as f64 / te,
         "exact_packets_frames_per_s": n as f64 / tep,
-        "median_speedup": median(fe) / median(fw.clone()), "median_speedup_vs_packets": median(fep) / median(fw),
+        "median_speedup": median(&fe) / median(&fw), "median_speedup_vs_packets": median(&fep) / median(&fw),
         "worst_px_mean": worst, "per_frame": rows,
     }))
 }
 
 fn main() -> snell::Result<()> {
-    let args: Vec<String> = std::env::args().collect();
-    let json_path = args
-        .iter()
-        .position(|a| a == "--json")
-        .and_then(|i| args.get(i + 1))
-        .cloned();
+    let opts = match Options::parse(std::env::args().skip(1)) {
+        Ok(o) => o,
+        Err(e) => {
+            eprintln!("warp bench: {e}\n{USAGE}");
+            std::process::exit(2);
+        }
+    };
     println!("{}", snell::bench_header());
     println!("threads: {}", rayon::current_num_threads());
     let mut sum = Summary::default();
-    if only().as_deref() == Some("orbit") {
-        // The orbit alone: `SNELL_BENCH_ONLY=orbit`.
+    if opts.only == Some(Part::Orbit) {
         orbit(24, 1600, 1200, 100_000)?;
         return Ok(());
     }
-    if let Some(path) = only().as_deref().and_then(|o| o.strip_prefix("rays:")) {
-        // Profiling the warp frame's rays pass alone: `SNELL_BENCH_ONLY=rays:SCENE`
-        // (one warp, then 10 frames into one buffer; CPU seconds per frame).
+    if let Some(Part::Rays(path)) = &opts.only {
+        // The warp frame's ray pass alone (one warp, then 10 frames into
+        // one buffer; CPU seconds per frame).
         let (scene, prep) = setup(path, 1600, 1200, 100_000)?;
         let spec = scene.warp.clone().unwrap();
         let mut pipe = Pipeline::new(&scene, &spec, &prep, false)?;
         let mut fb = empty_frame();
         pipe.warp(&scene)?;
         pipe.render_into(&scene, &spec, &prep, &mut fb);
+        let cpu = || timing::process_cpu_s().unwrap_or(0.0);
         let mut t = vec![];
         for _ in 0..10 {
-            let c0 = cpu_ns();
+            let c0 = cpu();
             pipe.render_into(&scene, &spec, &prep, &mut fb);
-            t.push(cpu_ns() - c0);
+            t.push(cpu() - c0);
         }
-        t.sort_by(f64::total_cmp);
-        println!("rays: CPU s per frame min {:.4} median {:.4}", t[0], t[5]);
+        let [med, min, _] = timing::median_min_max(&t);
+        println!("rays: CPU s per frame min {min:.4} median {med:.4}");
         return Ok(());
     }
-    if let Some(path) = only().as_deref().and_then(|o| o.strip_prefix("pipeline:")) {
-        // Profiling the warp frame alone: `SNELL_BENCH_ONLY=pipeline:SCENE`.
+    if let Some(Part::Pipeline(path)) = &opts.only {
+        // The warp frame alone.
         let (scene, prep) = setup(path, 1600, 1200, 100_000)?;
         let spec = scene.warp.clone().unwrap();
         // Made once per scene: the tube's fixed direct copy is built here
@@ -661,10 +711,10 @@ fn main() -> snell::Result<()> {
         let mut pipe = Pipeline::new(&scene, &spec, &prep, false)?;
         println!("pipeline made in {:.4} s", t.elapsed().as_secs_f64());
         let mut fb = empty_frame();
-        let cpu = cpu_ns;
+        let cpu = || timing::process_cpu_s().unwrap_or(0.0);
         let (mut cw, mut cr, mut cf, mut ce) = (0.0, 0.0, 0.0, 0.0);
         let orig = build_originals(&scene, &prep)?;
-        for _ in 0..reps() {
+        for _ in 0..opts.reps {
             let c0 = cpu();
             let f = pipe.warp(&scene)?;
             let c1 = cpu();
@@ -685,23 +735,23 @@ fn main() -> snell::Result<()> {
         }
         println!(
             "CPU seconds per frame: warp + copies {:.3}, rays {:.3} (into a fresh frame {:.3}); exact trace {:.3}",
-            cw / reps() as f64,
-            cr / reps() as f64,
-            cf / reps() as f64,
-            ce / reps() as f64
+            cw / opts.reps as f64,
+            cr / opts.reps as f64,
+            cf / opts.reps as f64,
+            ce / opts.reps as f64
         );
         return Ok(());
     }
-    if only().as_deref() != Some("frames") {
-        solvers(&mut sum);
+    if opts.only != Some(Part::Frames) {
+        solvers(&mut sum, &opts);
     }
-    if matches!(only().as_deref(), Some("solvers" | "cylinder")) {
+    if matches!(opts.only, Some(Part::Solvers | Part::Cylinder)) {
         return Ok(());
     }
-    let (bw, bh) = if quick() { (640, 480) } else { (1600, 1200) };
+    let (bw, bh) = if opts.quick { (640, 480) } else { (1600, 1200) };
     println!(
         "\n## Frames at {bw}x{bh}, 100k vertices (median of {} interleaved repetitions)\n",
-        reps()
+        opts.reps
     );
     println!("frame = warp + copies (rebuilt, Embree's fast builder) + packet rays; refit s = the copies' update when the camera did not move (copies built with SAH once, then refitted; 'SAH copies' = the rays against those); one-shot = warp_scene + render_warped (copies built per frame, single rays); vs exact = exact trace (single rays, the reference) / frame; exact packets = the same exact trace with its pieces cast in packets of sixteen (4x4 pixel tiles, as the warp's rays)\n");
     header();
@@ -709,7 +759,7 @@ fn main() -> snell::Result<()> {
         ("plate", "scenes/warp_plate.toml"),
         ("tube", "scenes/warp_cylinder.toml"),
     ] {
-        let f = frame_row(scene, bw, bh, 100_000, true, reps())?;
+        let f = frame_row(scene, bw, bh, 100_000, true, opts.reps)?;
         print_row(&f);
         sum.frames.push(f.json(scene));
         if name == "tube" {
@@ -718,18 +768,18 @@ fn main() -> snell::Result<()> {
             sum.plate = Some(f);
         }
     }
-    if only().is_some() {
+    if opts.only.is_some() {
         return Ok(());
     }
-    let n = if quick() { 6 } else { 24 };
+    let n = if opts.quick { 6 } else { 24 };
     println!("\n## Orbit: the camera circles the tube, {n} frames at {bw}x{bh}, 100k vertices\n");
     sum.orbit = Some(orbit(n, bw, bh, 100_000)?);
-    let verts: &[usize] = if quick() {
+    let verts: &[usize] = if opts.quick {
         &[100_000]
     } else {
         &[100_000, 200_000, 400_000, 800_000]
     };
-    let films: &[(u32, u32)] = if quick() {
+    let films: &[(u32, u32)] = if opts.quick {
         &[(640, 480)]
     } else {
         &[(640, 480), (800, 600), (1024, 768), (1600, 1200)]
@@ -752,7 +802,7 @@ fn main() -> snell::Result<()> {
     }
     let (tube, plate) = (sum.tube.clone().unwrap(), sum.plate.clone().unwrap());
     let orbit = sum.orbit.clone().unwrap();
-    println!("\n## Summary against the issue's targets ({bw}x{bh}; speed-up = exact trace / warp frame, same run)\n");
+    println!("\n## Summary against the targets ({bw}x{bh}; speed-up = exact trace / warp frame, same run)\n");
     println!("| what | reached | target |");
     println!("|---|---|---|");
     println!(
@@ -790,10 +840,10 @@ fn main() -> snell::Result<()> {
         plate.exact_packets_s / plate.refit_frame_s,
         plate.exact_packets_s / plate.frame_s
     );
-    if let Some(p) = json_path {
+    if let Some(p) = &opts.json {
         let v = serde_json::json!({
             "provenance": snell::provenance::json(),
-            "quick": quick(),
+            "quick": opts.quick,
             "film": [bw, bh],
             "plate_vertices_per_s": sum.plate_vps,
             "plate_vertices_per_s_1_thread": sum.plate_vps_1t,
@@ -818,7 +868,7 @@ fn main() -> snell::Result<()> {
             "orbit": orbit,
             "frames": sum.frames,
         });
-        std::fs::write(&p, serde_json::to_string_pretty(&v).unwrap_or_default())
+        std::fs::write(p, serde_json::to_string_pretty(&v).unwrap_or_default())
             .map_err(|e| snell::Error::Invalid(format!("{p}: {e}")))?;
         println!("\nwrote {p}");
     }

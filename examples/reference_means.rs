@@ -33,8 +33,8 @@ fn main() -> snell::Result<()> {
             &set,
             &RenderOptions {
                 threads: None,
-                quiet: true,
                 want_aovs: false,
+                ..Default::default()
             },
         )?;
         let ms: Vec<(f64, f64)> = (0..3).map(|c| r.mean_and_se(c)).collect();

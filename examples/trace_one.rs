@@ -17,18 +17,7 @@ fn main() {
         .get(9)
         .map(|x| x.split(",").map(|y| y.parse().unwrap()).collect())
         .unwrap_or_default();
-    let p = refraction_path(
-        Tracer {
-            scene: &s,
-            strategy: strat,
-        },
-        o,
-        d,
-        &start,
-        512,
-        &mut c,
-    )
-    .unwrap();
+    let p = refraction_path(Tracer::new(&s).with_strategy(strat), o, d, &start, 512, &mut c).unwrap();
     for e in &p.events {
         println!(
             "geom {} t {} point {:?} n {}->{} list {:?} next_org {:?}",

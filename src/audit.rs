@@ -171,9 +171,7 @@ pub fn audit_scene(tr: Tracer<'_>, n: u64, seed: u64) -> Result<AuditReport> {
                     targets.push((p[1] + p[2]) * 0.5);
                 }
             }
-            Shape::Analytic(Analytic::Sphere { center, radius }) => {
-                spheres.push((center.as_vec3a(), *radius as f32))
-            }
+            Shape::Analytic(Analytic::Sphere(s)) => spheres.push((s.center.as_vec3a(), s.radius as f32)),
             Shape::Analytic(_) => {}
         }
     }

@@ -16,7 +16,7 @@
 //! (`Display`, what `snell bench embree` prints) and [`nested_ratios`] formats
 //! the table of `snell bench nested`.
 use crate::counters::Counters;
-use crate::dielectric::{self, InteriorList, NestedStrategy};
+use crate::dielectric::{self, InteriorList, ListUpdateTimer, NestedStrategy};
 use crate::embree::{BuildQuality, Device, FilterHit, HitFilter, SceneBuilder, SceneFlags};
 use crate::error::Result;
 use crate::integrator::{refraction_path, Tracer};
@@ -24,15 +24,10 @@ use crate::ray::Ray;
 use crate::render::{render, RenderOptions, RenderSettings};
 use crate::sampling::{uniform_sphere, Rng};
 use crate::scene::{load_scene, meshgen, BuildOptions, RenderScene};
+use crate::timing::{median, spread};
 use glam::Vec3A as V3;
 use std::path::Path;
 use std::time::Instant;
-
-/// Median of a non-empty set of timings.
-pub(crate) fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
-}
 
 /// A benchmark's medians need at least one repetition.
 fn at_least_one_rep(reps: usize) -> Result<()> {
@@ -40,13 +35,6 @@ fn at_least_one_rep(reps: usize) -> Result<()> {
         return Err(crate::Error::Invalid("reps must be at least 1".into()));
     }
     Ok(())
-}
-
-/// Fastest and slowest of a set of timings.
-fn spread(v: &[f64]) -> [f64; 2] {
-    let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
-    let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    [lo, hi]
 }
 
 /// Figures of the bare-Embree benchmark (Mrays/s, one thread).
@@ -204,9 +192,9 @@ pub fn embree_bare(n_rays: usize, reps: usize) -> Result<BareFigures> {
         triangles: sphere.indices.len() * 2,
         rays: n_rays,
         reps,
-        no_filter: median(a),
-        accept_all: median(b),
-        recording: median(c),
+        no_filter: median(&a),
+        accept_all: median(&b),
+        recording: median(&c),
     })
 }
 
@@ -248,10 +236,7 @@ pub fn path_rays(scene: &RenderScene, w: u32, h: u32) -> Result<Vec<ListedRay>> 
                 ray: Ray::new(o, d),
                 list: scene.camera_interior.clone(),
             });
-            let tr = Tracer {
-                scene,
-                strategy: NestedStrategy::Filter,
-            };
+            let tr = Tracer::new(scene);
             let p = refraction_path(tr, o, d, &scene.camera_interior, 24, &mut c)?;
             for e in &p.events {
                 out.push(ListedRay {
@@ -306,13 +291,13 @@ pub struct NestedRun {
     pub cpus: Vec<f64>,
     /// Trace mode, filter only: the share of the trace time spent applying
     /// false hits to interior lists (the paper's "list updates" statistic),
-    /// from one extra timed pass ([`dielectric::time_list_updates`], the
-    /// clock's own cost subtracted) over the median wall time.
+    /// from one extra timed pass ([`dielectric::trace_timing_list_updates`],
+    /// the clock's own cost subtracted) over the median wall time.
     pub list_update_share: Option<f64>,
 }
 
 /// The mean duration an empty interval between two clock reads measures (s):
-/// the bias of each interval [`dielectric::time_list_updates`] times.
+/// the bias of each interval [`dielectric::ListUpdateTimer`] times.
 pub fn clock_pair_s() -> f64 {
     let n = 100_000;
     let mut acc = 0.0;
@@ -325,29 +310,36 @@ pub fn clock_pair_s() -> f64 {
 
 /// Rays a trace-mode repetition casts at least: the ray set is passed over
 /// as many times as it takes, so that a repetition lasts tens of
-/// milliseconds (one pass of three_spheres' 27k rays took 2 ms, too short
-/// to resolve the 1 % the no-overlap scenes are judged by).
+/// milliseconds (one pass of a small ray set is too short to resolve the
+/// percent the no-overlap scenes are judged by).
 pub const TRACE_RAYS_PER_REP: usize = 250_000;
 
 /// `passes` passes of `strategy` over `rays` on the calling thread: the
 /// wall time and CPU time (`None` where the clock fails) per pass, and the
-/// counters of one pass.
+/// counters of one pass. With `timer`, the filter's list updates are timed
+/// into it.
 fn trace_only(
     scene: &RenderScene,
     strategy: NestedStrategy,
     rays: &[ListedRay],
     passes: usize,
+    mut timer: Option<&mut ListUpdateTimer>,
 ) -> Result<(f64, Option<f64>, Counters)> {
     let mut c = Counters::default();
     let passes = passes.max(1);
     let t = Instant::now();
-    let (sink, cpu) = crate::cpu_time::on_this_thread(|| -> Result<u64> {
+    let (sink, cpu) = crate::timing::on_this_thread(|| -> Result<u64> {
         let mut sink = 0u64;
         for _ in 0..passes {
             c = Counters::default();
             for r in rays {
                 let mut list = InteriorList::from_solids(&scene.solids, &r.list);
-                let h = dielectric::trace(scene, strategy, &r.ray, &mut list, &mut c)?;
+                let h = match timer.as_deref_mut() {
+                    Some(timer) => dielectric::trace_timing_list_updates(
+                        scene, strategy, &r.ray, &mut list, &mut c, timer,
+                    )?,
+                    None => dielectric::trace(scene, strategy, &r.ray, &mut list, &mut c)?,
+                };
                 sink += h.map(|h| h.hit.geom_id as u64).unwrap_or(3) + list.len() as u64;
             }
         }
@@ -458,11 +450,10 @@ pub fn nested(opts: &NestedBenchOptions, mut progress: impl FnMut(&str)) -> Resu
         for rep in 0..opts.reps {
             // The order rotates with the repetition: whichever strategy runs
             // first after the scene load or the previous render meets cold
-            // caches (on a scene where all four run the same plain query,
-            // the first one measured 1.3 % slower every time).
+            // caches, which shows where all four run the same plain query.
             let order = |k: usize| (k + rep) % strategies.len();
             for k in (0..strategies.len()).map(order).filter(|_| opts.trace) {
-                let (t, cpu, c) = trace_only(&scene, strategies[k], &rays, passes)?;
+                let (t, cpu, c) = trace_only(&scene, strategies[k], &rays, passes, None)?;
                 trace_t[k].push(t);
                 trace_cpu[k].push(cpu);
                 trace_c[k] = c;
@@ -474,8 +465,7 @@ pub fn nested(opts: &NestedBenchOptions, mut progress: impl FnMut(&str)) -> Resu
                     &settings.with_strategy(s),
                     &RenderOptions {
                         threads: Some(opts.threads),
-                        quiet: true,
-                        want_aovs: false,
+                        ..RenderOptions::default()
                     },
                 )?;
                 render_t[k].push(r.stats.wall_s);
@@ -485,10 +475,9 @@ pub fn nested(opts: &NestedBenchOptions, mut progress: impl FnMut(&str)) -> Resu
         }
         // The paper's statistic, from one extra pass with the list updates timed.
         let update_s = if opts.trace && strategies.contains(&NestedStrategy::Filter) {
-            let (timed, update_s, updates) =
-                dielectric::time_list_updates(|| trace_only(&scene, NestedStrategy::Filter, &rays, 1));
-            timed?;
-            (update_s - updates as f64 * clock_pair_s()).max(0.0)
+            let mut timer = ListUpdateTimer::default();
+            trace_only(&scene, NestedStrategy::Filter, &rays, 1, Some(&mut timer))?;
+            (timer.seconds - timer.count as f64 * clock_pair_s()).max(0.0)
         } else {
             0.0
         };
@@ -501,7 +490,7 @@ pub fn nested(opts: &NestedBenchOptions, mut progress: impl FnMut(&str)) -> Resu
         };
         for (k, s) in strategies.iter().enumerate() {
             if opts.trace {
-                let wall = median(trace_t[k].clone());
+                let wall = median(&trace_t[k]);
                 runs.push(NestedRun {
                     scene: name.clone(),
                     strategy: s.name().into(),
@@ -521,7 +510,7 @@ pub fn nested(opts: &NestedBenchOptions, mut progress: impl FnMut(&str)) -> Resu
             if !opts.render_mode {
                 continue;
             }
-            let wall = median(render_t[k].clone());
+            let wall = median(&render_t[k]);
             let st = render_stats[k].expect("at least one repeat");
             runs.push(NestedRun {
                 scene: name.clone(),
@@ -549,12 +538,8 @@ pub fn nested(opts: &NestedBenchOptions, mut progress: impl FnMut(&str)) -> Resu
 /// repetitions.
 pub fn ratio_spread(filter: &[f64], other: &[f64]) -> (f64, f64, f64) {
     let r: Vec<f64> = filter.iter().zip(other).map(|(f, o)| o / f.max(1e-12)).collect();
-    if r.is_empty() {
-        return (f64::NAN, f64::NAN, f64::NAN);
-    }
-    let lo = r.iter().copied().fold(f64::INFINITY, f64::min);
-    let hi = r.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    (median(r), lo, hi)
+    let [m, lo, hi] = crate::timing::median_min_max(&r);
+    (m, lo, hi)
 }
 
 /// Ratio tables: filter/recast and filter/off, per scene and mode, each as
@@ -679,8 +664,7 @@ pub fn chord_sweep(
             settings,
             &crate::render::RenderOptions {
                 threads,
-                quiet: true,
-                want_aovs: false,
+                ..Default::default()
             },
         )?;
         images.push(r);

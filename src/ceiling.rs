@@ -1,6 +1,6 @@
 //! `snell bench render`: the renderer against the Embree ceiling of its own
 //! rays. A render's queries (every path segment or chord, every shadow ray;
-//! see [`crate::integrator::ray_log`]) are recorded on a smaller render of the
+//! see [`crate::integrator::RayRecorder`]) are recorded on a smaller render of the
 //! same scene, then replayed through bare `rtcIntersect1` / `rtcOccluded1`
 //! with no shading, on the same threads. The share of the ceiling is the
 //! render's rate of those rays over the replay's rate:
@@ -13,13 +13,15 @@
 //! `rtcOccluded8`, incoherent): how much packets alone could buy.
 //! Renders and replays are interleaved and each ratio is the median over
 //! repetitions, with its range.
-use crate::embree::warp_ffi::{Packet8, RayPacket};
+use crate::embree::{Packet8, RayPacket};
 use crate::error::Result;
-use crate::integrator::ray_log::{self, Logged};
+use crate::integrator::{RayQuery, RayRecorder};
 use crate::render::{render, RenderOptions, RenderSettings};
 use crate::scene::{load_scene, BuildOptions, RenderScene};
+use crate::timing::{median, median_min_max};
 use rayon::prelude::*;
 use std::path::Path;
+use std::sync::Arc;
 use std::time::Instant;
 
 /// What to measure.
@@ -62,20 +64,6 @@ pub struct CeilingRun {
     pub share_cpu: Option<[f64; 3]>,
 }
 
-fn median_min_max(mut v: Vec<f64>) -> [f64; 3] {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n == 0 {
-        return [f64::NAN; 3];
-    }
-    let med = if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    };
-    [med, v[0], v[n - 1]]
-}
-
 /// Replay `rays` through bare Embree on `pool`, one query per ray
 /// (`rtcIntersect1` / `rtcOccluded1`, what the renderer does) or (`packets`)
 /// in packets of eight consecutive rays of one kind (`rtcIntersect8` /
@@ -83,7 +71,7 @@ fn median_min_max(mut v: Vec<f64>) -> [f64; 3] {
 /// the wall time (s) and the CPU time of the pool's threads (s, if known).
 fn replay(
     scene: &RenderScene,
-    rays: &[Logged],
+    rays: &[RayQuery],
     pool: &rayon::ThreadPool,
     packets: bool,
 ) -> (f64, Option<f64>) {
@@ -97,22 +85,22 @@ fn replay(
                 let mut n = 0u64;
                 for q in chunk {
                     n += match q {
-                        Logged::Nearest(r) => scene.embree.intersect(r).is_some() as u64,
-                        Logged::Shadow(r) => scene.embree.occluded(r) as u64,
+                        RayQuery::Nearest(r) => scene.embree.intersect(r).is_some() as u64,
+                        RayQuery::Shadow(r) => scene.embree.occluded(r) as u64,
                     };
                 }
                 n
             })
             .sum()
     };
-    let (hits, cpu) = crate::cpu_time::on_pool(pool, || pool.install(run));
+    let (hits, cpu) = crate::timing::on_pool(pool, || pool.install(run));
     std::hint::black_box(hits);
     (t.elapsed().as_secs_f64(), cpu)
 }
 
 /// The packet replay of one chunk: nearest and shadow rays gathered into two
 /// packets of eight, each sent when full (and at the end).
-fn replay_packets(scene: &RenderScene, chunk: &[Logged]) -> u64 {
+fn replay_packets(scene: &RenderScene, chunk: &[RayQuery]) -> u64 {
     let (mut near, mut shadow) = (Packet8::new(), Packet8::new());
     let (mut nn, mut ns, mut hits) = (0usize, 0usize, 0u64);
     let mut flush = |p: &mut Packet8, k: &mut usize, occlusion: bool| {
@@ -128,14 +116,14 @@ fn replay_packets(scene: &RenderScene, chunk: &[Logged]) -> u64 {
     };
     for q in chunk {
         match q {
-            Logged::Nearest(r) => {
+            RayQuery::Nearest(r) => {
                 near.set_ray(nn, r);
                 nn += 1;
                 if nn == 8 {
                     flush(&mut near, &mut nn, false);
                 }
             }
-            Logged::Shadow(r) => {
+            RayQuery::Shadow(r) => {
                 shadow.set_ray(ns, r);
                 ns += 1;
                 if ns == 8 {
@@ -164,8 +152,7 @@ pub fn ceiling(opts: &CeilingOptions, mut progress: impl FnMut(&str)) -> Result<
         .map_err(|e| crate::Error::Invalid(format!("cannot start threads: {e}")))?;
     let ropts = RenderOptions {
         threads: Some(opts.threads),
-        quiet: true,
-        want_aovs: false,
+        ..RenderOptions::default()
     };
     let mut out = Vec::new();
     for name in &opts.scenes {
@@ -179,10 +166,13 @@ pub fn ceiling(opts: &CeilingOptions, mut progress: impl FnMut(&str)) -> Result<
             .with_spp(spp)
             .with_seed(1);
         // Record the rays of a smaller render of the same film.
-        ray_log::start();
-        let rec = render(&scene, &settings.with_spp(opts.record_spp.max(1)), &ropts);
-        let rays = ray_log::stop();
-        let rec = rec?;
+        let recorder = Arc::new(RayRecorder::new());
+        let recording = RenderOptions {
+            observer: Some(recorder.clone()),
+            ..ropts.clone()
+        };
+        let rec = render(&scene, &settings.with_spp(opts.record_spp.max(1)), &recording)?;
+        let rays = recorder.take();
         let rays_per_sample = rays.len() as f64 / rec.stats.counters.samples.max(1) as f64;
         progress(&format!(
             "{name}: {} rays recorded ({rays_per_sample:.2} per sample)",
@@ -214,13 +204,13 @@ pub fn ceiling(opts: &CeilingOptions, mut progress: impl FnMut(&str)) -> Result<
         }
         let run = CeilingRun {
             scene: name.clone(),
-            samples_per_s: median_min_max(sps)[0],
-            render_queries_per_s: median_min_max(qps)[0],
+            samples_per_s: median(&sps),
+            render_queries_per_s: median(&qps),
             rays_per_sample,
-            replay_rays_per_s: median_min_max(rps)[0],
-            packet_replay_rays_per_s: median_min_max(pps)[0],
-            share: median_min_max(share),
-            share_cpu: share_cpu.map(median_min_max),
+            replay_rays_per_s: median(&rps),
+            packet_replay_rays_per_s: median(&pps),
+            share: median_min_max(&share),
+            share_cpu: share_cpu.map(|v| median_min_max(&v)),
         };
         progress(&format!("{name}: share of the ceiling {:.2}", run.share[0]));
         out.push(run);

@@ -291,17 +291,6 @@ pub fn make_parent(path: &Path) -> Result<()> {
     }
 }
 
-/// CPU time (user + system, all threads) of this process so far, in seconds
-/// (Linux `/proc/self/stat`; `None` elsewhere).
-pub fn cpu_seconds() -> Option<f64> {
-    let s = std::fs::read_to_string("/proc/self/stat").ok()?;
-    // Fields after the command name (which may contain spaces) in parentheses.
-    let rest = &s[s.rfind(')')? + 2..];
-    let f: Vec<&str> = rest.split_whitespace().collect();
-    let ticks: f64 = f.get(11)?.parse::<f64>().ok()? + f.get(12)?.parse::<f64>().ok()?;
-    Some(ticks / 100.0)
-}
-
 /// A Markdown table of stats JSON files (one row each): the `--set`
 /// overrides recorded in them, then time, rays and false hits.
 ///

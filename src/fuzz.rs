@@ -309,8 +309,8 @@ pub fn run_from(
                         &set.with_spp(1),
                         &RenderOptions {
                             threads: Some(1),
-                            quiet: true,
                             want_aovs: false,
+                            ..Default::default()
                         },
                     )
                     .map(|_| true)
@@ -611,8 +611,9 @@ mod tests {
         assert!(!mislocated(doc, "film.width", 2));
         assert!(!mislocated(doc, "objects[1].shape.radius", 7));
         assert!(!mislocated(doc, "(document)", 1));
-        // Wrong: the third object's key at the second object's line (the
-        // duplicate-name bug of issue 12), a key at a line that holds another.
+        // Wrong: the third object's key at the second object's line (as when
+        // a duplicate name is located at its first use), a key at a line that
+        // holds another.
         assert!(mislocated(doc, "objects[2].name", 6));
         assert!(mislocated(doc, "film.width", 4));
         assert!(mislocated(doc, "film.width", 99));

@@ -137,7 +137,7 @@ pub fn run_from(scene_dir: &Path, first: u64, cases: u64, seed: u64, limit: Dura
         let s = &seeds[rng.next_u32() as usize % seeds.len()];
         let n = 1 + rng.next_u32() % 3;
         let t = Instant::now();
-        let cpu0 = crate::farm::cpu_seconds();
+        let cpu0 = crate::timing::process_cpu_s();
         let (name, outcome) = match s {
             Seed::Xml(name, text) => {
                 let mut m = text.clone();
@@ -175,8 +175,8 @@ pub fn run_from(scene_dir: &Path, first: u64, cases: u64, seed: u64, limit: Dura
                     .with_spp(1);
                 let opts = RenderOptions {
                     threads: Some(1),
-                    quiet: true,
                     want_aovs: false,
+                    ..Default::default()
                 };
                 render(&scene, &set, &opts).map(|_| ())
             }))
@@ -184,7 +184,7 @@ pub fn run_from(scene_dir: &Path, first: u64, cases: u64, seed: u64, limit: Dura
             Ok(Err(e)) => Ok(Err(e)),
             Err(p) => Err(p),
         };
-        let el = match (cpu0, crate::farm::cpu_seconds()) {
+        let el = match (cpu0, crate::timing::process_cpu_s()) {
             (Some(a), Some(b)) => b - a,
             _ => t.elapsed().as_secs_f64(),
         };

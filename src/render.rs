@@ -5,12 +5,13 @@ use crate::camera::Camera;
 use crate::counters::Counters;
 use crate::dielectric::{InteriorList, NestedStrategy};
 use crate::error::{Error, Result};
-use crate::integrator::{path_lanes, path_lanes_apply, radiance, LanePackets, Tracer};
+use crate::integrator::{path_lanes, path_lanes_apply, radiance, LanePackets, RayObserver, Tracer};
 use crate::sampling::Rng;
 use crate::scene::RenderScene;
 use glam::Vec3A as V3;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::Arc;
 use std::time::Instant;
 
 /// Tile edge, pixels: the unit of work of a render thread.
@@ -18,20 +19,27 @@ pub const TILE: u32 = 16;
 
 /// A per-pixel diagnostic layer (AOV): per pixel, the mean over its samples
 /// of a per-sample count (the maximum for `list_depth`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Aov {
     /// False hits skipped per sample.
-    #[value(name = "false_hits")]
     FalseHits,
     /// Deepest interior list of any sample (a maximum).
-    #[value(name = "list_depth")]
     ListDepth,
     /// Total internal reflections per sample.
-    #[value(name = "tir")]
     Tir,
     /// Filtered queries finished by re-casting, per sample.
-    #[value(name = "fallbacks")]
     Fallbacks,
+}
+
+impl std::str::FromStr for Aov {
+    type Err = String;
+    /// Parses [`Aov::name`].
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        Aov::ALL
+            .into_iter()
+            .find(|a| a.name() == s)
+            .ok_or_else(|| format!("expected false_hits, list_depth, tir or fallbacks, got \"{s}\""))
+    }
 }
 
 impl Aov {
@@ -98,11 +106,13 @@ pub struct Rendered {
     pub stats: RenderStats,
     /// Samples per pixel requested (every pixel of a completed tile has them).
     pub spp_done: u32,
-    /// False when interrupted: tiles not started are black.
+    /// False when cancelled ([`RenderOptions::cancel`]) before every tile
+    /// was started: the tiles not started are black (or hold only the
+    /// samples a resumed part brought).
     pub complete: bool,
-    /// Samples per pixel actually taken, per pixel (spp or 0 when interrupted).
+    /// Samples per pixel actually taken, per pixel (fewer than spp where cancelled).
     pub pixel_spp: Vec<f32>,
-    /// Tiles rendered (fewer than `tiles_total` when interrupted).
+    /// Tiles rendered (fewer than `tiles_total` when cancelled).
     pub tiles_done: u32,
     /// Tiles in the region.
     pub tiles_total: u32,
@@ -127,7 +137,7 @@ pub struct RenderStats {
     /// Wall-clock time of the render, seconds.
     pub wall_s: f64,
     /// CPU time of the render's threads, seconds (`None` where the kernel
-    /// does not report it; see `cpu_time`).
+    /// does not report it; see [`crate::timing`]).
     pub cpu_s: Option<f64>,
     /// Every event counted over the render.
     pub counters: Counters,
@@ -230,15 +240,128 @@ impl RenderSettings {
     }
 }
 
-/// Render options beyond the scene file.
-#[derive(Debug, Clone, Default)]
+/// How a render runs and who hears of it, beyond what it renders: threads,
+/// diagnostic layers, progress, cancellation and an observer of its rays.
+/// The default: one thread per core, no layers, no progress, never
+/// cancelled, not observed.
+#[derive(Clone, Default)]
 pub struct RenderOptions {
     /// Render threads (`None`: one per core).
     pub threads: Option<usize>,
-    /// No progress bar.
-    pub quiet: bool,
+    /// Where progress goes.
+    pub progress: ProgressSink,
     /// Keep the diagnostic layers (`Rendered::aovs`).
     pub want_aovs: bool,
+    /// Stops the render at the next tile when cancelled (keep a clone to
+    /// cancel it from elsewhere).
+    pub cancel: CancelToken,
+    /// Told of every Embree query of the render's paths
+    /// ([`RayRecorder`](crate::integrator::RayRecorder) keeps them).
+    pub observer: Option<Arc<dyn RayObserver>>,
+}
+
+impl std::fmt::Debug for RenderOptions {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RenderOptions")
+            .field("threads", &self.threads)
+            .field("progress", &self.progress)
+            .field("want_aovs", &self.want_aovs)
+            .field("cancel", &self.cancel)
+            .field("observer", &self.observer.as_ref().map(|_| "RayObserver"))
+            .finish()
+    }
+}
+
+/// A render's cancellation flag: [`cancel`](CancelToken::cancel) makes the
+/// render it was given stop at the next tile (tiles in progress finish).
+/// Clones share the flag, so a signal handler or another thread can hold
+/// one; each render has its own unless given the same one.
+#[derive(Debug, Clone, Default)]
+pub struct CancelToken(Arc<AtomicBool>);
+
+impl CancelToken {
+    /// A token not cancelled.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Cancel the renders holding this token (or a clone of it).
+    pub fn cancel(&self) {
+        self.0.store(true, Ordering::SeqCst);
+    }
+
+    /// Has [`cancel`](CancelToken::cancel) been called?
+    pub fn is_cancelled(&self) -> bool {
+        self.0.load(Ordering::Relaxed)
+    }
+}
+
+/// A render's progress after one more tile (rendered, or skipped when cancelled).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RenderProgress {
+    /// Tiles finished so far.
+    pub tiles_done: u64,
+    /// Tiles of the render.
+    pub tiles_total: u64,
+    /// Samples taken so far.
+    pub samples_done: u64,
+    /// Seconds since the tiles started.
+    pub elapsed_s: f64,
+}
+
+/// Where a render reports its progress.
+#[derive(Clone, Default)]
+pub enum ProgressSink {
+    /// Nowhere.
+    #[default]
+    None,
+    /// A progress bar on stderr, when stderr is a terminal and the crate
+    /// has the `progress-bar` feature (without it, nothing).
+    Bar,
+    /// Lines on stderr at every 10% (`openjd_progress: P`, which farm
+    /// managers running Open Job Description read, and a human line).
+    Lines,
+    /// A function called after every tile, from the render's threads.
+    Callback(Arc<dyn Fn(&RenderProgress) + Send + Sync>),
+}
+
+impl std::fmt::Debug for ProgressSink {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            ProgressSink::None => "None",
+            ProgressSink::Bar => "Bar",
+            ProgressSink::Lines => "Lines",
+            ProgressSink::Callback(_) => "Callback",
+        })
+    }
+}
+
+impl ProgressSink {
+    /// Report `p` (`bar`: the progress bar, made for [`ProgressSink::Bar`]).
+    fn report(&self, p: &RenderProgress, bar: Option<&ProgressBar>) {
+        let rate = || p.samples_done as f64 / p.elapsed_s.max(1e-9) / 1e6;
+        match self {
+            ProgressSink::None => {}
+            ProgressSink::Bar => {
+                if let Some(b) = bar {
+                    b.inc(1);
+                    b.set_message(format!("{:.2} Msamples/s", rate()));
+                }
+            }
+            ProgressSink::Lines => {
+                let (done, total) = (p.tiles_done, p.tiles_total);
+                if (done * 10 / total) != ((done - 1) * 10 / total) {
+                    eprintln!(
+                        "openjd_progress: {:.1}\nsnell: {done}/{total} tiles, {:.2} Msamples/s, {:.1} s",
+                        100.0 * done as f64 / total as f64,
+                        rate(),
+                        p.elapsed_s
+                    );
+                }
+            }
+            ProgressSink::Callback(f) => f(p),
+        }
+    }
 }
 
 impl Rendered {
@@ -252,26 +375,14 @@ impl Rendered {
     }
 }
 
-/// Set by a Ctrl-C handler to stop at the next tile boundary.
-pub static INTERRUPT: AtomicBool = AtomicBool::new(false);
-
-/// Print progress as lines on stderr (`openjd_progress: P`, which farm
-/// managers running Open Job Description read, and a human line) at every 10%.
-pub static PROGRESS_LINES: AtomicBool = AtomicBool::new(false);
-
 /// Paths traced side by side ([`path_lanes`]): a pixel's samples in groups of
-/// this many, and the Embree packet type they share. Eight, not sixteen:
-/// a group's packet runs until its longest path ends, and sixteen lanes
-/// were half empty on average (glass_of_water: 7.9 live lanes per
-/// `rtcIntersect16`). Eight took a median 6 % less CPU time on
-/// glass_of_water (1–10 % over eight interleaved pairs) and 4 % less on
-/// cylinder_refraction (0–7 %), three_spheres within noise; four lost on
-/// three_spheres (0.27–0.28 → 0.30 s). Refilling the lanes of ended paths
-/// with the next samples instead (full packets of rays at mixed depths and
-/// pixels) was 5–25 % slower: Embree's packets pay for the coherence of
-/// one pixel's rays at one depth, not for their fill (stop 26, docs/peers.md).
-const LANES: usize = 8;
-type LanePacket = crate::embree::warp_ffi::Packet8;
+/// this many, and the Embree packet type they share. Eight, not sixteen: a
+/// group's packet runs until its longest path ends, so wider packets run
+/// half empty; nor are ended lanes refilled with other samples, as Embree's
+/// packets pay for the coherence of one pixel's rays at one depth, not for
+/// their fill (docs/peers.md).
+const PATHS_PER_PACKET: usize = 8;
+type LanePacket = crate::embree::Packet8;
 
 struct TileOut {
     x0: u32,
@@ -297,6 +408,7 @@ struct TileJob<'a> {
     count: u32,
     base: Option<&'a Accum>,
     want_aovs: bool,
+    observer: Option<&'a dyn RayObserver>,
 }
 
 impl TileJob<'_> {
@@ -326,6 +438,7 @@ impl TileJob<'_> {
         let tracer = Tracer {
             scene,
             strategy: self.settings.strategy,
+            observer: self.observer,
         };
         let start_list = InteriorList::from_solids(&scene.solids, &scene.camera_interior);
         let packets = path_lanes_apply(tracer);
@@ -346,33 +459,33 @@ impl TileJob<'_> {
                 let mut sumsq = V3::ZERO;
                 let taken = self.count - held;
                 let inv = 1.0 / taken.max(1) as f32;
-                // The pixel's samples in groups of up to LANES, traced side by
-                // side (without a medium): their camera rays (jittered within
-                // one pixel, nearly parallel) go to Embree as one packet, and so
-                // do their later plain-query segments and shadow rays.
+                // The pixel's samples in groups of up to PATHS_PER_PACKET, traced
+                // side by side (without a medium): their camera rays (jittered
+                // within one pixel, nearly parallel) go to Embree as one packet,
+                // and so do their later plain-query segments and shadow rays.
                 let mut s = self.start + held;
                 while s < self.start + self.count {
-                    let lanes = (self.start + self.count - s).min(LANES as u32) as usize;
+                    let lanes = (self.start + self.count - s).min(PATHS_PER_PACKET as u32) as usize;
                     // Lanes past `lanes` are never read: they hold a copy of the
                     // first generator instead of seeding one each.
                     let first = Rng::for_sample(self.settings.seed, pixel, s as u64);
-                    let mut rngs: [Rng; LANES] = std::array::from_fn(|i| {
+                    let mut rngs: [Rng; PATHS_PER_PACKET] = std::array::from_fn(|i| {
                         if i == 0 || i >= lanes {
                             first.clone()
                         } else {
                             Rng::for_sample(self.settings.seed, pixel, s as u64 + i as u64)
                         }
                     });
-                    let mut rays = [(V3::ZERO, V3::ZERO); LANES];
+                    let mut rays = [(V3::ZERO, V3::ZERO); PATHS_PER_PACKET];
                     for (rng, ray) in rngs.iter_mut().zip(&mut rays).take(lanes) {
                         let fx = x as f32 + rng.uniform();
                         let fy = y as f32 + rng.uniform();
                         let lens = (rng.uniform(), rng.uniform());
                         *ray = self.camera.ray(fx, fy, lens);
                     }
-                    let mut sts = [Counters::default(); LANES];
+                    let mut sts = [Counters::default(); PATHS_PER_PACKET];
                     let ls = if packets {
-                        path_lanes::<LANES, LanePacket>(
+                        path_lanes::<PATHS_PER_PACKET, LanePacket>(
                             tracer,
                             &rays[..lanes],
                             &start_list,
@@ -381,7 +494,7 @@ impl TileJob<'_> {
                             &mut lane_packets,
                         )?
                     } else {
-                        let mut ls = [V3::ZERO; LANES];
+                        let mut ls = [V3::ZERO; PATHS_PER_PACKET];
                         for i in 0..lanes {
                             let (o, d) = rays[i];
                             ls[i] = radiance(tracer, o, d, start_list.clone(), &mut rngs[i], &mut sts[i])?;
@@ -494,6 +607,7 @@ pub fn render_part(
         count,
         base: part.base.as_ref(),
         want_aovs: opts.want_aovs,
+        observer: opts.observer.as_deref(),
     };
     let mut tiles = Vec::new();
     for y in (region.y0..region.y1).step_by(TILE as usize) {
@@ -502,7 +616,9 @@ pub fn render_part(
         }
     }
     let total = tiles.len() as u64;
-    let bar = progress_bar(total, opts.quiet);
+    let bar = matches!(opts.progress, ProgressSink::Bar)
+        .then(|| progress_bar(total))
+        .flatten();
     let samples_done = AtomicU64::new(0);
     let tiles_finished = AtomicU64::new(0);
     let start_t = Instant::now();
@@ -510,28 +626,21 @@ pub fn render_part(
         tiles
             .par_iter()
             .map(|&(x, y)| {
-                let t = job.tile(x, y, INTERRUPT.load(Ordering::Relaxed))?;
+                let t = job.tile(x, y, opts.cancel.is_cancelled())?;
                 let s = samples_done.fetch_add(t.stats.samples, Ordering::Relaxed) + t.stats.samples;
                 let done = tiles_finished.fetch_add(1, Ordering::Relaxed) + 1;
-                if PROGRESS_LINES.load(Ordering::Relaxed) && (done * 10 / total) != ((done - 1) * 10 / total)
-                {
-                    let el = start_t.elapsed().as_secs_f64().max(1e-9);
-                    eprintln!(
-                        "openjd_progress: {:.1}\nsnell: {done}/{total} tiles, {:.2} Msamples/s, {el:.1} s",
-                        100.0 * done as f64 / total as f64,
-                        s as f64 / el / 1e6
-                    );
-                }
-                if let Some(b) = &bar {
-                    b.inc(1);
-                    let el = start_t.elapsed().as_secs_f64().max(1e-9);
-                    b.set_message(format!("{:.2} Msamples/s", s as f64 / el / 1e6));
-                }
+                let p = RenderProgress {
+                    tiles_done: done,
+                    tiles_total: total,
+                    samples_done: s,
+                    elapsed_s: start_t.elapsed().as_secs_f64(),
+                };
+                opts.progress.report(&p, bar.as_ref());
                 Ok(t)
             })
             .collect()
     };
-    let (results, cpu) = crate::cpu_time::on_pool(&pool, || pool.install(run_tiles));
+    let (results, cpu) = crate::timing::on_pool(&pool, || pool.install(run_tiles));
     if let Some(b) = bar {
         b.finish_and_clear();
     }
@@ -599,9 +708,17 @@ pub fn render_part(
     })
 }
 
-fn progress_bar(total: u64, quiet: bool) -> Option<indicatif::ProgressBar> {
+/// The terminal progress bar [`ProgressSink::Bar`] draws.
+#[cfg(feature = "progress-bar")]
+type ProgressBar = indicatif::ProgressBar;
+#[cfg(not(feature = "progress-bar"))]
+type ProgressBar = NoProgressBar;
+
+/// A bar of `total` tiles on stderr, if it is a terminal.
+#[cfg(feature = "progress-bar")]
+fn progress_bar(total: u64) -> Option<ProgressBar> {
     use std::io::IsTerminal;
-    if quiet || !std::io::stderr().is_terminal() {
+    if !std::io::stderr().is_terminal() {
         return None;
     }
     let b = indicatif::ProgressBar::new(total);
@@ -610,4 +727,123 @@ fn progress_bar(total: u64, quiet: bool) -> Option<indicatif::ProgressBar> {
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
     Some(b)
+}
+
+/// Without the `progress-bar` feature there is no bar to draw.
+#[cfg(not(feature = "progress-bar"))]
+fn progress_bar(_total: u64) -> Option<ProgressBar> {
+    None
+}
+
+/// The progress bar's methods the render calls, doing nothing: the library
+/// builds without indicatif, and [`ProgressSink::Bar`] then draws nothing.
+#[cfg(not(feature = "progress-bar"))]
+struct NoProgressBar;
+
+#[cfg(not(feature = "progress-bar"))]
+impl NoProgressBar {
+    fn inc(&self, _: u64) {}
+    fn set_message(&self, _: String) {}
+    fn finish_and_clear(&self) {}
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{load_scene_str, BuildOptions};
+    use std::sync::Mutex;
+
+    /// A glass ball in a white furnace, 64x48 (twelve tiles), 1 spp.
+    fn ball() -> (RenderScene, RenderSettings) {
+        let text = r#"
+[camera]
+position = [0.0, 0.0, 4.0]
+target = [0.0, 0.0, 0.0]
+fov = 40.0
+[film]
+width = 64
+height = 48
+spp = 1
+[environment]
+type = "constant"
+radiance = [1.0, 1.0, 1.0]
+[[objects]]
+name = "ball"
+shape = { type = "sphere", center = [0.0, 0.0, 0.0], radius = 1.0 }
+material = { type = "dielectric", ior = 1.5 }
+"#;
+        let s = load_scene_str(
+            "ball.toml",
+            text,
+            std::path::Path::new("."),
+            &BuildOptions::default(),
+        )
+        .unwrap();
+        let set = RenderSettings::from_scene(&s);
+        (s, set)
+    }
+
+    /// On one thread, a token cancelled by the progress callback after the
+    /// first tile leaves every later tile unstarted, and the render says so;
+    /// every tile is still reported. A render with its own token, in the
+    /// same process, is not affected.
+    #[test]
+    fn a_cancelled_render_stops_at_the_next_tile_and_reports_it() {
+        let (s, set) = ball();
+        let cancel = CancelToken::new();
+        let reports = Arc::new(Mutex::new(Vec::new()));
+        let (token, log) = (cancel.clone(), reports.clone());
+        let opts = RenderOptions {
+            threads: Some(1),
+            progress: ProgressSink::Callback(Arc::new(move |p: &RenderProgress| {
+                log.lock().unwrap().push(*p);
+                token.cancel();
+            })),
+            cancel,
+            ..RenderOptions::default()
+        };
+        let r = render(&s, &set, &opts).unwrap();
+        let tile_pixels = (TILE * TILE) as u64;
+        assert_eq!(r.tiles_total, 12);
+        assert_eq!(r.tiles_done, 1, "one tile before the cancel");
+        assert!(!r.complete);
+        assert_eq!(r.stats.counters.samples, tile_pixels);
+        assert_eq!(
+            r.pixel_spp.iter().filter(|&&n| n == 1.0).count() as u64,
+            tile_pixels
+        );
+        let reports = reports.lock().unwrap();
+        assert_eq!(reports.len(), 12, "skipped tiles are reported too");
+        assert!(reports
+            .iter()
+            .all(|p| p.samples_done == tile_pixels && p.tiles_total == 12));
+        assert_eq!(reports.last().map(|p| p.tiles_done), Some(12));
+
+        let whole = render(
+            &s,
+            &set,
+            &RenderOptions {
+                threads: Some(1),
+                ..RenderOptions::default()
+            },
+        )
+        .unwrap();
+        assert!(whole.complete && whole.tiles_done == 12);
+        assert_eq!(whole.stats.counters.samples, 64 * 48);
+    }
+
+    /// A token cancelled before the render starts no tile at all.
+    #[test]
+    fn a_render_cancelled_before_it_starts_renders_nothing() {
+        let (s, set) = ball();
+        let opts = RenderOptions {
+            threads: Some(2),
+            ..RenderOptions::default()
+        };
+        opts.cancel.cancel();
+        let r = render(&s, &set, &opts).unwrap();
+        assert!(!r.complete);
+        assert_eq!((r.tiles_done, r.stats.counters.samples), (0, 0));
+        assert!(r.pixels.iter().all(|p| *p == V3::ZERO));
+    }
 }

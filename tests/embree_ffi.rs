@@ -302,35 +302,63 @@ fn invalid_rays_never_reach_embree() {
     assert!(Ray::new(V3::ZERO, V3::new(0.0, 0.0, -1.0)).is_valid());
 }
 
-/// Issue 12 regression: a panic inside an analytic shape's callback made its
-/// query a silent miss. The query still sees a miss (nothing may unwind into
-/// Embree), but `Scene::check` now reports it, and renders call it per tile.
-#[test]
-fn panic_in_user_geometry_is_reported_by_check() {
-    struct Exploding;
-    impl UserShape for Exploding {
-        fn bounds(&self, _: u32) -> Bounds {
-            Bounds {
-                lower: [-1.0; 3],
-                upper: [1.0; 3],
-            }
-        }
-        fn intersect(&self, _: u32, _: V3, _: V3, _: &mut Candidates) {
-            panic!("analytic shape exploded on purpose")
+/// A unit box whose intersection panics (its bounds, with `bounds_panic`, too).
+struct Exploding {
+    bounds_panic: bool,
+}
+
+impl UserShape for Exploding {
+    fn bounds(&self, _: u32) -> Bounds {
+        assert!(!self.bounds_panic, "bounds exploded on purpose");
+        Bounds {
+            lower: [-1.0; 3],
+            upper: [1.0; 3],
         }
     }
-    let d = device();
-    let mut b = SceneBuilder::new(&d, SceneFlags::default(), BuildQuality::Medium).unwrap();
-    b.add_user(Box::new(Exploding)).unwrap();
-    let s = b.commit().unwrap();
-    assert!(s.check().is_ok(), "no query yet");
+    fn intersect(&self, _: u32, _: V3, _: V3, _: &mut Candidates) {
+        panic!("analytic shape exploded on purpose")
+    }
+}
+
+/// `f` with the panic message printer silenced (the panics are expected).
+fn quietly<R>(f: impl FnOnce() -> R) -> R {
     let prev = std::panic::take_hook();
     std::panic::set_hook(Box::new(|_| {}));
-    let h = s.intersect(&Ray::new(V3::new(0.0, 0.0, 5.0), V3::new(0.0, 0.0, -1.0)));
+    let r = f();
     std::panic::set_hook(prev);
+    r
+}
+
+/// A panic inside an analytic shape's callback cannot unwind into Embree:
+/// the query sees a miss, and `Scene::check` (which renders call per tile)
+/// reports it. Only for the scene of the broken shape: another scene's
+/// check stays clean.
+#[test]
+fn panic_in_user_geometry_is_reported_by_check_of_its_scene_only() {
+    let d = device();
+    let mut b = SceneBuilder::new(&d, SceneFlags::default(), BuildQuality::Medium).unwrap();
+    b.add_user(Box::new(Exploding { bounds_panic: false })).unwrap();
+    let s = b.commit().unwrap();
+    let other = tri_scene(SceneFlags::default());
+    assert!(s.check().is_ok(), "no query yet");
+    let ray = Ray::new(V3::new(0.0, 0.0, 5.0), V3::new(0.0, 0.0, -1.0));
+    let h = quietly(|| s.intersect(&ray));
     assert!(h.is_none());
     let e = s.check().unwrap_err();
     assert!(e.to_string().contains("analytic shape"), "{e}");
+    assert!(e.to_string().contains("exploded on purpose"), "{e}");
+    assert!(other.check().is_ok(), "another scene's shapes did not panic");
+}
+
+/// A shape whose bounds panic while the scene is built makes the build an
+/// error (its box was never set).
+#[test]
+fn panic_in_user_geometry_bounds_fails_the_build() {
+    let d = device();
+    let mut b = SceneBuilder::new(&d, SceneFlags::default(), BuildQuality::Medium).unwrap();
+    b.add_user(Box::new(Exploding { bounds_panic: true })).unwrap();
+    let e = quietly(|| b.commit()).err().expect("the build fails");
+    assert!(e.to_string().contains("bounds exploded on purpose"), "{e}");
 }
 
 /// A filtered query on a scene without the context-filter flag is an error,

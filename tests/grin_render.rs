@@ -15,8 +15,8 @@ fn row_blue_excess(path: &str) -> (Vec<f64>, snell::render::RenderStats) {
         &set,
         &RenderOptions {
             threads: Some(2),
-            quiet: true,
             want_aovs: false,
+            ..Default::default()
         },
     )
     .unwrap();
@@ -117,8 +117,8 @@ material = {{ type = "diffuse", reflectance = [0.7, 0.7, 0.7] }}
             &RenderSettings::from_scene(&s),
             &RenderOptions {
                 threads: Some(2),
-                quiet: true,
                 want_aovs: false,
+                ..Default::default()
             },
         )
         .unwrap()
@@ -149,8 +149,8 @@ fn render_small(path: &str, w: u32, h: u32, spp: u32) -> snell::render::Rendered
         &set,
         &RenderOptions {
             threads: Some(2),
-            quiet: true,
             want_aovs: false,
+            ..Default::default()
         },
     )
     .unwrap()

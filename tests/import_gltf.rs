@@ -22,8 +22,8 @@ fn go(s: &RenderScene, seed: u64) -> Rendered {
         .with_strategy(NestedStrategy::Filter);
     let opts = RenderOptions {
         threads: Some(2),
-        quiet: true,
         want_aovs: false,
+        ..Default::default()
     };
     render(s, &set, &opts).unwrap()
 }

@@ -35,8 +35,8 @@ fn go((s, set): &Case) -> Rendered {
         set,
         &RenderOptions {
             threads: Some(2),
-            quiet: true,
             want_aovs: false,
+            ..Default::default()
         },
     )
     .unwrap()
@@ -122,9 +122,9 @@ fn rms_diff(a: &[f64], b: &[f64]) -> f64 {
     (a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>() / a.len() as f64).sqrt()
 }
 
-/// DESIGN.md "Comparing images honestly": block means, judged against the
+/// docs/design.md "Comparing images honestly": block means, judged against the
 /// difference between two renders of the reference with different seeds.
-/// Issue 12's criterion: 640×480×64, 16×16 block means, ≤ 1.3× the
+/// The criterion: 640×480×64, 16×16 block means, ≤ 1.3× the
 /// seed-to-seed RMSE. The same test shows its power: the flat-shaded lathe
 /// (facet streaks, a shifted checker in the water) must fail that threshold.
 #[test]
@@ -267,7 +267,7 @@ fn overlapping_equal_ior_spheres_refract_like_their_union() {
             let d = DVec3::X;
             let mut c = Counters::default();
             let p = refraction_path(
-                Tracer { scene: &s, strategy },
+                Tracer::new(&s).with_strategy(strategy),
                 o.as_vec3a(),
                 V3::X,
                 &[],
@@ -350,10 +350,16 @@ fn audit_all(strategy: NestedStrategy) -> (u32, u32, u32, usize) {
     let mut c = Counters::default();
     for t in vertex_edge_targets(&s) {
         for e in eyes {
-            let a = audit_ray(Tracer { scene: &s, strategy }, e, (t - e).normalize(), &mut c).unwrap();
+            let a = audit_ray(
+                Tracer::new(&s).with_strategy(strategy),
+                e,
+                (t - e).normalize(),
+                &mut c,
+            )
+            .unwrap();
             if (a.left_nonempty || a.mismatches > 0) && std::env::var("SNELL_DEBUG").is_ok() {
                 let p = refraction_path(
-                    Tracer { scene: &s, strategy },
+                    Tracer::new(&s).with_strategy(strategy),
                     e,
                     (t - e).normalize(),
                     &s.solids_containing(e.as_dvec3()),
@@ -428,7 +434,7 @@ fn grazing_rays_and_coincident_faces_keep_lists_consistent() {
         for k in 0..200 {
             let y = -0.45 + 0.9 * k as f32 / 199.0;
             let a = audit_ray(
-                Tracer { scene: &s, strategy },
+                Tracer::new(&s).with_strategy(strategy),
                 V3::new(-3.0, y, 0.123),
                 V3::X,
                 &mut c,
@@ -436,7 +442,7 @@ fn grazing_rays_and_coincident_faces_keep_lists_consistent() {
             .unwrap();
             coincident_bad += (a.mismatches > 0 || a.left_nonempty) as u32;
             let a = audit_ray(
-                Tracer { scene: &s, strategy },
+                Tracer::new(&s).with_strategy(strategy),
                 V3::new(3.0, y, -0.2),
                 -V3::X,
                 &mut c,
@@ -448,7 +454,7 @@ fn grazing_rays_and_coincident_faces_keep_lists_consistent() {
         for k in 0..200 {
             let off = 0.5 + (k as f32 - 100.0) * 1e-7;
             let a = audit_ray(
-                Tracer { scene: &s, strategy },
+                Tracer::new(&s).with_strategy(strategy),
                 V3::new(-3.0, 2.0 + off, 0.0),
                 V3::X,
                 &mut c,
@@ -615,7 +621,7 @@ fn audit_rays<'a>(
         for strategy in [NestedStrategy::Filter, NestedStrategy::Recast] {
             let mut c = Counters::default();
             let a = audit_ray(
-                Tracer { scene: s, strategy },
+                Tracer::new(s).with_strategy(strategy),
                 V3::from(eye),
                 V3::from(dir),
                 &mut c,
@@ -650,9 +656,9 @@ fn the_audits_wrong_rays_keep_their_lists() {
     );
 }
 
-/// The rays of issue 12 §3's diagnosis (`docs/nested-wrong-rays.md`, R1–R10,
-/// S1–S7, W1): wrong in 10M-ray audits before the neighbourhood of a true
-/// hit was settled, each with another solid's surface (or, W1, its own rim)
+/// Rays R1–R10, S1–S7 and W1, found wrong by 10M-ray audits of a tracer
+/// that did not settle the neighbourhood of a true hit (docs/design.md, "The
+/// crossing window"), each with another solid's surface (or, W1, its own rim)
 /// within the spawn offset of a hit.
 const SPAWN_OFFSET_RAYS: [(&str, &str, [f32; 3], [f32; 3]); 18] = {
     const GIB: &str = "scenes/glass_ice_bubbles.toml";
@@ -814,7 +820,7 @@ fn a_glass_exit_onto_the_waters_surface_refracts_into_the_water() {
     for strategy in [NestedStrategy::Filter, NestedStrategy::Recast] {
         let mut c = Counters::default();
         let path = refraction_path(
-            Tracer { scene: &s, strategy },
+            Tracer::new(&s).with_strategy(strategy),
             V3::from(eye),
             V3::from(dir).normalize(),
             &start,

@@ -17,8 +17,8 @@ fn go(s: &RenderScene) -> Rendered {
         &RenderSettings::from_scene(s),
         &RenderOptions {
             threads: Some(2),
-            quiet: true,
             want_aovs: false,
+            ..Default::default()
         },
     )
     .unwrap()

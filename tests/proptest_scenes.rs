@@ -228,7 +228,7 @@ proptest! {
             Ok(s) => {
                 let (w, h) = (s.width.min(8), s.height.min(6));
                 let set = RenderSettings::from_scene(&s).with_resolution(w, h).expect("a smaller film is always valid");
-                let r = render(&s, &set.with_spp(1), &RenderOptions { threads: Some(1), quiet: true, want_aovs: false });
+                let r = render(&s, &set.with_spp(1), &RenderOptions { threads: Some(1), want_aovs: false, ..Default::default() });
                 prop_assert!(r.is_ok(), "render failed: {:?}\n{doc}", r.err());
                 let r = r.unwrap();
                 prop_assert!(r.pixels.iter().all(|p| p.is_finite()), "non-finite pixel\n{doc}");

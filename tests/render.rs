@@ -13,8 +13,8 @@ fn render_str(text: &str, threads: usize) -> Rendered {
         &RenderSettings::from_scene(&s),
         &RenderOptions {
             threads: Some(threads),
-            quiet: true,
             want_aovs: false,
+            ..Default::default()
         },
     )
     .expect("render")
@@ -150,8 +150,8 @@ fn reference_scenes_have_no_nan_and_match_stored_means() {
             .with_seed(12345);
         let opts = RenderOptions {
             threads: Some(2),
-            quiet: true,
             want_aovs: false,
+            ..Default::default()
         };
         render(&s, &set, &opts).unwrap()
     };
@@ -345,7 +345,7 @@ fn empty_scene_and_inside_out_mesh_are_errors_and_flip_is_offered() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// Issue 12 regression: with a point light declared before a rect light, a
+/// Regression: with a point light declared before a rect light, a
 /// duplicate object name was reported at `objects[1].name` (the line of "b"),
 /// because the index subtracted every light while only rect and sphere lights
 /// are pending objects. The error must name the duplicate's own key and line.
@@ -427,7 +427,7 @@ material = { type = "diffuse", reflectance = [0.5, 0.5, 0.5] }
 fn packet_lanes_trace_the_same_paths_as_single_rays() {
     use snell::counters::Counters;
     use snell::dielectric::{InteriorList, NestedStrategy};
-    use snell::embree::warp_ffi::{Packet16, Packet8};
+    use snell::embree::{Packet16, Packet8};
     use snell::integrator::{path_lanes, path_lanes_apply, radiance, Tracer};
     use snell::render::RenderSettings;
     use snell::sampling::Rng;
@@ -445,10 +445,7 @@ fn packet_lanes_trace_the_same_paths_as_single_rays() {
             &BuildOptions::default(),
         )
         .unwrap();
-        let tr = Tracer {
-            scene: &scene,
-            strategy,
-        };
+        let tr = Tracer::new(&scene).with_strategy(strategy);
         assert!(path_lanes_apply(tr), "{name}: no medium, the packet path applies");
         let settings = RenderSettings::from_scene(&scene)
             .with_resolution(64, 48)

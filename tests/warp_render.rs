@@ -62,8 +62,8 @@ fn full_trace_of_a_warp_scene_renders() {
             &set,
             &snell::render::RenderOptions {
                 threads: Some(1),
-                quiet: true,
                 want_aovs: false,
+                ..Default::default()
             },
         )
         .unwrap();
@@ -195,8 +195,10 @@ fn fresnel_weights_darken_the_view_through_the_glass() {
 /// scenes, for a first frame, a refitted repeat and a moved camera.
 #[test]
 fn pipeline_and_packets_match_the_single_ray_renderers() {
-    use snell::warp_render::pipeline::{render_exact_packets, Pipeline};
-    use snell::warp_render::{build_originals, prepare, render_exact, render_warped, warp_scene, Frame};
+    use snell::warp_render::pipeline::Pipeline;
+    use snell::warp_render::{
+        build_originals, prepare, render_exact, render_exact_packets, render_warped, warp_scene, Frame,
+    };
     let same = |a: &Frame, b: &Frame| -> (usize, f64) {
         let mut differ = 0;
         let mut worst: f64 = 0.0;

@@ -36,9 +36,10 @@ pub(crate) fn near_edge(u: f32, v: f32) -> bool {
 /// Rejected hits recorded per query before the filter falls back.
 pub const REJECT_CAPACITY: usize = 32;
 
-/// The filter's record buffers. They live per thread (`RECORDS`) and are
-/// reused: initialising them on every query was ~200 instructions, 40% of the
-/// filter's cost over a plain query (callgrind, glass_of_water_nested).
+/// The filter's record buffers: per-query scratch, reused from query to
+/// query on each thread (`RECORDS`) because initialising them per query is a
+/// large share of the filter's cost over a plain query. Nothing in them
+/// outlives a query: each one writes what it reads.
 pub struct FilterRecords {
     /// False hits of the current query, in the order Embree reported them.
     pub rejected: [Rejected; REJECT_CAPACITY],
@@ -46,10 +47,6 @@ pub struct FilterRecords {
     /// accepted t seen so far: after the query these are the true hit and any
     /// solid surfaces coincident with it.
     pub near: [Rejected; NEAR_CAPACITY],
-    /// When on ([`time_list_updates`](super::time_list_updates)): seconds
-    /// spent applying false hits to interior lists, and the number of timed
-    /// applications (each adds one clock read pair of overhead).
-    pub(crate) update_timer: Option<(f64, u64)>,
 }
 
 impl Default for FilterRecords {
@@ -65,12 +62,12 @@ impl Default for FilterRecords {
         FilterRecords {
             rejected: [zero; REJECT_CAPACITY],
             near: [zero; NEAR_CAPACITY],
-            update_timer: None,
         }
     }
 }
 
 thread_local! {
+    /// Scratch only (see [`FilterRecords`]): nothing passes from one query to the next.
     pub(crate) static RECORDS: std::cell::RefCell<FilterRecords> = std::cell::RefCell::new(FilterRecords::default());
 }
 
@@ -277,9 +274,9 @@ pub fn skip_ranges(scene: &RenderScene) -> &[(u32, u32)] {
 }
 
 /// May the surfaces of solids `a` and `b` come within a small tolerance of
-/// each other? Their bounds must meet; a sphere's surface also misses a box
-/// that lies wholly inside or outside its ball (concentric shells never
-/// meet). `true` when unsure: a wider test only skips less.
+/// each other? Their bounds must meet, and the shapes' own tests must allow
+/// it (concentric spheres never meet). `true` when unsure: a wider test only
+/// skips less.
 fn surfaces_may_meet(scene: &RenderScene, a: u32, b: u32) -> bool {
     let (ba, bb) = (scene.solids[a as usize].aabb, scene.solids[b as usize].aabb);
     let scale =
@@ -294,22 +291,26 @@ fn surfaces_may_meet(scene: &RenderScene, a: u32, b: u32) -> bool {
 /// May the surfaces of solids `a` and `b` come within `tol` of each other?
 /// As [`surfaces_may_meet`] with its tolerance given.
 pub(crate) fn surfaces_may_come_within(scene: &RenderScene, a: u32, b: u32, tol: f64) -> bool {
-    use crate::scene::{shapes::Analytic, Shape};
     let (sa, sb) = (&scene.solids[a as usize], &scene.solids[b as usize]);
-    let sphere = |s: &crate::scene::Solid| match &scene.geoms[s.geom as usize].shape {
-        Shape::Analytic(Analytic::Sphere { center, radius }) => Some((*center, *radius)),
+    let exact = match (analytic(scene, sa.geom), analytic(scene, sb.geom)) {
+        (Some(x), Some(y)) => x.surfaces_may_come_within(y, tol),
         _ => None,
     };
-    match (sphere(sa), sphere(sb)) {
-        // Two spheres' surfaces meet iff |ra - rb| <= |ca - cb| <= ra + rb.
-        (Some((ca, ra)), Some((cb, rb))) => {
-            let d = (ca - cb).length();
-            boxes_within(sa.aabb, sb.aabb, tol) && (ra - rb).abs() - tol <= d && d <= ra + rb + tol
-        }
-        _ => {
+    match exact {
+        Some(may) => boxes_within(sa.aabb, sb.aabb, tol) && may,
+        None => {
             surface_may_come_within_box(scene, b, sa.aabb, tol)
                 && surface_may_come_within_box(scene, a, sb.aabb, tol)
         }
+    }
+}
+
+/// The analytic shape of geometry `geom`, if it has one (a mesh has none).
+pub(crate) fn analytic(scene: &RenderScene, geom: u32) -> Option<&crate::scene::shapes::Analytic> {
+    use crate::scene::Shape;
+    match &scene.geoms[geom as usize].shape {
+        Shape::Analytic(a) => Some(a),
+        Shape::Mesh(_) => None,
     }
 }
 
@@ -319,28 +320,18 @@ fn boxes_within(a: (glam::DVec3, glam::DVec3), b: (glam::DVec3, glam::DVec3), to
 }
 
 /// May the surface of solid `s` come within `tol` of some point of the box
-/// `bx`? Its bounds must; a sphere's surface also misses a box that lies
-/// wholly inside or outside its ball (farthest corner nearer than r - tol,
-/// or nearest point farther than r + tol). `true` when unsure.
+/// `bx`? Its bounds must, and its shape's own test must allow it (a
+/// sphere's surface misses a box wholly inside or outside its ball). `true`
+/// when unsure.
 pub(crate) fn surface_may_come_within_box(
     scene: &RenderScene,
     s: u32,
     bx: (glam::DVec3, glam::DVec3),
     tol: f64,
 ) -> bool {
-    use crate::scene::{shapes::Analytic, Shape};
     let solid = &scene.solids[s as usize];
-    if !boxes_within(solid.aabb, bx, tol) {
-        return false;
-    }
-    match &scene.geoms[solid.geom as usize].shape {
-        Shape::Analytic(Analytic::Sphere { center: c, radius: r }) => {
-            let far = (bx.0 - *c).abs().max((bx.1 - *c).abs()).length();
-            let near = (c.clamp(bx.0, bx.1) - *c).length();
-            !(far < r - tol || near > r + tol)
-        }
-        _ => true,
-    }
+    boxes_within(solid.aabb, bx, tol)
+        && analytic(scene, solid.geom).is_none_or(|a| a.surface_may_come_within_box(bx, tol))
 }
 
 /// Solid crossings at the same point as a true hit (coincident faces), beyond

@@ -1,6 +1,5 @@
 //! The neighbourhood of a true hit: other solids' surfaces so close to it
-//! that no query crosses them (issue 12 §3; the diagnosis is in
-//! `docs/nested-wrong-rays.md`).
+//! that no query crosses them (docs/design.md, "The crossing window").
 //!
 //! A ray that meets its true hit at p does not go on from p: its child starts
 //! at q, a spawn offset (2·10⁻⁶ here) off the surface. A surface of another
@@ -8,8 +7,7 @@
 //! the hit stopped there (Embree clips the ray at an accepted hit, so a
 //! candidate 10⁻⁷ beyond it is never offered to the filter, and the re-cast
 //! and the plain query return the first true hit), and the child starts past
-//! it. The list was then wrong by that one solid: 29 rays in 10M on the mesh
-//! scenes. Two steps close it, both gated by an exact distance test so that a
+//! it, and the list would be wrong by that one solid. Two steps close it, both gated by an exact distance test so that a
 //! hit with no other surface near pays one bounds test per solid:
 //!
 //! 1. [`look_ahead`], inside `trace`, before the boundary event: each solid
@@ -32,13 +30,13 @@
 //!
 //! The paper's toggle strategy is left as the paper has it.
 use super::filter::{
-    near_edge, surface_may_come_within_box, surfaces_may_come_within, Coincident, NearSolids, TrueHit,
+    analytic, near_edge, surface_may_come_within_box, surfaces_may_come_within, Coincident, NearSolids,
+    TrueHit,
 };
 use super::InteriorList;
 use crate::counters::Counters;
 use crate::ray::{crossing_window, Hit, Ray};
 use crate::scene::model::{Box32, Neighbours, Zone};
-use crate::scene::shapes::Analytic;
 use crate::scene::{RenderScene, Shape};
 use glam::DVec3;
 
@@ -84,7 +82,7 @@ fn neighbours(scene: &RenderScene) -> &Neighbours {
                         Some(a) => b != a && surfaces_may_come_within(scene, a, b, tol),
                         None => surface_may_come_within_box(scene, b, bx, tol),
                     })
-                    .filter_map(|b| zone(scene, &rec.shape, bx, b, tol))
+                    .filter_map(|b| zone(scene, g as u32, bx, b, tol))
                     .collect()
             })
             .collect::<Vec<Vec<Zone>>>();
@@ -124,29 +122,25 @@ fn neighbours(scene: &RenderScene) -> &Neighbours {
     })
 }
 
-/// The [`Zone`] of solid `s` on the surface of a geometry of shape `shape`
-/// with bounds `bx`: the points of that surface within `tol` of the
-/// solid's surface lie in both bounds (dilated by `tol`), and, for a
-/// sphere, in its ball (radius + `tol`); on a sphere, near a second
-/// sphere, in the band of the first sphere around the circle where they
-/// meet. `None` when that box is empty.
-fn zone(scene: &RenderScene, shape: &Shape, bx: (DVec3, DVec3), s: u32, tol: f64) -> Option<Zone> {
-    let sphere = |sh: &Shape| match sh {
-        Shape::Analytic(Analytic::Sphere { center, radius }) => Some((*center, *radius)),
-        _ => None,
-    };
+/// The [`Zone`] of solid `s` on the surface of geometry `geom` with bounds
+/// `bx`: the points of that surface within `tol` of the solid's surface lie
+/// in both bounds (dilated by `tol`) and in what each shape's own tests keep
+/// of them (for a sphere, its ball widened by `tol`; on a sphere near a
+/// second sphere, the band of the first around the circle where they meet).
+/// `None` when that box is empty.
+fn zone(scene: &RenderScene, geom: u32, bx: (DVec3, DVec3), s: u32, tol: f64) -> Option<Zone> {
     let solid = &scene.solids[s as usize];
     let mut b = (
         (bx.0 - tol).max(solid.aabb.0 - tol),
         (bx.1 + tol).min(solid.aabb.1 + tol),
     );
-    let other = sphere(&scene.geoms[solid.geom as usize].shape);
-    let own = sphere(shape);
-    for (c, r) in [other, own].into_iter().flatten() {
-        b = ball_box(c, r + tol, b)?;
+    let other = analytic(scene, solid.geom);
+    let own = analytic(scene, geom);
+    for a in [other, own].into_iter().flatten() {
+        b = a.clip_to_near_surface(tol, b)?;
     }
-    if let (Some((cg, rg)), Some((cs, rs))) = (own, other) {
-        b = band_box(cg, rg, cs, rs, tol, b)?;
+    if let (Some(g), Some(o)) = (own, other) {
+        b = g.clip_to_band(o, tol, b)?;
     }
     if !b.0.cmple(b.1).all() {
         return None;
@@ -157,56 +151,6 @@ fn zone(scene: &RenderScene, shape: &Shape, bx: (DVec3, DVec3), s: u32, tol: f64
         solid: s,
         bx: Box32::padded(b.0, b.1, tol),
     })
-}
-
-/// The box `b` cut down to the bounds of its part inside the ball of centre
-/// `c` and radius `r`; `None` when they do not meet.
-fn ball_box(c: DVec3, r: f64, b: (DVec3, DVec3)) -> Option<(DVec3, DVec3)> {
-    // Per axis, the distance from `c` to the box's extent (0 inside).
-    let gap = (b.0 - c).max(c - b.1).max(DVec3::ZERO);
-    let (mut lo, mut hi) = b;
-    for k in 0..3 {
-        let rest = gap.length_squared() - gap[k] * gap[k];
-        if rest > r * r {
-            return None;
-        }
-        let e = (r * r - rest).sqrt();
-        lo[k] = lo[k].max(c[k] - e);
-        hi[k] = hi[k].min(c[k] + e);
-    }
-    lo.cmple(hi).all().then_some((lo, hi))
-}
-
-/// The box `b` cut down to the band of the sphere (`cg`, `rg`) whose points
-/// lie within `tol` of the sphere (`cs`, `rs`): along the axis a from `cg`
-/// to `cs` (d apart), a point x of the first sphere has
-/// |x − cs|² = rg² + d² − 2d·h with h = (x − cg)·a, so the band is a range
-/// of h, and x = cg + h·a + w with w ⊥ a, |w|² = rg² − h².
-fn band_box(cg: DVec3, rg: f64, cs: DVec3, rs: f64, tol: f64, b: (DVec3, DVec3)) -> Option<(DVec3, DVec3)> {
-    let d = (cs - cg).length();
-    if d <= tol {
-        return Some(b); // (nearly) concentric: the band is all or nothing
-    }
-    let a = (cs - cg) / d;
-    let h_of = |q: f64| (rg * rg + d * d - q * q) / (2.0 * d);
-    let h0 = h_of(rs + tol).max(-rg);
-    let h1 = h_of((rs - tol).max(0.0)).min(rg);
-    if h0 > h1 {
-        return None;
-    }
-    let hmin2 = if h0 <= 0.0 && h1 >= 0.0 {
-        0.0
-    } else {
-        (h0 * h0).min(h1 * h1)
-    };
-    let w = (rg * rg - hmin2).max(0.0).sqrt();
-    let (mut lo, mut hi) = b;
-    for k in 0..3 {
-        let spread = w * (1.0 - a[k] * a[k]).max(0.0).sqrt();
-        lo[k] = lo[k].max(cg[k] + (h0 * a[k]).min(h1 * a[k]) - spread);
-        hi[k] = hi[k].min(cg[k] + (h0 * a[k]).max(h1 * a[k]) + spread);
-    }
-    lo.cmple(hi).all().then_some((lo, hi))
 }
 
 /// Distance tests one mesh's triangles may spend in [`near_pieces`]

@@ -195,12 +195,63 @@ fn recast_tnear(r: &Ray, t: f32) -> f32 {
 /// }
 /// # Ok::<(), snell::Error>(())
 /// ```
+#[inline]
 pub fn trace(
     scene: &RenderScene,
     strategy: NestedStrategy,
     ray: &Ray,
     list: &mut InteriorList,
     c: &mut Counters,
+) -> crate::error::Result<Option<TrueHit>> {
+    traced(scene, strategy, ray, list, c, None)
+}
+
+/// Time spent applying false hits to interior lists (the point-in-solid
+/// verification of near-edge records, `apply_rejected` and the masked
+/// solids' settling after each filtered query), for the benchmark's share
+/// of "list updates". Each timed application adds the cost of one pair of
+/// clock reads to the caller's time and to `seconds`; subtract it (see
+/// `bench::clock_pair_s`).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct ListUpdateTimer {
+    /// Seconds spent in the timed applications.
+    pub seconds: f64,
+    /// Number of timed applications.
+    pub count: u64,
+}
+
+impl ListUpdateTimer {
+    /// Add the time since `t0` as one application.
+    #[inline]
+    fn add_since(&mut self, t0: std::time::Instant) {
+        self.seconds += t0.elapsed().as_secs_f64();
+        self.count += 1;
+    }
+}
+
+/// [`trace`], with the filter strategy's list updates timed into `timer`.
+///
+/// # Errors
+/// As [`trace`].
+pub fn trace_timing_list_updates(
+    scene: &RenderScene,
+    strategy: NestedStrategy,
+    ray: &Ray,
+    list: &mut InteriorList,
+    c: &mut Counters,
+    timer: &mut ListUpdateTimer,
+) -> crate::error::Result<Option<TrueHit>> {
+    traced(scene, strategy, ray, list, c, Some(timer))
+}
+
+/// [`trace`], timing the list updates into `timer` if there is one.
+fn traced(
+    scene: &RenderScene,
+    strategy: NestedStrategy,
+    ray: &Ray,
+    list: &mut InteriorList,
+    c: &mut Counters,
+    timer: Option<&mut ListUpdateTimer>,
 ) -> crate::error::Result<Option<TrueHit>> {
     c.queries += 1;
     let plain = |h: Option<Hit>| {
@@ -237,13 +288,13 @@ pub fn trace(
                         // A false hit: trace on from it with the list the ray had.
                         c.false_hits += 1;
                         r.tnear = just_past(h.t);
-                        return trace(scene, strategy, &r, list, c);
+                        return traced(scene, strategy, &r, list, c, timer);
                     }
                     None => return Ok(None),
                 }
             }
         }
-        NestedStrategy::Filter => filtered(scene, ray, list, c)?,
+        NestedStrategy::Filter => filtered(scene, ray, list, c, timer)?,
         NestedStrategy::Recast => plain(recast(scene, ray, list, c, false)?),
         // The paper's method as the paper has it.
         NestedStrategy::Toggle => return Ok(plain(recast(scene, ray, list, c, true)?)),
@@ -257,12 +308,14 @@ pub fn trace(
     Ok(th)
 }
 
-/// [`trace`] with the false-hit filter, for a ray inside `list` (not empty).
+/// [`trace`] with the false-hit filter, for a ray inside `list` (not empty);
+/// the list updates timed into `timer` if there is one.
 fn filtered(
     scene: &RenderScene,
     ray: &Ray,
     list: &mut InteriorList,
     c: &mut Counters,
+    mut timer: Option<&mut ListUpdateTimer>,
 ) -> crate::error::Result<Option<TrueHit>> {
     let plain = |h: Option<Hit>| {
         h.map(|hit| TrueHit {
@@ -273,7 +326,7 @@ fn filtered(
     let p0 = list.top_rank().unwrap_or(0);
     let (mask, below) = ray_mask(scene, p0);
     if p0 <= scene.lowest_unmasked_rank {
-        if let Some(th) = masked_plain(scene, ray, list, c, mask, below) {
+        if let Some(th) = masked_plain(scene, ray, list, c, mask, below, timer.as_deref_mut()) {
             return Ok(th);
         }
     }
@@ -330,7 +383,7 @@ fn filtered(
             return Ok(plain(recast(scene, &r, list, c, false)?));
         };
         let t_hit = hit.map(|h| h.t).unwrap_or(f32::INFINITY);
-        let clock = filter.rec.update_timer.map(|_| std::time::Instant::now());
+        let clock = timer.is_some().then(std::time::Instant::now);
         let n = verify_rejected(scene, &r, &mut filter.rec.rejected[..filter.len]);
         // False crossings up to and including those coincident with the true hit.
         // The filter's coefficients: the same window without a square root.
@@ -338,9 +391,8 @@ fn filtered(
         let limit = t_hit + win;
         c.false_hits += apply_rejected(list, &mut filter.rec.rejected[..n], limit, win) as u64;
         c.false_hits += settle_masked(scene, &scene.masked_solids[..below], &r, hit.map(|h| h.t), list);
-        if let (Some(t0), Some((s, k))) = (clock, filter.rec.update_timer.as_mut()) {
-            *s += t0.elapsed().as_secs_f64();
-            *k += 1;
+        if let (Some(t0), Some(timer)) = (clock, timer) {
+            timer.add_since(t0);
         }
         c.max_list_depth = c.max_list_depth.max(list.len() as u64);
         if list.spilled() {
@@ -368,6 +420,7 @@ fn filtered(
 /// counted as one more query): the filter decides there, as it records the
 /// surfaces the touch point lies on. Other solids' surfaces coincident with
 /// the hit, which the filter records, are found by `settle::look_ahead`.
+/// The settling is timed into `timer` if there is one.
 #[inline]
 fn masked_plain(
     scene: &RenderScene,
@@ -376,6 +429,7 @@ fn masked_plain(
     c: &mut Counters,
     mask: u32,
     below: usize,
+    timer: Option<&mut ListUpdateTimer>,
 ) -> Option<Option<TrueHit>> {
     let hit = scene.embree.intersect_masked(ray, mask);
     if let Some(h) = &hit {
@@ -385,16 +439,10 @@ fn masked_plain(
         }
     }
     if below > 0 {
-        let (changed, dt) =
-            time_update(|| settle_masked(scene, &scene.masked_solids[..below], ray, hit.map(|h| h.t), list));
-        c.false_hits += changed;
-        if let Some(dt) = dt {
-            RECORDS.with_borrow_mut(|rec| {
-                if let Some((s, k)) = rec.update_timer.as_mut() {
-                    *s += dt;
-                    *k += 1;
-                }
-            });
+        let clock = timer.is_some().then(std::time::Instant::now);
+        c.false_hits += settle_masked(scene, &scene.masked_solids[..below], ray, hit.map(|h| h.t), list);
+        if let (Some(t0), Some(timer)) = (clock, timer) {
+            timer.add_since(t0);
         }
     }
     c.max_list_depth = c.max_list_depth.max(list.len() as u64);
@@ -405,18 +453,6 @@ fn masked_plain(
         hit,
         coincident: Coincident::NONE,
     }))
-}
-
-/// Run `f`, timed when [`time_list_updates`] asked for it on this thread
-/// (the seconds it took).
-#[inline]
-fn time_update<R>(f: impl FnOnce() -> R) -> (R, Option<f64>) {
-    if !RECORDS.with_borrow(|rec| rec.update_timer.is_some()) {
-        return (f(), None);
-    }
-    let t0 = std::time::Instant::now();
-    let out = f();
-    (out, Some(t0.elapsed().as_secs_f64()))
 }
 
 /// The ray mask of a filtered query by a ray whose list's top rank is `p0`,
@@ -479,22 +515,6 @@ fn settle_masked(
         }
     }
     changed
-}
-
-/// Run `f` with the filter strategy's application of false hits to interior
-/// lists (the point-in-solid verification of near-edge records and
-/// `apply_rejected`, after each filtered query of [`trace`] on this thread)
-/// timed: returns `f`'s result, the seconds spent there, and the number of
-/// timed applications. Each application adds the cost of one pair of clock
-/// reads to `f`'s time and to the seconds; subtract it (see
-/// `bench::clock_pair_s`) to estimate the paper's "list update" share.
-pub fn time_list_updates<R>(f: impl FnOnce() -> R) -> (R, f64, u64) {
-    RECORDS.with_borrow_mut(|r| r.update_timer = Some((0.0, 0)));
-    let out = f();
-    let (s, k) = RECORDS
-        .with_borrow_mut(|r| r.update_timer.take())
-        .unwrap_or((0.0, 0));
-    (out, s, k)
 }
 
 /// Can one plain query of a ray inside `list` stand in for [`trace`]?
@@ -616,24 +636,31 @@ mod tests {
     use glam::Vec3A;
 
     #[test]
-    fn list_updates_are_timed_once_per_filtered_query_and_only_when_asked() {
+    fn list_updates_are_timed_once_per_filtered_query_and_change_nothing() {
         let scene = crate::dielectric::water_in_glass("");
         let ray = Ray::new(Vec3A::new(0.0, 0.1, 0.3), Vec3A::X);
-        let mut c = Counters::default();
-        let run = |c: &mut Counters, n: usize| {
-            for _ in 0..n {
-                let mut list = InteriorList::from_solids(&scene.solids, &[0, 1]);
-                trace(&scene, NestedStrategy::Filter, &ray, &mut list, c).unwrap();
-            }
-        };
-        let ((), s, k) = time_list_updates(|| run(&mut c, 3));
-        assert_eq!(k, 3, "one timed application per filtered query");
-        assert!(s > 0.0);
-        assert_eq!(c.false_hits, 3);
-        // Off again: nothing is timed.
-        run(&mut c, 2);
-        let ((), _, k) = time_list_updates(|| ());
-        assert_eq!(k, 0);
+        let mut timer = ListUpdateTimer::default();
+        let (mut timed, mut plain) = (Counters::default(), Counters::default());
+        for _ in 0..3 {
+            let mut list = InteriorList::from_solids(&scene.solids, &[0, 1]);
+            let a = trace_timing_list_updates(
+                &scene,
+                NestedStrategy::Filter,
+                &ray,
+                &mut list,
+                &mut timed,
+                &mut timer,
+            )
+            .unwrap();
+            let mut plain_list = InteriorList::from_solids(&scene.solids, &[0, 1]);
+            let b = trace(&scene, NestedStrategy::Filter, &ray, &mut plain_list, &mut plain).unwrap();
+            assert_eq!(a.map(|t| t.hit.t), b.map(|t| t.hit.t));
+            assert_eq!(list.sorted(), plain_list.sorted());
+        }
+        assert_eq!(timer.count, 3, "one timed application per filtered query");
+        assert!(timer.seconds > 0.0);
+        assert_eq!(timed.false_hits, 3);
+        assert_eq!(timed.false_hits, plain.false_hits);
     }
 
     #[test]

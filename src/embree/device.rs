@@ -27,10 +27,9 @@ pub enum EmbreeError {
     FilterPanicked(String),
     /// An analytic shape's callback panicked: its query saw a miss, so the
     /// results since the last check are not to be trusted.
-    #[error("an analytic shape's intersection callback panicked ({count} times since start): {message}")]
+    #[error("an analytic shape's callback panicked ({count} times in this scene): {message}")]
     UserGeometryPanicked {
-        /// Panics in user-geometry callbacks since the process started
-        /// ([`user_geometry_panics`](super::user_geometry_panics)).
+        /// Panics in the scene's user-geometry callbacks.
         count: u64,
         /// The first such panic's message.
         message: String,

@@ -232,8 +232,7 @@ unsafe fn filter_lanes<F: HitFilter>(a: &sys::RTCFilterFunctionNArguments) {
     let hit = a.hit as *const f32;
     if n == 1 {
         // Single-ray queries (every query of `dielectric::trace`): the lane
-        // addressing folds to constants (callgrind: ~7 instructions less
-        // per call than the general loop below).
+        // addressing folds to constants, cheaper than the general loop below.
         // SAFETY: lane 0 of the one-lane blocks Embree passed (N = 1).
         unsafe { filter_lane(ctx, a, ray, hit, 0, 1) };
         return;

@@ -9,15 +9,18 @@
 //!   [`Scene::occluded`] and their filtered variants, and [`Scene::check`].
 //! - `user_geometry.rs`: analytic shapes ([`UserShape`], [`Bounds`],
 //!   [`Candidates`]) as Embree user geometry: the bounds/intersect/occluded
-//!   callbacks (one lane loop for both queries) and the count of panics
-//!   caught in them ([`user_geometry_panics`]).
+//!   callbacks (one lane loop for both queries); panics caught in them are
+//!   counted per geometry and reported by [`Scene::check`].
 //! - `filter.rs`: a Rust [`HitFilter`] run as an Embree *context filter*
 //!   through a trampoline, with the filter state carried in an extended
 //!   `RTCIntersectContext` ([`FilterContext`], `#[repr(C)]`, Embree's context
 //!   first); the inline `rtcInitIntersectContext` in Rust.
-//! - `warp_ffi.rs`: ray packets and refittable meshes for the warp renderer.
-//! - `clock.rs`: the thread CPU clock of the C library (not Embree; here so
-//!   that all FFI is in one module), for the benchmarks' CPU times.
+//! - `packet.rs`: ray packets ([`Packet8`], [`Packet16`], the [`RayPacket`]
+//!   trait) for the path tracer's lanes, the warp renderer and the ceiling.
+//! - `dynamic_mesh.rs`: [`DynamicMesh`], a mesh refitted frame by frame (the
+//!   warp renderer's copies).
+//! - `libc_clock.rs`: the C library's CPU clocks (not Embree; here so that
+//!   all FFI is in one module), for [`crate::timing`].
 //!
 //! Rays and hits are [`Ray`] and [`Hit`] of [`crate::ray`] (re-exported here):
 //! `org + t·dir` with t in units of `|dir|` (`dir` need not be unit length);
@@ -49,20 +52,23 @@
 //!   A panicking filter is reported as `Err` after the query; a panicking
 //!   shape makes its query see a miss and is reported by [`Scene::check`].
 
-mod clock;
 mod device;
+mod dynamic_mesh;
 mod filter;
+mod libc_clock;
+mod packet;
 mod scene;
 mod user_geometry;
-pub mod warp_ffi;
 
 pub use crate::ray::{Hit, Ray};
-pub use clock::thread_cpu_s;
 pub use device::{Device, EmbreeError};
+pub use dynamic_mesh::{Committed, DynamicMesh};
 use filter::init_context;
 pub use filter::{FilterContext, FilterHit, HitFilter, SkipRanges};
+pub(crate) use libc_clock::{process_cpu_s, thread_cpu_s};
+pub use packet::{Packet16, Packet8, RayPacket};
 pub use scene::{BuildQuality, Scene, SceneBuilder, SceneFlags};
-pub use user_geometry::{user_geometry_panics, Bounds, Candidate, Candidates, LaneRay, UserShape};
+pub use user_geometry::{Bounds, Candidate, Candidates, LaneRay, UserShape};
 
 /// `RTC_INVALID_GEOMETRY_ID` (a cast macro bindgen does not translate): the
 /// geometry id of "no hit".

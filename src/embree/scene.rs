@@ -5,7 +5,7 @@
 use super::device::{Device, EmbreeError};
 use super::filter::{init_context, FilterContext, HitFilter, SkipRanges};
 use super::user_geometry::{
-    check_user_panics, user_bounds, user_geometry_panics, user_intersect, user_occluded, UserGeom, UserShape,
+    check_user_panics, user_bounds, user_intersect, user_occluded, UserGeom, UserShape,
 };
 use super::INVALID_ID;
 use crate::ray::{Hit, Ray};
@@ -198,7 +198,7 @@ impl SceneBuilder {
     /// # Errors
     /// As [`add_user`](Self::add_user).
     pub fn add_user_masked(&mut self, shape: Box<dyn UserShape>, mask: u32) -> Result<u32, EmbreeError> {
-        let data = Box::new(UserGeom { shape });
+        let data = Box::new(UserGeom::new(shape));
         let count = data.shape.prim_count();
         // SAFETY: valid device.
         let geom = unsafe { sys::rtcNewGeometry(self.device.inner.raw, sys::RTC_GEOMETRY_TYPE_USER) };
@@ -224,19 +224,22 @@ impl SceneBuilder {
     /// Build the acceleration structure. The result may be queried from many threads.
     ///
     /// # Errors
-    /// [`EmbreeError::Embree`] when the build fails (e.g. out of memory).
+    /// [`EmbreeError::Embree`] when the build fails (e.g. out of memory);
+    /// [`EmbreeError::UserGeometryPanicked`] when an analytic shape's bounds
+    /// panicked during the build.
     pub fn commit(mut self) -> Result<Scene, EmbreeError> {
         // SAFETY: valid scene handle with committed geometries.
         unsafe { sys::rtcCommitScene(self.raw) };
         self.device.inner.check()?;
+        // A shape's bounds callback that panicked left its box unset.
+        check_user_panics(&self.user)?;
         let raw = std::mem::replace(&mut self.raw, ptr::null_mut());
         Ok(Scene {
             device: self.device.clone(),
             raw,
             context_filter: self.context_filter,
-            user_panics_at_build: user_geometry_panics(),
             filter_table: std::sync::OnceLock::new(),
-            _user: std::mem::take(&mut self.user),
+            user: std::mem::take(&mut self.user),
         })
     }
 }
@@ -247,16 +250,16 @@ impl SceneBuilder {
 /// (triangles: winding; analytic shapes: theirs, out of closed solids).
 pub struct Scene {
     device: Device,
-    /// The scene handle (also used by `warp_ffi`'s packet queries).
+    /// The scene handle (also used by the packet queries of `packet.rs`).
     pub(super) raw: sys::RTCScene,
     /// Built with `RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION`.
     context_filter: bool,
-    /// `user_geometry_panics()` when the scene was committed.
-    user_panics_at_build: u64,
     /// [`Scene::filter_table`]'s table.
     filter_table: std::sync::OnceLock<Vec<(u32, u32)>>,
+    /// The user geometries Embree's callbacks point into (boxed: their
+    /// addresses must not move), with the panics caught in them.
     #[allow(clippy::vec_box)]
-    _user: Vec<Box<UserGeom>>,
+    user: Vec<Box<UserGeom>>,
 }
 
 // SAFETY: a committed Embree scene is immutable and Embree documents concurrent
@@ -447,15 +450,15 @@ impl Scene {
     }
 
     /// Errors since the last check: Embree's own (e.g. from queries), and
-    /// panics inside analytic shapes' callbacks since the scene was built
-    /// (those queries saw a miss). Renders call it after every tile.
+    /// panics inside this scene's analytic shapes' callbacks since it was
+    /// built (those queries saw a miss). Renders call it after every tile.
     ///
     /// # Errors
     /// The first error Embree reported ([`EmbreeError::Embree`]), or
     /// [`EmbreeError::UserGeometryPanicked`].
     pub fn check(&self) -> Result<(), EmbreeError> {
         self.device.inner.check()?;
-        check_user_panics(self.user_panics_at_build)
+        check_user_panics(&self.user)
     }
 }
 

@@ -1,6 +1,7 @@
 //! Analytic shapes as Embree user geometry: the [`UserShape`] trait, the
 //! `extern "C"` bounds/intersect/occluded callbacks Embree calls for them, and
-//! the count of panics caught inside those callbacks.
+//! the panics caught inside those callbacks (counted per geometry, so one
+//! scene's broken shape is never reported by another scene).
 //!
 //! The intersect and occluded callbacks share one lane loop, [`lanes`]; what
 //! differs between them (the argument struct, what an accepted hit writes)
@@ -15,43 +16,7 @@ use std::ffi::c_void;
 use std::mem::MaybeUninit;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::Mutex;
-
-/// Count of panics caught inside user-geometry callbacks (the query sees a
-/// miss; `Scene::check` turns the count into an error).
-static USER_GEOMETRY_PANICS: AtomicU64 = AtomicU64::new(0);
-/// The first such panic's message.
-static USER_GEOMETRY_PANIC_MESSAGE: Mutex<Option<String>> = Mutex::new(None);
-
-/// Panics caught inside user-geometry callbacks since the process started
-/// (each made its query see a miss; [`Scene::check`](super::Scene::check)
-/// reports them as [`EmbreeError::UserGeometryPanicked`]).
-pub fn user_geometry_panics() -> u64 {
-    USER_GEOMETRY_PANICS.load(Ordering::Relaxed)
-}
-
-fn record_user_panic(p: &(dyn Any + Send)) {
-    if USER_GEOMETRY_PANICS.fetch_add(1, Ordering::Relaxed) == 0 {
-        if let Ok(mut m) = USER_GEOMETRY_PANIC_MESSAGE.lock() {
-            *m = Some(panic_message(p));
-        }
-    }
-}
-
-/// `Err(UserGeometryPanicked)` when user-geometry callbacks have panicked
-/// since the counter stood at `since`.
-pub(super) fn check_user_panics(since: u64) -> Result<(), EmbreeError> {
-    let count = USER_GEOMETRY_PANICS.load(Ordering::Relaxed);
-    if count > since {
-        let message = USER_GEOMETRY_PANIC_MESSAGE
-            .lock()
-            .ok()
-            .and_then(|m| m.clone())
-            .unwrap_or_default();
-        return Err(EmbreeError::UserGeometryPanicked { count, message });
-    }
-    Ok(())
-}
+use std::sync::OnceLock;
 
 /// Axis-aligned bounds of one user-geometry primitive, in scene units. They
 /// must contain every point the primitive reports as a hit (pad them for
@@ -125,8 +90,8 @@ impl Candidates {
         unsafe { std::slice::from_raw_parts(self.items.as_ptr() as *const Candidate, self.len) }
     }
 
-    /// Insertion sort by t: at most four items (a generic slice sort cost
-    /// 4% of a deep-nesting trace, by callgrind).
+    /// Insertion sort by t: at most four items, where a generic slice sort
+    /// shows in a nested trace's profile.
     #[inline]
     fn sort(&mut self) {
         // SAFETY: as in `as_slice`, mutably.
@@ -203,6 +168,50 @@ pub trait UserShape: Send + Sync + 'static {
 /// scene's life.
 pub(super) struct UserGeom {
     pub(super) shape: Box<dyn UserShape>,
+    /// Panics caught in this geometry's callbacks (each made its query see a miss).
+    panics: AtomicU64,
+    /// The first such panic's message.
+    first_panic: OnceLock<String>,
+}
+
+impl UserGeom {
+    pub(super) fn new(shape: Box<dyn UserShape>) -> Self {
+        UserGeom {
+            shape,
+            panics: AtomicU64::new(0),
+            first_panic: OnceLock::new(),
+        }
+    }
+
+    fn record_panic(&self, p: &(dyn Any + Send)) {
+        self.panics.fetch_add(1, Ordering::Relaxed);
+        self.first_panic.get_or_init(|| panic_message(p));
+    }
+}
+
+/// `Err(UserGeometryPanicked)` when a callback of one of `geoms` has
+/// panicked: their count, and the first panicking geometry's message.
+pub(super) fn check_user_panics(geoms: &[Box<UserGeom>]) -> Result<(), EmbreeError> {
+    let count: u64 = geoms.iter().map(|g| g.panics.load(Ordering::Relaxed)).sum();
+    if count > 0 {
+        let message = geoms
+            .iter()
+            .find_map(|g| g.first_panic.get().cloned())
+            .unwrap_or_default();
+        return Err(EmbreeError::UserGeometryPanicked { count, message });
+    }
+    Ok(())
+}
+
+/// Record the panic `p` caught in a callback of the geometry `user` points at.
+///
+/// # Safety
+/// `user` must be the `geometryUserPtr` Embree passed to the callback: a
+/// `UserGeom` of `add_user`, alive for the scene's life.
+unsafe fn record_user_panic(user: *mut c_void, p: &(dyn Any + Send)) {
+    // SAFETY: guaranteed by the caller.
+    let g = unsafe { &*(user as *const UserGeom) };
+    g.record_panic(p);
 }
 
 /// The bounds callback (`RTCBoundsFunction`) of every user geometry.
@@ -224,7 +233,8 @@ pub(super) unsafe extern "C" fn user_bounds(args: *const sys::RTCBoundsFunctionA
         }
     }));
     if let Err(p) = r {
-        record_user_panic(&*p);
+        // SAFETY: Embree passes valid arguments whose geometryUserPtr is our UserGeom.
+        unsafe { record_user_panic((*args).geometryUserPtr, &*p) };
     }
 }
 
@@ -236,7 +246,8 @@ pub(super) unsafe extern "C" fn user_intersect(args: *const sys::RTCIntersectFun
         unsafe { lanes::<Intersect>(args) }
     }));
     if let Err(p) = r {
-        record_user_panic(&*p);
+        // SAFETY: as in `user_bounds`.
+        unsafe { record_user_panic((*args).geometryUserPtr, &*p) };
     }
 }
 
@@ -248,7 +259,8 @@ pub(super) unsafe extern "C" fn user_occluded(args: *const sys::RTCOccludedFunct
         unsafe { lanes::<Occluded>(args) }
     }));
     if let Err(p) = r {
-        record_user_panic(&*p);
+        // SAFETY: as in `user_bounds`.
+        unsafe { record_user_panic((*args).geometryUserPtr, &*p) };
     }
 }
 
@@ -290,7 +302,7 @@ macro_rules! lane_fields {
 
 /// What differs between the intersect and the occluded callback. The field
 /// accessors are read where the loop needs them, not copied up front (a
-/// copied struct cost ~10 instructions per callback, by callgrind).
+/// copy per callback is work the loop does not need).
 trait LaneQuery {
     /// Embree's argument struct for the callback.
     type Args;
@@ -360,8 +372,9 @@ impl LaneQuery for Occluded {
     }
 }
 
-/// Lanes a callback hands to [`UserShape::intersect_lanes`] at once.
-const LANES: usize = 16;
+/// Embree's widest packet (`rtcIntersect16`): the most lanes one callback
+/// has, and the rays it hands to [`UserShape::intersect_lanes`] at once.
+const MAX_CALLBACK_LANES: usize = 16;
 
 /// The lane loop of both callbacks: for each active lane, intersect the shape,
 /// sort the candidates, clip them to `[tnear, tfar]`, and offer them nearest
@@ -387,9 +400,9 @@ unsafe fn lanes<Q: LaneQuery>(args: *const Q::Args) {
         // The active lanes, sixteen at a time (Embree's N is at most 16).
         let mut base = 0;
         while base < n {
-            let end = (base + LANES).min(n);
-            let mut idx = [0u8; LANES];
-            let mut lane_rays = [MaybeUninit::<LaneRay>::uninit(); LANES];
+            let end = (base + MAX_CALLBACK_LANES).min(n);
+            let mut idx = [0u8; MAX_CALLBACK_LANES];
+            let mut lane_rays = [MaybeUninit::<LaneRay>::uninit(); MAX_CALLBACK_LANES];
             let mut m = 0;
             for i in base..end {
                 if *Q::valid(a).add(i) == 0 {
@@ -412,7 +425,7 @@ unsafe fn lanes<Q: LaneQuery>(args: *const Q::Args) {
             // The first m lanes were written just above (the arrays are not
             // zeroed: a callback usually has one to four active lanes).
             let rays = std::slice::from_raw_parts(lane_rays.as_ptr() as *const LaneRay, m);
-            let mut cand_store = [MaybeUninit::<Candidates>::uninit(); LANES];
+            let mut cand_store = [MaybeUninit::<Candidates>::uninit(); MAX_CALLBACK_LANES];
             for c in &mut cand_store[..m] {
                 // Only `len` (the items are MaybeUninit, valid uninitialised):
                 // writing `Candidates::default()` became a memset of every
@@ -458,7 +471,7 @@ unsafe fn lanes<Q: LaneQuery>(args: *const Q::Args) {
                     // geometries never get per-geometry filters (`add_user`), so
                     // rtcFilterIntersection/Occlusion would accept the hit anyway;
                     // with one, they would call it and nothing else, so it is
-                    // called directly (callgrind: ~20 instructions less per call).
+                    // called directly, skipping Embree's dispatch.
                     // Wide queries are not used by snell's filters; their hits
                     // are accepted directly. Nor is it called for a geometry the
                     // filtered query's skip ranges name (`context_skips`: a

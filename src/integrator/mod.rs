@@ -6,7 +6,7 @@
 //! camera ray (1 = directly visible emitters only, 2 = direct lighting).
 use crate::counters::Counters;
 use crate::dielectric::{self, InteriorList, NestedStrategy};
-use crate::embree::warp_ffi::RayPacket;
+use crate::embree::RayPacket;
 use crate::error::Result;
 use crate::optics;
 use crate::ray::{front_facing, offset_origin, offset_size, spawn_transmitted, Ray};
@@ -16,22 +16,42 @@ use crate::scene::{Material, RenderScene, SurfacePoint};
 use glam::{DVec3, Vec3A as V3};
 use std::f32::consts::FRAC_1_PI;
 
-/// What every path of a render shares: the scene, and how nested
-/// dielectrics are resolved (a render setting, not part of the scene).
+mod observer;
+pub use observer::{RayObserver, RayQuery, RayRecorder};
+
+/// What every path of a render shares: the scene, how nested dielectrics
+/// are resolved (a render setting, not part of the scene), and who is told
+/// of the queries.
 #[derive(Clone, Copy)]
 pub struct Tracer<'a> {
     /// The scene.
     pub scene: &'a RenderScene,
     /// How false hits are found and skipped.
     pub strategy: NestedStrategy,
+    /// Told of every nearest-hit query and shadow ray (none: no cost but a branch).
+    pub observer: Option<&'a dyn RayObserver>,
 }
 
 impl<'a> Tracer<'a> {
-    /// A tracer of `scene` with the default strategy (the filter).
+    /// A tracer of `scene` with the default strategy (the filter) and no observer.
     pub fn new(scene: &'a RenderScene) -> Self {
         Tracer {
             scene,
             strategy: NestedStrategy::Filter,
+            observer: None,
+        }
+    }
+
+    /// This tracer with another nested-dielectric strategy.
+    pub fn with_strategy(self, strategy: NestedStrategy) -> Self {
+        Tracer { strategy, ..self }
+    }
+
+    /// Tell the observer, if any, of the query `q` makes.
+    #[inline(always)]
+    fn observe(self, q: impl FnOnce() -> RayQuery) {
+        if let Some(o) = self.observer {
+            o.query(q());
         }
     }
 
@@ -102,58 +122,11 @@ fn refracted(d: DVec3, n: DVec3, incident_side: V3, n1: f32, n2: f32) -> Option<
     )
 }
 
-/// The rays a render asks Embree for, recorded for `snell bench render`'s
-/// replay through bare Embree (the ceiling of the same rays). Off unless a
-/// benchmark turns it on: then one relaxed load and a branch per query.
-pub mod ray_log {
-    use crate::ray::Ray;
-    use std::sync::atomic::{AtomicBool, Ordering};
-    use std::sync::Mutex;
-
-    /// A recorded query.
-    #[derive(Debug, Clone, Copy)]
-    pub enum Logged {
-        /// A nearest-hit query (a path segment or a chord; the nested rule's
-        /// re-casts and filter calls are not separate entries).
-        Nearest(Ray),
-        /// A shadow ray.
-        Shadow(Ray),
-    }
-
-    static ON: AtomicBool = AtomicBool::new(false);
-    static LOG: Mutex<Vec<Logged>> = Mutex::new(Vec::new());
-
-    /// Start recording (clears what was recorded before).
-    pub fn start() {
-        if let Ok(mut l) = LOG.lock() {
-            l.clear();
-        }
-        ON.store(true, Ordering::SeqCst);
-    }
-
-    /// Stop recording and take the rays.
-    pub fn stop() -> Vec<Logged> {
-        ON.store(false, Ordering::SeqCst);
-        LOG.lock()
-            .map(|mut l| std::mem::take(&mut *l))
-            .unwrap_or_default()
-    }
-
-    #[inline]
-    pub(super) fn record(q: impl FnOnce() -> Logged) {
-        if ON.load(Ordering::Relaxed) {
-            if let Ok(mut l) = LOG.lock() {
-                l.push(q());
-            }
-        }
-    }
-}
-
 /// The shadow ray from `from` (offset to the side `side`) along `wi` for
-/// `dist`, counted and logged; `None` when the connection is too short to
+/// `dist`, counted and observed; `None` when the connection is too short to
 /// hold anything (then it is unoccluded without a query).
 #[inline]
-fn shadow_ray(from: V3, side: V3, wi: V3, dist: f32, st: &mut Counters) -> Option<Ray> {
+fn shadow_ray(tr: Tracer<'_>, from: V3, side: V3, wi: V3, dist: f32, st: &mut Counters) -> Option<Ray> {
     st.shadow_rays += 1;
     let o = offset_origin(from, side);
     let mut r = Ray::new(o, wi);
@@ -163,12 +136,12 @@ fn shadow_ray(from: V3, side: V3, wi: V3, dist: f32, st: &mut Counters) -> Optio
             return None;
         }
     }
-    ray_log::record(|| ray_log::Logged::Shadow(r));
+    tr.observe(|| RayQuery::Shadow(r));
     Some(r)
 }
 
-fn unoccluded(scene: &RenderScene, from: V3, side: V3, wi: V3, dist: f32, st: &mut Counters) -> bool {
-    shadow_ray(from, side, wi, dist, st).is_none_or(|r| !scene.embree.occluded(&r))
+fn unoccluded(tr: Tracer<'_>, from: V3, side: V3, wi: V3, dist: f32, st: &mut Counters) -> bool {
+    shadow_ray(tr, from, side, wi, dist, st).is_none_or(|r| !tr.scene.embree.occluded(&r))
 }
 
 /// A light sample from the diffuse point `p` before its shadow ray: `None`
@@ -192,14 +165,14 @@ fn light_candidate(
 /// not occluded. The one light-sampling test of both integrators: Whitted's
 /// copy had lost the `ng` check.
 fn light_seen(
-    scene: &RenderScene,
+    tr: Tracer<'_>,
     p: V3,
     n: V3,
     ng: V3,
     rng: &mut Rng,
     st: &mut Counters,
 ) -> Option<(crate::scene::LightSample, f32)> {
-    light_candidate(scene, p, n, ng, rng).filter(|(ls, _)| unoccluded(scene, p, ng, ls.wi, ls.dist, st))
+    light_candidate(tr.scene, p, n, ng, rng).filter(|(ls, _)| unoccluded(tr, p, ng, ls.wi, ls.dist, st))
 }
 
 /// One path segment: the first true hit (if any) and the straight chord it
@@ -207,8 +180,7 @@ fn light_seen(
 /// The solid surfaces coincident with the hit travel beside it (a
 /// [`dielectric::Coincident`] from [`cast`], or [`NO_COINCIDENT`] for a
 /// plain query): a segment is built per path and per bounce, and carrying
-/// the 112-byte record in it cost a copy of it per segment (callgrind: 53
-/// instructions per plain segment in `known_segment`).
+/// the 112-byte record in it would cost a copy of it per segment.
 struct Segment {
     /// The first true hit.
     hit: Option<crate::ray::Hit>,
@@ -294,7 +266,7 @@ fn cast(
 ) -> Result<(Segment, dielectric::Coincident)> {
     let scene = tr.scene;
     let Some(med) = &scene.medium else {
-        ray_log::record(|| ray_log::Logged::Nearest(*ray));
+        tr.observe(|| RayQuery::Nearest(*ray));
         return Ok(match dielectric::trace(scene, tr.strategy, ray, list, st)? {
             Some(th) => (Segment::straight(ray, Some(th.hit)), th.coincident),
             None => (Segment::straight(ray, None), dielectric::Coincident::NONE),
@@ -315,9 +287,7 @@ fn cast(
         let chord = curved.next_chord(med);
         if chord.length == 0.0 && curved.failure().is_none() {
             // A zero-length chord is the ray leaving the bounds exactly where it
-            // stands (at the box face): not a failure, nothing to cast. (These
-            // were counted as integrator failures before: 55 per 307k paths in
-            // mirage_road, most paths in a box that starts at a surface.)
+            // stands (at the box face): not a failure, nothing to cast.
             continue;
         }
         if curved.failure().is_some() || chord.length.is_nan() || chord.length < 0.0 {
@@ -331,7 +301,7 @@ fn cast(
             r.tfar = chord.length as f32;
         }
         st.chords += 1;
-        ray_log::record(|| ray_log::Logged::Nearest(r));
+        tr.observe(|| RayQuery::Nearest(r));
         if let Some(th) = dielectric::trace(scene, tr.strategy, &r, list, st)? {
             let p = r.org + r.dir * th.hit.t;
             let (_, tangent) = curved.refine_hit(
@@ -514,7 +484,7 @@ impl PathState {
                         power_heuristic(ls.pdf, cos * FRAC_1_PI)
                     };
                     let contrib = self.beta * f * ls.li * (cos * w / ls.pdf);
-                    match shadow_ray(sp.p, ng, ls.wi, ls.dist, st) {
+                    match shadow_ray(tr, sp.p, ng, ls.wi, ls.dist, st) {
                         None => self.l += contrib,
                         Some(ray) => shadow = Some(PendingShadow { ray, contrib }),
                     }
@@ -585,8 +555,8 @@ impl PathState {
         }
         self.depth += 1;
         // A path with zero throughput (a black reflectance: cylinder_refraction's
-        // emitting plane) can add nothing more; the rest of it was 22% of that
-        // scene's rays. Same image: every later term would be multiplied by 0.
+        // emitting plane) can add nothing more, and would still cost rays.
+        // Same image: every later term would be multiplied by 0.
         if self.beta.max_element() <= 0.0 {
             return (shadow, false);
         }
@@ -637,18 +607,18 @@ fn path(
     Ok(p.radiance(st))
 }
 
-/// The segment of `ray` whose plain query answered `hit`, counted and logged
-/// as `cast` would have.
+/// The segment of `ray` whose plain query answered `hit`, counted and
+/// observed as `cast` would have.
 #[inline]
-fn known_segment(ray: &Ray, hit: Option<crate::ray::Hit>, st: &mut Counters) -> Segment {
-    ray_log::record(|| ray_log::Logged::Nearest(*ray));
+fn known_segment(tr: Tracer<'_>, ray: &Ray, hit: Option<crate::ray::Hit>, st: &mut Counters) -> Segment {
+    tr.observe(|| RayQuery::Nearest(*ray));
     st.queries += 1;
     Segment::straight(ray, hit)
 }
 
 /// The two Embree packets [`path_lanes`] fills (nearest-hit segments and
-/// shadow rays), made once per thread's batch of calls: a packet of 16 is
-/// 1.3 KB to zero, 0.7% of a three_spheres render when made per call.
+/// shadow rays), made once per thread's batch of calls: zeroing a packet
+/// per call shows in a render's profile.
 #[derive(Default)]
 pub struct LanePackets<P> {
     near: P,
@@ -700,10 +670,8 @@ pub fn path_lanes<const N: usize, P: RayPacket<N>>(
         }
         // Embree's coherent mode while every live path has only met smooth
         // surfaces (a pixel's camera rays and their refractions stay nearly
-        // parallel), not only for the camera rays: glass_of_water 4.4 % less
-        // CPU time (8 of 8 interleaved pairs), cylinder_refraction 1 % less,
-        // three_spheres 1.3 % more (stop 26). Shadow rays in coherent mode
-        // were slower (docs/peers.md).
+        // parallel), not only for the camera rays: it paid on refractive
+        // scenes. Shadow rays go without: they are slower in it (docs/peers.md).
         let coherent = paths.iter().flatten().all(|p| p.only_specular);
         near.intersect(&scene.embree, coherent);
         shadow.clear();
@@ -741,7 +709,7 @@ pub fn path_lanes<const N: usize, P: RayPacket<N>>(
             // segment moved out of a `match` was copied twice per lane).
             let (seg, cast_coincident, coincident);
             if known[i] {
-                seg = known_segment(&p.ray, near.hit(i), st);
+                seg = known_segment(tr, &p.ray, near.hit(i), st);
                 coincident = &NO_COINCIDENT;
             } else {
                 (seg, cast_coincident) = cast(tr, &p.ray, &mut p.list, st)?;
@@ -825,7 +793,7 @@ fn whitted(
                 let ng = if front { sp.ng } else { -sp.ng };
                 let albedo = reflectance.eval(sp.p, sp.uv);
                 for _ in 0..scene.lights.len() {
-                    if let Some((ls, cos)) = light_seen(scene, sp.p, n, ng, rng, st) {
+                    if let Some((ls, cos)) = light_seen(tr, sp.p, n, ng, rng, st) {
                         l += albedo * FRAC_1_PI * ls.li * (cos / ls.pdf) / scene.lights.len() as f32;
                     }
                 }

@@ -122,7 +122,7 @@ pub enum IndexField {
     },
     /// Inferior mirage (hot air over a hot surface): n = n_inf − dn·exp(−h/h0).
     HotGround {
-        /// Index far above the ground (h → ∞).
+        /// Index far above the ground, as h → ∞.
         n_inf: f64,
         /// Index deficit at the ground, h = 0 (> 0 for hot air).
         dn: f64,

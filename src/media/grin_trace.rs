@@ -5,7 +5,7 @@ use serde::{Deserialize, Serialize};
 
 use super::field::IndexField;
 use super::stepper::{State, Stepper};
-use super::{check_method, exact, paper, MediumError, Method};
+use super::{check_method, exact, mirage_study, MediumError, Method};
 
 #[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
@@ -141,7 +141,7 @@ struct Output {
 pub fn grin_trace_json(input: &str) -> Result<String, MediumError> {
     let doc: Input = serde_json::from_str(input)
         .map_err(|e| MediumError::invalid("(document)", format!("expected {{\"queries\": [...]}} ({e})")))?;
-    let used = std::cell::Cell::new(0u64);
+    let mut used = 0u64;
     let results = doc
         .queries
         .iter()
@@ -162,17 +162,16 @@ pub fn grin_trace_json(input: &str) -> Result<String, MediumError> {
                 evaluations: 0,
                 steps: 0,
             };
-            let left = DOCUMENT_WORK.saturating_sub(used.get());
+            let left = DOCUMENT_WORK.saturating_sub(used);
             if left == 0 {
                 return fail(format!(
                     "queries[{i}]: work limit: the document's {DOCUMENT_WORK} steps + evaluations were used by the queries before this one"
                 ));
             }
-            WORK_LEFT.with(|w| w.set(left));
-            WORK_DONE.with(|w| w.set(0));
+            let mut budget = WorkBudget::new(left);
             let answer = match serde_json::from_value::<Query>(v.clone()) {
                 Err(e) => fail(format!("queries[{i}]: {e}")),
-                Ok(q) => match trace(&q) {
+                Ok(q) => match trace_within(&q, &mut budget) {
                     Ok(a) => a,
                     Err(e) => {
                         let mut a = fail(format!("queries[{i}].{e}"));
@@ -181,11 +180,10 @@ pub fn grin_trace_json(input: &str) -> Result<String, MediumError> {
                     }
                 },
             };
-            used.set(used.get() + WORK_DONE.with(|w| w.get()).max(answer.evaluations + answer.steps));
+            used += budget.done.max(answer.evaluations + answer.steps);
             answer
         })
         .collect();
-    WORK_LEFT.with(|w| w.set(u64::MAX));
     serde_json::to_string_pretty(&Output { results })
         .map_err(|e| MediumError::invalid("(output)", e.to_string()))
 }
@@ -208,23 +206,55 @@ pub const MAX_EVALUATIONS: u64 = 10_000_000;
 /// queries stops there (the later queries get a work-limit status).
 pub const DOCUMENT_WORK: u64 = 20_000_000;
 
-thread_local! {
-    /// Work this thread's current query may still do (set per query by the document).
-    static WORK_LEFT: std::cell::Cell<u64> = const { std::cell::Cell::new(u64::MAX) };
-    /// Work the current query has done so far (updated at every step).
-    static WORK_DONE: std::cell::Cell<u64> = const { std::cell::Cell::new(0) };
+/// The work (steps + field evaluations) one query may do, and has done: a
+/// document gives each query what its earlier queries left.
+#[derive(Debug, Clone, Copy)]
+struct WorkBudget {
+    /// Work the query may do.
+    left: u64,
+    /// Work the query has done, as of its last check.
+    done: u64,
 }
 
-fn over_budget(steps: u64, evals: u64) -> Result<(), String> {
-    let left = WORK_LEFT.with(|w| w.get());
-    WORK_DONE.with(|w| w.set(steps + evals));
-    if steps > MAX_STEPS || evals > MAX_EVALUATIONS || steps + evals > left {
-        return Err(format!(
-            "work limit: {steps} steps and {evals} field evaluations without reaching the stop (limits {MAX_STEPS} steps, {MAX_EVALUATIONS} evaluations, {DOCUMENT_WORK} steps + evaluations per document): {}",
-            "loosen tolerance, enlarge step or shorten the stop"
-        ));
+impl WorkBudget {
+    fn new(left: u64) -> Self {
+        WorkBudget { left, done: 0 }
     }
-    Ok(())
+}
+
+/// Where a trace ends (one of `stop_x`, `stop_s`; or `max_len`), and which
+/// way is up (for its turning points).
+struct Goal {
+    stop_x: Option<f64>,
+    stop_s: Option<f64>,
+    max_len: f64,
+    up: DVec3,
+}
+
+/// What a trace has found and spent so far.
+struct Walk<'a> {
+    /// Turning points, in order.
+    extrema: Vec<Extremum>,
+    /// Steps (or pieces) taken.
+    steps: u64,
+    /// The query's budget, told the work done at every check.
+    budget: &'a mut WorkBudget,
+}
+
+impl Walk<'_> {
+    /// Before another step: `Err` when the steps, `evals` field
+    /// evaluations, or both together exceed their limits or the budget.
+    fn check_work(&mut self, evals: u64) -> Result<(), String> {
+        let steps = self.steps;
+        self.budget.done = steps + evals;
+        if steps > MAX_STEPS || evals > MAX_EVALUATIONS || steps + evals > self.budget.left {
+            return Err(format!(
+                "work limit: {steps} steps and {evals} field evaluations without reaching the stop (limits {MAX_STEPS} steps, {MAX_EVALUATIONS} evaluations, {DOCUMENT_WORK} steps + evaluations per document): {}",
+                "loosen tolerance, enlarge step or shorten the stop"
+            ));
+        }
+        Ok(())
+    }
 }
 
 /// Traces one query (errors are "key: message" relative to the query).
@@ -237,6 +267,11 @@ fn over_budget(steps: u64, evals: u64) -> Result<(), String> {
 /// a work limit ([`MAX_STEPS`], [`MAX_EVALUATIONS`]), or a stop not reached
 /// within `max_length`.
 pub fn trace(q: &Query) -> Result<Answer, String> {
+    trace_within(q, &mut WorkBudget::new(u64::MAX))
+}
+
+/// [`trace`] within `budget`, which learns the work done.
+fn trace_within(q: &Query, budget: &mut WorkBudget) -> Result<Answer, String> {
     let field = q.field.validated("field").map_err(|e| e.to_string())?;
     check_method(&field, q.method, "method").map_err(|e| e.to_string())?;
     finite_vec("start", q.start)?;
@@ -287,36 +322,26 @@ pub fn trace(q: &Query) -> Result<Answer, String> {
             ));
         }
     }
-    let up = field.strata().map_or(DVec3::Y, |s| s.up);
+    let goal = Goal {
+        stop_x,
+        stop_s,
+        max_len,
+        up: field.strata().map_or(DVec3::Y, |s| s.up),
+    };
     let mut stepper = Stepper::new(&field, q.method, tol, step);
     let mut evals = 0u64;
     let start = State::new(&field, q.start, d, &mut evals).map_err(|e| format!("start: {e}"))?;
-    let mut extrema = Vec::new();
-    let mut steps = 0u64;
+    let mut walk = Walk {
+        extrema: Vec::new(),
+        steps: 0,
+        budget,
+    };
     let end = if q.method == Method::Exact {
-        trace_exact(&field, &start, stop_x, stop_s, max_len, up, &mut extrema)?
+        trace_exact(&field, &start, &goal, &mut walk)?
     } else if q.method.is_paper() {
-        trace_paper(
-            &mut stepper,
-            &start,
-            stop_x,
-            stop_s,
-            max_len,
-            up,
-            &mut extrema,
-            &mut steps,
-        )?
+        trace_paper(&mut stepper, &start, &goal, &mut walk)?
     } else {
-        trace_ode(
-            &mut stepper,
-            &start,
-            stop_x,
-            stop_s,
-            max_len,
-            up,
-            &mut extrema,
-            &mut steps,
-        )?
+        trace_ode(&mut stepper, &start, &goal, &mut walk)?
     };
     Ok(Answer {
         id: q.id.clone(),
@@ -325,21 +350,19 @@ pub fn trace(q: &Query) -> Result<Answer, String> {
         end: Some(end.r),
         end_direction: Some(end.t),
         arc_length: Some(end.s),
-        extrema,
+        extrema: walk.extrema,
         evaluations: evals + stepper.evals + u64::from(q.method == Method::Exact),
-        steps: steps.max(1),
+        steps: walk.steps.max(1),
     })
 }
 
-fn trace_exact(
-    field: &IndexField,
-    st: &State,
-    stop_x: Option<f64>,
-    stop_s: Option<f64>,
-    max_len: f64,
-    up: DVec3,
-    extrema: &mut Vec<Extremum>,
-) -> Result<State, String> {
+fn trace_exact(field: &IndexField, st: &State, goal: &Goal, walk: &mut Walk<'_>) -> Result<State, String> {
+    let &Goal {
+        stop_x,
+        stop_s,
+        max_len,
+        up,
+    } = goal;
     let (m, _) = exact::linear_params(field).ok_or("method: exact needs a linear field")?;
     let tau_end = if let Some(s) = stop_s {
         exact::tau_for_length(m, up, st, s)
@@ -365,7 +388,7 @@ fn trace_exact(
     if let Some(tau) = exact::turning_tau(m, up, st) {
         if tau <= tau_end {
             let (p, _, sa) = exact::at_tau(m, up, st, tau);
-            extrema.push(Extremum {
+            walk.extrema.push(Extremum {
                 position: p,
                 arc_length: sa,
             });
@@ -426,17 +449,18 @@ fn root<F: FnMut(f64) -> Result<f64, String>>(
     Ok(c)
 }
 
-#[allow(clippy::too_many_arguments)]
 fn trace_ode(
     stepper: &mut Stepper<'_>,
     st: &State,
-    stop_x: Option<f64>,
-    stop_s: Option<f64>,
-    max_len: f64,
-    up: DVec3,
-    extrema: &mut Vec<Extremum>,
-    steps: &mut u64,
+    goal: &Goal,
+    walk: &mut Walk<'_>,
 ) -> Result<State, String> {
+    let &Goal {
+        stop_x,
+        stop_s,
+        max_len,
+        up,
+    } = goal;
     let limit = stop_s.unwrap_or(max_len);
     let tol = stepper.tolerance;
     let mut cur = *st;
@@ -452,14 +476,14 @@ fn trace_ode(
                 stop_x.unwrap_or(0.0)
             ));
         }
-        over_budget(*steps, stepper.evals)?;
+        walk.check_work(stepper.evals)?;
         let (next, h) = if stepper.method == Method::Rk45 {
             stepper.rk45_step(&cur, &mut h_next, rest)?
         } else {
             let h = stepper.step.min(rest);
             (stepper.rk4(&cur, h)?, h)
         };
-        *steps += 1;
+        walk.steps += 1;
         let next = if h >= rest {
             State { s: limit, ..next }
         } else {
@@ -471,7 +495,7 @@ fn trace_ode(
             let base = cur;
             let sig = root(|s| Ok(stepper.single(&base, s)?.t.dot(up)), h, va, vb, rtol)?;
             let p = stepper.single(&base, sig)?;
-            extrema.push(Extremum {
+            walk.extrema.push(Extremum {
                 position: p.r,
                 arc_length: p.s,
             });
@@ -493,17 +517,18 @@ fn trace_ode(
     }
 }
 
-#[allow(clippy::too_many_arguments)]
 fn trace_paper(
     stepper: &mut Stepper<'_>,
     st: &State,
-    stop_x: Option<f64>,
-    stop_s: Option<f64>,
-    max_len: f64,
-    up: DVec3,
-    extrema: &mut Vec<Extremum>,
-    steps: &mut u64,
+    goal: &Goal,
+    walk: &mut Walk<'_>,
 ) -> Result<State, String> {
+    let &Goal {
+        stop_x,
+        stop_s,
+        max_len,
+        up,
+    } = goal;
     let limit = stop_s.unwrap_or(max_len);
     let mut cur = *st;
     loop {
@@ -516,18 +541,18 @@ fn trace_paper(
                 stop_x.unwrap_or(0.0)
             ));
         }
-        over_budget(*steps, stepper.evals)?;
-        let seg = paper::segment(
+        walk.check_work(stepper.evals)?;
+        let seg = mirage_study::segment(
             stepper.field,
             stepper.method,
             stepper.step,
             &cur,
             &mut stepper.evals,
         )?;
-        *steps += 1;
+        walk.steps += 1;
         let next = match seg {
-            paper::Seg::To(n) => n,
-            paper::Seg::Forever => {
+            mirage_study::Seg::To(n) => n,
+            mirage_study::Seg::Forever => {
                 // Horizontal: straight forever. Go to the stop along the line.
                 let len = match stop_x {
                     Some(x) if cur.t.x != 0.0 && (x - cur.r.x) / cur.t.x >= 0.0 => (x - cur.r.x) / cur.t.x,
@@ -554,7 +579,7 @@ fn trace_paper(
             } else {
                 next
             };
-            extrema.push(Extremum {
+            walk.extrema.push(Extremum {
                 position: p.r,
                 arc_length: p.s,
             });
@@ -580,5 +605,43 @@ fn trace_paper(
             return Ok(p);
         }
         cur = next;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An rk4 query of 1 m in steps of 1 mm through a linear field: a
+    /// thousand steps of four evaluations.
+    fn query() -> Query {
+        let field = IndexField::Linear {
+            n0: 1.0,
+            m: -0.01,
+            up: DVec3::Y,
+            base: 0.0,
+        };
+        Query::along(&field, DVec3::ZERO, DVec3::X, 1.0, Method::Rk4, 1e-9, 1e-3)
+    }
+
+    /// A query's budget bounds it and learns the work done; the budget is
+    /// the caller's, so a later trace of the same query (here, on the same
+    /// thread) is not bounded by it.
+    #[test]
+    fn a_budget_bounds_its_own_query_only() {
+        let mut budget = WorkBudget::new(500);
+        let e = trace_within(&query(), &mut budget).unwrap_err();
+        assert!(e.contains("work limit"), "{e}");
+        assert!(budget.done > 500 && budget.done < 600, "{budget:?}");
+        let a = trace(&query()).unwrap();
+        assert_eq!(a.steps, 1000);
+        assert!(a.evaluations + a.steps > 500);
+        let mut roomy = WorkBudget::new(u64::MAX);
+        let b = trace_within(&query(), &mut roomy).unwrap();
+        assert_eq!(b, a);
+        assert!(
+            roomy.done > 0 && roomy.done <= a.evaluations + a.steps,
+            "{roomy:?} {a:?}"
+        );
     }
 }

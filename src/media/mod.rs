@@ -6,7 +6,7 @@
 pub mod exact;
 pub mod field;
 pub mod grin_trace;
-pub mod paper;
+pub mod mirage_study;
 pub mod state;
 pub mod stepper;
 
@@ -489,7 +489,7 @@ impl CurvedRay {
     }
 
     fn paper_chord(&mut self, medium: &Medium, stepper: &mut Stepper<'_>) -> Result<Chord, String> {
-        let seg = paper::segment(
+        let seg = mirage_study::segment(
             &medium.field,
             medium.method,
             medium.step,
@@ -497,8 +497,8 @@ impl CurvedRay {
             &mut stepper.evals,
         )?;
         match seg {
-            paper::Seg::Forever => Ok(self.exit_straight(medium, self.st.t)),
-            paper::Seg::To(next) => {
+            mirage_study::Seg::Forever => Ok(self.exit_straight(medium, self.st.t)),
+            mirage_study::Seg::To(next) => {
                 let d = next.r - self.st.r;
                 let len = d.length();
                 if !(len > 0.0 && len.is_finite()) {

@@ -1,6 +1,6 @@
 //! Integrators of the ray equation d/ds(n dr/ds) = ∇n as the first-order system
 //! r' = v/n, v' = ∇n (s = arc length, v = n·t, |v| = n), plus the closed form for
-//! linear fields (exact.rs) and the paper's height-stepping methods (paper.rs).
+//! linear fields (exact.rs) and the paper's height-stepping methods (mirage_study.rs).
 use glam::DVec3;
 
 use super::field::IndexField;
@@ -16,7 +16,7 @@ pub use super::state::State;
 pub struct Stepper<'a> {
     /// The field n(p) being integrated through.
     pub field: &'a IndexField,
-    /// Rk45, Rk4 or Exact (the paper's methods live in `paper.rs`; others step as rk4).
+    /// Rk45, Rk4 or Exact (the paper's methods live in `mirage_study.rs`; others step as rk4).
     pub method: Method,
     /// rk45's error target per step, metres.
     pub tolerance: f64,

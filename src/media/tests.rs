@@ -301,9 +301,9 @@ fn slab_equals_euler_and_paper_rk4_typo_costs_a_third() {
         let mut ev = 0;
         let mut st = State::new(&f, p, d, &mut ev).unwrap();
         for _ in 0..n_steps {
-            match paper::segment(&f, method, h, &st, &mut ev).unwrap() {
-                paper::Seg::To(s) => st = s,
-                paper::Seg::Forever => panic!("not horizontal"),
+            match mirage_study::segment(&f, method, h, &st, &mut ev).unwrap() {
+                mirage_study::Seg::To(s) => st = s,
+                mirage_study::Seg::Forever => panic!("not horizontal"),
             }
         }
         st

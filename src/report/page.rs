@@ -1,6 +1,6 @@
 //! The report's page: plots drawn with `plotters` (SVG backend, inlined into
 //! the HTML), tables and images beside the page, and `figures.json`.
-use super::{Plot, Section};
+use super::figure::{Plot, Section};
 use crate::error::{Error, Result};
 use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
 use plotters::prelude::*;

@@ -1,7 +1,7 @@
 //! The closed-form residual and Jacobian of `HollowCylinder::resid_jac`
 //! for four (b, β) at once, in the four f64 lanes of an AVX register: the
 //! fast cylinder solver's Newton polishes of several targets are
-//! evaluated together (issue 16).
+//! evaluated together.
 //!
 //! Each lane is the scalar `resid_jac` term by term (the same operations
 //! in the same order, none fused), so a lane gives the scalar function's
@@ -11,14 +11,14 @@
 //! code, then run four lanes per instruction.
 //!
 //! AVX2 is checked at run time; without it (or off x86-64) each lane is
-//! the scalar `resid_jac`. Plain `[f64; 4]` code compiled for AVX2 was
-//! tried first: LLVM vectorised it mostly in pairs and kept 80 scalar
-//! square roots and divisions (1,790 instructions per call, no faster than
-//! four scalar calls), hence the intrinsics. This module and `src/embree/`
+//! the scalar `resid_jac`. Intrinsics, because plain `[f64; 4]` code
+//! compiled for AVX2 is not enough: LLVM vectorises it mostly in pairs and
+//! keeps most square roots and divisions scalar, no faster than four scalar
+//! calls. This module and `src/embree/`
 //! are the crate's only `unsafe` (the dispatch, reading the lanes out and
 //! loading four rows of `Rows` into a register).
 #![allow(unsafe_code)]
-use super::cylinder::{Family, HollowCylinder};
+use super::tube::{Family, HollowCylinder};
 use glam::DVec2;
 
 /// Lanes per evaluation.
@@ -76,10 +76,7 @@ pub(crate) fn resid_jac4(k: &Consts, lanes: &[LaneIn; LANES]) -> [LaneOut; LANES
         // arguments.
         return unsafe { avx::resid_jac4(k, lanes) };
     }
-    lanes.map(|l| {
-        k.cyl
-            .resid_jac(l.fam, k.e, l.p, l.dv, l.b, l.beta, l.fam == Family::Hollow2)
-    })
+    lanes.map(|l| k.cyl.resid_jac(l.fam, k.e, l.p, l.dv, l.b, l.beta))
 }
 
 /// A Newton step's outcome (`step`).
@@ -129,9 +126,7 @@ pub(crate) fn newton4(k: &Consts, lanes: &[LaneIn; LANES], tol: [f64; LANES]) ->
     }
     std::array::from_fn(|i| {
         let l = &lanes[i];
-        let ev = k
-            .cyl
-            .resid_jac(l.fam, k.e, l.p, l.dv, l.b, l.beta, l.fam == Family::Hollow2);
+        let ev = k.cyl.resid_jac(l.fam, k.e, l.p, l.dv, l.b, l.beta);
         step(ev, l.b, l.beta, tol[i])
     })
 }
@@ -163,12 +158,12 @@ pub(crate) const NEXT: u8 = 0;
 pub(crate) const ROOT: u8 = 1;
 pub(crate) const FAIL: u8 = 2;
 
-/// Running Newton polishes as a struct of arrays, one row each (issue 16,
-/// eighth round): the four lanes of an evaluation are loaded from four
-/// consecutive rows as vectors, and the next point is stored back the
-/// same way, instead of gathering each lane from a polish and scattering
-/// the step into it. The rows' count is kept a multiple of `LANES`
-/// (`pad`); padding rows repeat the last real one and are ignored.
+/// Running Newton polishes as a struct of arrays, one row each: the four
+/// lanes of an evaluation are loaded from four consecutive rows as
+/// vectors, and the next point is stored back the same way, instead of
+/// gathering each lane from a polish and scattering the step into it. The
+/// rows' count is kept a multiple of `LANES` (`pad`); padding rows repeat
+/// the last real one and are ignored.
 #[derive(Clone, Default)]
 pub(crate) struct Rows {
     pub fam: Vec<f64>,
@@ -257,9 +252,7 @@ pub(crate) fn newton_rows(k: &Consts, rows: &mut Rows, status: &mut [u8]) {
     }
     for (i, st) in status.iter_mut().enumerate().take(rows.b.len()) {
         let l = rows.lane(i);
-        let ev = k
-            .cyl
-            .resid_jac(l.fam, k.e, l.p, l.dv, l.b, l.beta, l.fam == Family::Hollow2);
+        let ev = k.cyl.resid_jac(l.fam, k.e, l.p, l.dv, l.b, l.beta);
         *st = match step(ev, l.b, l.beta, rows.tol[i]) {
             Step::Fail => FAIL,
             Step::Root => ROOT,
@@ -709,7 +702,7 @@ mod avx {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::warp::fastcyl::test_rng::Lcg;
+    use crate::warp::tube::test_rng::Lcg;
 
     /// Every lane is the scalar `resid_jac`, bit for bit, for every family,
     /// in and out of its domain (the `None`s too), with the families mixed
@@ -744,7 +737,7 @@ mod tests {
                 let got = resid_jac4(&k, &lanes);
                 let plain = resid_jac4(&k.scalar(), &lanes);
                 for (l, (g, q)) in lanes.iter().zip(got.iter().zip(&plain)) {
-                    let want = c.resid_jac(l.fam, eye, l.p, l.dv, l.b, l.beta, l.fam == Family::Hollow2);
+                    let want = c.resid_jac(l.fam, eye, l.p, l.dv, l.b, l.beta);
                     let bits = |o: &LaneOut| {
                         o.map(|(r, j)| [r[0], r[1], j[0][0], j[0][1], j[1][0], j[1][1]].map(f64::to_bits))
                     };
@@ -832,12 +825,7 @@ mod tests {
                 (bits(&plain.b), bits(&plain.beta))
             );
             for (i, (l, tol)) in lanes.iter().enumerate() {
-                let want = step(
-                    c.resid_jac(l.fam, eye, l.p, l.dv, l.b, l.beta, l.fam == Family::Hollow2),
-                    l.b,
-                    l.beta,
-                    *tol,
-                );
+                let want = step(c.resid_jac(l.fam, eye, l.p, l.dv, l.b, l.beta), l.b, l.beta, *tol);
                 let got = match status[i] {
                     FAIL => Step::Fail,
                     ROOT => Step::Root,

@@ -1,19 +1,18 @@
 //! Analytic refraction warps (Mukai et al.): move mesh vertices by Snell's law
 //! so that straight primary rays see them where refraction would. The solvers
-//! (`plate`, `cylinder`, `paper`) are pure f64 with no Embree; the primary-ray
-//! renderer on Embree and the exact trace it is judged against are in
-//! `warp_render` (above the scene layer; these solvers are below it).
-pub mod cylinder;
-pub mod fastcyl;
+//! (`plate`, `tube`, `approx_tube`) are pure f64 with no Embree; the
+//! primary-ray renderer on Embree and the exact trace it is judged against
+//! are in `warp_render` (above the scene layer; these solvers are below it).
+pub mod approx_tube;
 pub mod glass;
 mod lanes;
-pub mod paper;
 pub mod plate;
 pub mod points;
+pub mod tube;
 
-pub use cylinder::{CylImage, CylStatus, Family, HollowCylinder};
 pub use glass::{CopyKey, ExactPath, RayClass, Segment, WarpGlass};
 pub use plate::{Plate, PlateImage, PlateStatus};
+pub use tube::{CylImage, CylStatus, CylinderWarper, Family, HollowCylinder};
 
 /// How vertex images are found.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -72,9 +72,10 @@ pub struct PlateImage {
 ///
 /// Plain arithmetic on `[f64; 4]`. LLVM keeps it scalar for the generic
 /// x86_64 target (no packed sqrt/div in the binary: its cost model finds
-/// SSE2's packed division no cheaper), and explicit SSE2 intrinsics would
-/// need `unsafe` outside `src/embree/`; so the gain over the scalar solver
-/// is fewer steps and no per-vertex branches, not SIMD.
+/// SSE2's packed division no cheaper), and intrinsics would need `unsafe`,
+/// which the crate keeps to `src/embree/` and the tube's lanes; so the gain
+/// over the scalar solver is fewer steps and no per-vertex branches, not
+/// SIMD.
 #[inline(always)]
 fn newton4(
     h: &[f64; 4],

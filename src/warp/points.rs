@@ -107,7 +107,7 @@ pub fn warp_points_json(file: &str, input: &str) -> Result<String, String> {
                 Err(PlateStatus::NotConverged) => ("error: the solver did not converge".into(), vec![]),
             },
             Glass::Cyl(c) => match if paper {
-                super::paper::paper_image(c, eye, p).map(|o| o.into_iter().collect())
+                super::approx_tube::approx_tube_image(c, eye, p).map(|o| o.into_iter().collect())
             } else {
                 c.images(eye, p)
             } {

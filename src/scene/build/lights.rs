@@ -5,7 +5,7 @@ use crate::error::Result;
 use crate::scene::desc::*;
 use crate::scene::meshgen;
 use crate::scene::model::{Light, Material, Shape};
-use crate::scene::shapes::Analytic;
+use crate::scene::shapes::{Analytic, Sphere};
 use crate::scene::texture::Texture;
 use std::sync::Arc;
 
@@ -70,7 +70,7 @@ impl Builder<'_> {
                     pending.push(Pending {
                         name: s.name.clone().unwrap_or_else(|| k.clone()),
                         name_key: format!("{k}.name"),
-                        shape: Shape::Analytic(Analytic::Sphere { center, radius }),
+                        shape: Shape::Analytic(Analytic::Sphere(Sphere { center, radius })),
                         material: Material::Black,
                         emission: Some(Texture::Constant(radiance)),
                         light: Some(li),

@@ -5,7 +5,7 @@ use crate::error::Result;
 use crate::scene::desc::*;
 use crate::scene::meshgen;
 use crate::scene::model::{Containment, Material, Shape};
-use crate::scene::shapes::{Analytic, Mesh};
+use crate::scene::shapes::{Analytic, Cylinder, Disk, Mesh, Sphere, Tube};
 use crate::scene::texture::{load_image, Texture};
 use glam::{DMat3, DMat4, DVec3, Vec3A as V3};
 use std::sync::Arc;
@@ -124,10 +124,10 @@ impl Builder<'_> {
         self.analytic(
             k,
             pl,
-            Analytic::Sphere {
+            Analytic::Sphere(Sphere {
                 center: pl.point(self.finite3(&format!("{sk}.center"), s.center)?),
                 radius: self.positive(&format!("{sk}.radius"), s.radius)? * pl.scale,
-            },
+            }),
         )
     }
 
@@ -161,12 +161,12 @@ impl Builder<'_> {
         self.analytic(
             k,
             pl,
-            Analytic::Disk {
+            Analytic::Disk(Disk {
                 center: pl.point(self.finite3(&format!("{sk}.center"), dk.center)?),
                 normal: pl.dir(self.unit(&format!("{sk}.normal"), dk.normal)?),
                 radius: r * pl.scale,
                 inner: dk.inner_radius * pl.scale,
-            },
+            }),
         )
     }
 
@@ -205,14 +205,14 @@ impl Builder<'_> {
         self.analytic(
             k,
             pl,
-            Analytic::Cylinder {
+            Analytic::Cylinder(Cylinder {
                 p0: a,
                 axis,
                 height: h,
                 radius: r * pl.scale,
                 inward,
                 caps: cy.caps,
-            },
+            }),
         )
     }
 
@@ -243,13 +243,13 @@ impl Builder<'_> {
         self.analytic(
             k,
             pl,
-            Analytic::Tube {
+            Analytic::Tube(Tube {
                 p0: a,
                 axis,
                 height: h,
                 outer: ro * pl.scale,
                 inner: ri * pl.scale,
-            },
+            }),
         )
     }
 

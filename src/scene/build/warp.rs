@@ -4,7 +4,7 @@ use super::{Builder, Pending};
 use crate::error::Result;
 use crate::scene::desc::*;
 use crate::scene::model::{Material, Shape};
-use crate::scene::shapes::{Analytic, Mesh};
+use crate::scene::shapes::{Analytic, Cylinder, Mesh};
 use glam::DVec3;
 use std::sync::Arc;
 
@@ -115,14 +115,14 @@ impl Builder<'_> {
                     ("warp_glass_outer", *outer_radius, false),
                     ("warp_glass_inner", *inner_radius, true),
                 ] {
-                    let side = Analytic::Cylinder {
+                    let side = Analytic::Cylinder(Cylinder {
                         p0: c - a * (extent * 0.5),
                         axis: a,
                         height: extent,
                         radius,
                         inward,
                         caps: false,
-                    };
+                    });
                     pending.push(glass_pending(name, Shape::Analytic(side), *ior));
                 }
                 WarpGlass::Cylinder(tube)

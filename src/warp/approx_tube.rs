@@ -18,7 +18,7 @@
 //! (the family of the straight line); `tir2` is not modelled (the paper does
 //! not either). Measured against the exact solver in `benches/warp.rs` and in
 //! the tests below.
-use super::cylinder::{circle, CylImage, CylStatus, Family, HollowCylinder};
+use super::tube::{circle, CylImage, CylStatus, Family, HollowCylinder};
 use glam::{DVec2, DVec3};
 
 fn refract2(d: DVec2, n: DVec2, n1: f64, n2: f64) -> Option<DVec2> {
@@ -86,11 +86,15 @@ fn stage(v: DVec2, q: DVec2, rho: f64, n1: f64, n2: f64, phi0: f64) -> Option<(D
 
 /// The paper's image of `target` (one at most), or why there is none.
 ///
-/// We also tried repeating the construction with the virtual eyes moved to
-/// the refraction points found (plain and under-relaxed fixed point): in a
-/// thick tube it does not converge (a stage loses its root), so the method is
-/// the single pass the paper describes.
-pub fn paper_image(c: &HollowCylinder, eye: DVec3, target: DVec3) -> Result<Option<CylImage>, CylStatus> {
+/// The single pass the paper describes: repeating the construction with the
+/// virtual eyes moved to the refraction points found (plain or
+/// under-relaxed fixed point) does not converge in a thick tube (a stage
+/// loses its root).
+pub fn approx_tube_image(
+    c: &HollowCylinder,
+    eye: DVec3,
+    target: DVec3,
+) -> Result<Option<CylImage>, CylStatus> {
     let (u, w, a) = c.frame_axes();
     let to2 = |p: DVec3| {
         let q = p - c.axis_point;
@@ -188,7 +192,7 @@ mod tests {
             for i in 0..21 {
                 let x = -0.5 + 1.0 * i as f64 / 20.0;
                 let target = DVec3::new(x, y, -3.0);
-                let Some(pi) = paper_image(&c, eye, target).unwrap() else {
+                let Some(pi) = approx_tube_image(&c, eye, target).unwrap() else {
                     continue;
                 };
                 let exact = c.images(eye, target).unwrap();
@@ -207,15 +211,16 @@ mod tests {
             worst
         };
         let c = HollowCylinder::try_new(DVec3::ZERO, DVec3::Y, 1.0, 0.8, 1.5).unwrap();
-        let on_axis = paper_image(&c, eye, DVec3::new(0.0, 0.0, -3.0)).unwrap().unwrap();
+        let on_axis = approx_tube_image(&c, eye, DVec3::new(0.0, 0.0, -3.0))
+            .unwrap()
+            .unwrap();
         assert_eq!(on_axis.family, Family::Through4);
         assert!((on_axis.direction - DVec3::new(0.0, 0.0, -1.0)).length() < 1e-12);
         let (thin, thick) = (worst_for(0.95, 0.0), worst_for(0.8, 0.0));
         eprintln!("paper C->B->A worst angle: r=0.95 {thin:.3e} rad, r=0.8 {thick:.3e} rad");
-        // Measured: 3.3e-2 rad (r = 0.95) and 1.2e-1 rad (r = 0.8). A virtual
-        // eye close to the next surface (C a wall's thickness from D) makes the
-        // stage root very sensitive to the provisional eye's error, so a thin
-        // wall does not make the construction much better.
+        // A virtual eye close to the next surface (C a wall's thickness from
+        // D) makes the stage root very sensitive to the provisional eye's
+        // error, so a thin wall does not make the construction much better.
         assert!(thin < thick, "thin {thin} vs thick {thick}");
         assert!(thick > 1e-3 && thick < 0.3, "{thick}");
     }

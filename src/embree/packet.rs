@@ -1,0 +1,177 @@
+//! Packets of rays for Embree's packet queries (`rtcIntersect8/16`,
+//! `rtcOccluded8/16`): the path tracer's lanes, the warp renderer's primary
+//! rays, and the ceiling's packet replay.
+use super::{init_context, Hit, Scene, INVALID_ID};
+use embree_sys as sys;
+use glam::Vec3A as V3;
+
+/// A packet of rays for Embree's packet queries (`rtcIntersect8/16`,
+/// `rtcOccluded8/16`): `N` lanes, structure of arrays as Embree wants them.
+/// [`Packet8`] and [`Packet16`] are the two widths.
+pub trait RayPacket<const N: usize>: Default {
+    /// Deactivate every lane.
+    fn clear(&mut self);
+    /// Set lane `i` (< N) to `ray` (tnear and tfar kept); an invalid ray
+    /// ([`Ray::is_valid`](crate::ray::Ray::is_valid)) leaves the lane inactive.
+    fn set_ray(&mut self, i: usize, ray: &crate::ray::Ray);
+    /// Lane `i`'s hit after [`intersect`](Self::intersect).
+    fn hit(&self, i: usize) -> Option<Hit>;
+    /// Was lane `i` occluded by the last [`occlude`](Self::occlude)?
+    fn occluded(&self, i: usize) -> bool;
+    /// Nearest hits of the active lanes (`coherent`: rays of nearly one origin
+    /// and direction, e.g. a pixel's camera rays).
+    fn intersect(&mut self, scene: &Scene, coherent: bool);
+    /// Occlusion of the active lanes.
+    fn occlude(&mut self, scene: &Scene, coherent: bool);
+}
+
+macro_rules! ray_packet {
+    ($name:ident, $n:literal, $rayhit:ident, $intersect:ident, $occluded:ident, $doc:literal) => {
+        #[doc = $doc]
+        pub struct $name {
+            rh: sys::$rayhit,
+            valid: [i32; $n],
+        }
+
+        impl Default for $name {
+            fn default() -> Self {
+                $name::new()
+            }
+        }
+
+        impl $name {
+            /// All lanes inactive.
+            pub fn new() -> $name {
+                let mut rh = sys::$rayhit::default();
+                rh.ray.mask = [u32::MAX; $n];
+                $name { rh, valid: [0; $n] }
+            }
+
+            /// Deactivate every lane and clear the hits.
+            pub fn clear(&mut self) {
+                self.valid = [0; $n];
+            }
+
+            /// Set lane `i` to a ray from `org` along `dir` over `[0, tfar]`;
+            /// an invalid ray (non-finite, tfar < 0) leaves the lane inactive.
+            #[inline]
+            pub fn set(&mut self, i: usize, org: V3, dir: V3, tfar: f32) {
+                let r = &mut self.rh.ray;
+                r.org_x[i] = org.x;
+                r.org_y[i] = org.y;
+                r.org_z[i] = org.z;
+                r.dir_x[i] = dir.x;
+                r.dir_y[i] = dir.y;
+                r.dir_z[i] = dir.z;
+                r.tnear[i] = 0.0;
+                r.tfar[i] = tfar;
+                r.time[i] = 0.0;
+                r.mask[i] = u32::MAX;
+                r.flags[i] = 0;
+                self.rh.hit.geomID[i] = INVALID_ID;
+                self.rh.hit.primID[i] = INVALID_ID;
+                self.rh.hit.instID[0][i] = INVALID_ID;
+                let ok = org.is_finite() && dir.is_finite() && !tfar.is_nan() && tfar >= 0.0;
+                self.valid[i] = if ok { -1 } else { 0 };
+            }
+
+            /// Lane `i`'s hit after a query (its `tfar` becomes the hit distance).
+            #[inline]
+            pub fn hit(&self, i: usize) -> Option<Hit> {
+                let h = &self.rh.hit;
+                (self.valid[i] != 0 && h.geomID[i] != INVALID_ID).then(|| Hit {
+                    geom_id: h.geomID[i],
+                    prim_id: h.primID[i],
+                    t: self.rh.ray.tfar[i],
+                    ng: V3::new(h.Ng_x[i], h.Ng_y[i], h.Ng_z[i]),
+                    u: h.u[i],
+                    v: h.v[i],
+                })
+            }
+
+            /// Is any lane of the packet valid?
+            pub fn any_active(&self) -> bool {
+                self.valid.iter().any(|&v| v != 0)
+            }
+
+            /// Query `scene` (a committed one) with the active lanes.
+            pub(super) fn query(&mut self, scene: sys::RTCScene, coherent: bool, occlusion: bool) {
+                if !self.any_active() {
+                    return;
+                }
+                let mut ctx = init_context(None);
+                if coherent {
+                    ctx.flags = sys::RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+                }
+                // SAFETY: a committed scene; `valid` has N entries; `rh` is an
+                // aligned (by its bindgen type) RTCRayHitN whose active lanes
+                // hold valid rays (checked in `set`/`set_ray`); its `ray` part
+                // is the RTCRayN an occlusion query takes.
+                unsafe {
+                    if occlusion {
+                        sys::$occluded(self.valid.as_ptr(), scene, &mut ctx, &mut self.rh.ray);
+                    } else {
+                        sys::$intersect(self.valid.as_ptr(), scene, &mut ctx, &mut self.rh);
+                    }
+                }
+            }
+        }
+
+        impl RayPacket<$n> for $name {
+            fn clear(&mut self) {
+                $name::clear(self)
+            }
+            #[inline]
+            fn set_ray(&mut self, i: usize, ray: &crate::ray::Ray) {
+                self.set(i, ray.org, ray.dir, ray.tfar);
+                self.rh.ray.tnear[i] = ray.tnear;
+                if !ray.is_valid() {
+                    self.valid[i] = 0;
+                }
+            }
+            #[inline]
+            fn hit(&self, i: usize) -> Option<Hit> {
+                $name::hit(self, i)
+            }
+            #[inline]
+            fn occluded(&self, i: usize) -> bool {
+                self.valid[i] != 0 && self.rh.ray.tfar[i] == f32::NEG_INFINITY
+            }
+            fn intersect(&mut self, scene: &Scene, coherent: bool) {
+                self.query(scene.raw, coherent, false);
+            }
+            fn occlude(&mut self, scene: &Scene, coherent: bool) {
+                self.query(scene.raw, coherent, true);
+            }
+        }
+    };
+}
+
+ray_packet!(
+    Packet8,
+    8,
+    RTCRayHit8,
+    rtcIntersect8,
+    rtcOccluded8,
+    "Eight rays for `rtcIntersect8` / `rtcOccluded8` (32-byte aligned by the bindgen type)."
+);
+ray_packet!(
+    Packet16,
+    16,
+    RTCRayHit16,
+    rtcIntersect16,
+    rtcOccluded16,
+    "Sixteen rays for `rtcIntersect16` / `rtcOccluded16` (64-byte aligned by the bindgen type)."
+);
+
+impl Scene {
+    /// Trace a packet of up to eight rays (coherent primary rays).
+    pub fn intersect8(&self, p: &mut Packet8) {
+        p.query(self.raw, true, false);
+    }
+
+    /// Trace a packet of up to sixteen rays (coherent primary rays).
+    pub fn intersect16(&self, p: &mut Packet16) {
+        p.query(self.raw, true, false);
+    }
+}
