@@ -42,9 +42,13 @@ demo: build
 
 # The core library builds without the command line's dependencies (clap,
 # ctrlc, indicatif, plotters): checked here so that CI keeps it so.
+# No incremental cache: a one-off build does not reuse it, and it doubles the
+# disk the optimised test build takes.
+test: export CARGO_INCREMENTAL = 0
 test: deps openjd
 	$(CARGO) test --workspace --locked
 	$(CARGO) build -p snell --lib --no-default-features --locked
+	$(MAKE) --no-print-directory test-python
 
 # openjd-cli (Open Job Description) in a venv for tests/farm.rs and docs/farm.md.
 # Debian's python3 needs python3-venv for `python3 -m venv`: installed when missing.
@@ -115,3 +119,31 @@ lint: deps
 clean:
 	$(CARGO) clean
 	rm -rf $(OPENJD_VENV)
+
+# The Python package `snell` (python/): maturin (from PyPI, into the project's
+# venv with numpy and pytest) builds an abi3 wheel and pip installs it.
+# `make python` builds it optimised (the release profile); `make test` builds
+# it in the dev profile into target/debug beside `cargo test`'s artifacts, so
+# the dependencies compiled for the tests are not compiled again, then runs
+# python/tests with pytest.
+PYTHON_VENV ?= $(OPENJD_VENV)
+PYTHON_TOOLS ?= 'maturin>=1.7,<2' 'numpy>=1.21' 'pytest>=7'
+PYTHON_TARGET_DIR ?= $(or $(CARGO_TARGET_DIR),target)
+PYTHON_PROFILE ?= release
+.PHONY: python test-python lint-python
+python: deps openjd
+	$(PYTHON_VENV)/bin/pip install --quiet --disable-pip-version-check $(PYTHON_TOOLS)
+	rm -f $(PYTHON_TARGET_DIR)/wheels/snell-*.whl
+	$(PYTHON_VENV)/bin/maturin build --profile $(PYTHON_PROFILE) --locked --compatibility linux \
+	  --manifest-path python/Cargo.toml --interpreter $(PYTHON_VENV)/bin/python \
+	  --target-dir $(PYTHON_TARGET_DIR) --out $(PYTHON_TARGET_DIR)/wheels
+	$(PYTHON_VENV)/bin/pip install --quiet --disable-pip-version-check --force-reinstall --no-deps $(PYTHON_TARGET_DIR)/wheels/snell-*.whl
+
+test-python:
+	$(MAKE) --no-print-directory python PYTHON_PROFILE=dev
+	$(PYTHON_VENV)/bin/python -m pytest python/tests -q
+
+# fmt and clippy on the binding crate (its own workspace, so `make lint` does not see it).
+lint-python: deps
+	$(CARGO) fmt --manifest-path python/Cargo.toml -- --check
+	$(CARGO) clippy --manifest-path python/Cargo.toml --all-targets --locked --target-dir $(abspath $(PYTHON_TARGET_DIR)) -- -D warnings

@@ -81,8 +81,8 @@ pub fn to_fixed(v: f32) -> i128 {
     }
     let x = (v as f64).clamp(-FIXED_CLAMP, FIXED_CLAMP) * 2f64.powi(FIXED_BITS);
     // Fast path (every sample below 2^14 in magnitude): f64 → i64 is one
-    // instruction, while f64 → i128 and `round` are library calls (4% of a
-    // three_spheres render by callgrind). Rounds half away from zero, as
+    // instruction, while f64 → i128 and `round` are library calls, per
+    // sample. Rounds half away from zero, as
     // `f64::round`: `x − trunc(x)` is exact here.
     if x.abs() < 9.2e18 {
         let t = x as i64;

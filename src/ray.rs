@@ -176,8 +176,7 @@ pub fn window_coefficients(org: V3, dir: V3) -> (f32, f32) {
 
 /// [`crossing_window`] in f64, for analytic shapes that solve in f64: two
 /// roots closer than this are one tangent touch. (Forced inline: the
-/// analytic shapes' callbacks call it per ray and primitive, and it was a
-/// call of its own there, 2% of cylinder_refraction.)
+/// analytic shapes' callbacks call it per ray and primitive.)
 #[inline(always)]
 pub fn crossing_window_f64(org: DVec3, dir: DVec3, t: f64) -> f64 {
     let dl = dir.length();

@@ -110,7 +110,7 @@ fn context_filter_rejecting_geometry_lets_ray_reach_the_one_behind() {
     }
     eprintln!("filter saw a hit beyond the final one on {beyond}/2000 rays");
     // Not asserted to be > 0: it depends on the BVH Embree builds; the rule in
-    // DESIGN.md must be (and is) correct either way. What must hold is above.
+    // docs/design.md must be (and is) correct either way. What must hold is above.
 }
 
 #[test]

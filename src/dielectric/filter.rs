@@ -338,8 +338,7 @@ pub(crate) fn surface_may_come_within_box(
 /// the true hit's own solid: (solid, rank, entering).
 ///
 /// Compact (80 bytes, a [`TrueHit`] 128) because every hit carries one: at
-/// 160 bytes a `TrueHit` was copied by `memcpy` calls, 1% of a nested trace
-/// pass (callgrind); at 128 the copies are inline.
+/// 128 bytes the compiler copies a `TrueHit` inline rather than by `memcpy`.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Coincident {
     /// (solid, rank) of each crossing.
@@ -358,8 +357,8 @@ pub struct Coincident {
 impl Coincident {
     /// No coincident crossings (what a plain query reports). A constant, so a
     /// plain query's hit is copied whole rather than zeroed field by field
-    /// (whose small stores stalled the wide loads of the copies after them:
-    /// perf, 2.5% of three_spheres).
+    /// (whose small stores would stall the wide loads of the copies after
+    /// them).
     pub const NONE: Coincident = Coincident {
         items: [(0, 0); NEAR_CAPACITY],
         entering: 0,

@@ -2,7 +2,7 @@
 //! [`InteriorList`], and the three ways of finding the first *true* hit:
 //!
 //! - [`NestedStrategy::Filter`] (default): false hits are skipped inside an
-//!   Embree context filter ([`FalseHitFilter`]). The rule (DESIGN.md): with P0
+//!   Embree context filter ([`FalseHitFilter`]). The rule (docs/design.md): with P0
 //!   the highest rank in the list at the ray origin, the first true hit is the
 //!   nearest hit on any object of rank ≥ P0, so the filter is stateless and
 //!   traversal order does not matter. Rejected hits are recorded and applied to

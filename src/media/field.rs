@@ -8,7 +8,7 @@
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
-use super::MediumError;
+use super::{profile, MediumError};
 
 /// An axis-aligned box (world metres).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -160,6 +160,22 @@ pub enum IndexField {
         #[serde(default = "default_base")]
         base: f64,
     },
+    /// A tabulated profile: n at `heights` (metres, strictly increasing, at least
+    /// two), interpolated by monotone cubic Hermite (no overshoot between nodes,
+    /// C¹) and continued by straight lines with the end slopes beyond the table.
+    Profile {
+        /// Heights of the nodes, metres (strictly increasing).
+        heights: Vec<f64>,
+        /// The index at each node (as many as `heights`).
+        n: Vec<f64>,
+        /// Unit "up" direction the height is measured along (default +y;
+        /// normalised by [`IndexField::validated`]).
+        #[serde(default = "default_up")]
+        up: DVec3,
+        /// Height of the origin of h along `up`, metres: h = p·up − base (default 0).
+        #[serde(default = "default_base")]
+        base: f64,
+    },
     /// A heat plume over a source at `center` with deterministic turbulence:
     /// n = n_amb − dn·G(p)·(1 + amplitude·T(p)), G = exp(−ρ²/(2 radius²) − (h/height)²)
     /// where h is the height above `center` along `up` and ρ the distance from the
@@ -267,6 +283,7 @@ impl IndexField {
             IndexField::Exponential { .. } => "exponential",
             IndexField::HotGround { .. } => "hot_ground",
             IndexField::Inversion { .. } => "inversion",
+            IndexField::Profile { .. } => "profile",
             IndexField::Plume { .. } => "plume",
         }
     }
@@ -341,6 +358,41 @@ impl IndexField {
                 )?;
                 *up = unit_up(&k("up"), *up)?;
             }
+            IndexField::Profile { heights, n, up, base } => {
+                check(
+                    &k("heights"),
+                    heights.len() >= 2,
+                    "at least two nodes",
+                    heights.len(),
+                )?;
+                check(
+                    &k("n"),
+                    n.len() == heights.len(),
+                    &format!("as many values as heights ({})", heights.len()),
+                    n.len(),
+                )?;
+                for (i, h) in heights.iter().enumerate() {
+                    finite(&k(&format!("heights[{i}]")), *h)?;
+                    if i > 0 {
+                        check(
+                            &k(&format!("heights[{i}]")),
+                            *h > heights[i - 1],
+                            &format!("heights strictly increasing (above {})", heights[i - 1]),
+                            *h,
+                        )?;
+                    }
+                }
+                for (i, v) in n.iter().enumerate() {
+                    check(
+                        &k(&format!("n[{i}]")),
+                        v.is_finite() && *v > 0.0,
+                        "a finite n > 0",
+                        *v,
+                    )?;
+                }
+                finite(&k("base"), *base)?;
+                *up = unit_up(&k("up"), *up)?;
+            }
             IndexField::Plume {
                 n_amb,
                 dn,
@@ -397,13 +449,17 @@ impl IndexField {
             IndexField::Linear { up, base, .. }
             | IndexField::Exponential { up, base, .. }
             | IndexField::HotGround { up, base, .. }
-            | IndexField::Inversion { up, base, .. } => Some(Strata { up, base }),
+            | IndexField::Inversion { up, base, .. }
+            | IndexField::Profile { up, base, .. } => Some(Strata { up, base }),
             IndexField::Plume { .. } => None,
         }
     }
 
     /// n and dn/dh of a stratified field at height h (None for a plume).
     pub fn n_h(&self, h: f64) -> Option<(f64, f64)> {
+        if let IndexField::Profile { heights, n, .. } = self {
+            return Some(profile::eval(heights, n, h));
+        }
         Some(match *self {
             IndexField::Constant { n } => (n, 0.0),
             IndexField::Linear { n0, m, .. } => (n0 + m * h, m),
@@ -429,8 +485,95 @@ impl IndexField {
                     m + 0.5 * dn * (1.0 - th * th) / thickness,
                 )
             }
-            IndexField::Plume { .. } => return None,
+            IndexField::Plume { .. } | IndexField::Profile { .. } => return None,
         })
+    }
+
+    /// n(h) − n(h_ref) of a stratified field, without the cancellation of
+    /// subtracting two indices near 1 (the stratified tracer's turning points
+    /// are roots of such differences): expm1 for the exponentials, sinh of the
+    /// difference for tanh, the factored cubic for a profile. NaN for a plume.
+    pub fn n_diff(&self, h: f64, h_ref: f64) -> f64 {
+        let dh = h - h_ref;
+        match self {
+            IndexField::Constant { .. } => 0.0,
+            IndexField::Linear { m, .. } => m * dh,
+            IndexField::Exponential { n0, scale_height, .. } => {
+                (n0 - 1.0) * (-h_ref / scale_height).exp() * (-dh / scale_height).exp_m1()
+            }
+            IndexField::HotGround { dn, h0, .. } => -dn * (-h_ref / h0).exp() * (-dh / h0).exp_m1(),
+            IndexField::Inversion {
+                dn,
+                height,
+                thickness,
+                m,
+                ..
+            } => {
+                // tanh a − tanh c = sinh(a − c)/(cosh a cosh c).
+                let (a, c) = ((h - height) / thickness, (h_ref - height) / thickness);
+                m * dh + 0.5 * dn * (dh / thickness).sinh() / (a.cosh() * c.cosh())
+            }
+            IndexField::Profile { heights, n, .. } => profile::diff(heights, n, h, h_ref),
+            IndexField::Plume { .. } => f64::NAN,
+        }
+    }
+
+    /// The largest |dn/dh| of a stratified field over heights [lo, hi] (NaN for
+    /// a plume): bounds the curvature of rays there.
+    pub fn max_abs_slope(&self, lo: f64, hi: f64) -> f64 {
+        let at = |h: f64| self.n_h(h).map_or(f64::NAN, |v| v.1.abs());
+        match self {
+            IndexField::Inversion { height, .. } if *height > lo && *height < hi => {
+                // |m + dn sech²/(2w)| is largest at the centre or at an end.
+                at(lo).max(at(hi)).max(at(*height))
+            }
+            IndexField::Profile { heights, n, .. } => profile::max_abs_slope(heights, n, lo, hi),
+            IndexField::Plume { .. } => f64::NAN,
+            // Monotone |dn/dh| (constant, linear, exponentials; an inversion
+            // away from its centre): largest at an end.
+            _ => at(lo).max(at(hi)),
+        }
+    }
+
+    /// Heights strictly inside (lo, hi) where a stratified n may stop being
+    /// monotone or smooth (interior extremes of n, a profile's nodes): between
+    /// two consecutive ones n is monotone and smooth.
+    pub fn breaks_within(&self, lo: f64, hi: f64) -> Vec<f64> {
+        let mut v: Vec<f64> = match self {
+            IndexField::Profile { heights, .. } => profile::nodes_within(heights, lo, hi).collect(),
+            IndexField::Inversion { .. } => self
+                .inversion_critical_heights()
+                .into_iter()
+                .filter(|h| *h > lo && *h < hi)
+                .collect(),
+            _ => Vec::new(),
+        };
+        v.sort_by(f64::total_cmp);
+        v
+    }
+
+    /// Interior extremes of an inversion's n: dn/dh = m + dn/(2w) sech²u = 0
+    /// ⇒ sech²u = −2wm/dn.
+    fn inversion_critical_heights(&self) -> Vec<f64> {
+        let IndexField::Inversion {
+            dn,
+            height,
+            thickness,
+            m,
+            ..
+        } = *self
+        else {
+            return Vec::new();
+        };
+        if dn == 0.0 {
+            return Vec::new();
+        }
+        let c = -2.0 * thickness * m / dn;
+        if !(c > 0.0 && c <= 1.0) {
+            return Vec::new();
+        }
+        let u = (1.0 / c.sqrt()).acosh();
+        vec![height - thickness * u, height + thickness * u]
     }
 
     /// n and grad n at p (one "evaluation").
@@ -511,6 +654,21 @@ impl IndexField {
                 let a = (dn.abs() / (2.0 * thickness) + m.abs()) / n_min;
                 2.0 * thickness / (tu + (tu * tu + 2.0 * a * thickness).sqrt())
             }
+            IndexField::Profile {
+                ref heights,
+                ref n,
+                up,
+                ..
+            } => {
+                // As for the inversion, with the closest nodes as the layer.
+                let thickness = profile::min_spacing(heights);
+                let tu = t.dot(up.normalize_or_zero()).abs();
+                let lo = heights[0];
+                let hi = heights[heights.len() - 1];
+                let n_min = n.iter().copied().fold(f64::INFINITY, f64::min).max(0.5);
+                let a = profile::max_abs_slope(heights, n, lo, hi) / n_min;
+                2.0 * thickness / (tu + (tu * tu + 2.0 * a * thickness).sqrt())
+            }
             _ => self.feature_length(),
         }
     }
@@ -536,6 +694,7 @@ impl IndexField {
                 }
             }
             IndexField::Inversion { thickness, .. } => thickness,
+            IndexField::Profile { ref heights, .. } => profile::min_spacing(heights),
             _ => f64::INFINITY,
         }
     }
@@ -579,27 +738,8 @@ impl IndexField {
         let lo = hs.iter().copied().fold(f64::INFINITY, f64::min);
         let hi = hs.iter().copied().fold(f64::NEG_INFINITY, f64::max);
         let mut cand = vec![lo, hi];
-        if let IndexField::Inversion {
-            dn,
-            height,
-            thickness,
-            m,
-            ..
-        } = *self
-        {
-            // dn/dh = m + dn/(2w) sech²u = 0  ⇒  sech²u = −2wm/dn.
-            if dn != 0.0 {
-                let c = -2.0 * thickness * m / dn;
-                if c > 0.0 && c <= 1.0 {
-                    let u = (1.0 / c.sqrt()).acosh();
-                    for h in [height + thickness * u, height - thickness * u] {
-                        if h > lo && h < hi {
-                            cand.push(h);
-                        }
-                    }
-                }
-            }
-        }
+        // Between breaks n is monotone: its extremes are there or at the ends.
+        cand.extend(self.breaks_within(lo, hi));
         cand
     }
 

@@ -7,8 +7,11 @@ pub mod exact;
 pub mod field;
 pub mod grin_trace;
 pub mod mirage_study;
+pub mod profile;
+pub mod quadrature;
 pub mod state;
 pub mod stepper;
+pub mod stratified;
 
 use std::fmt;
 use std::str::FromStr;
@@ -670,3 +673,6 @@ impl CurvedRay {
 
 #[cfg(test)]
 mod tests;
+
+#[cfg(test)]
+mod stratified_tests;

@@ -74,7 +74,7 @@ pub struct GeomRecord {
 
 impl GeomRecord {
     /// Does shading read texture coordinates here? (Analytic shapes' uv costs
-    /// atan2/acos: 5% of a three_spheres render before it was made lazy.)
+    /// atan2/acos, so it is computed only when read.)
     pub fn needs_uv(&self) -> bool {
         let m = matches!(&self.material, Material::Diffuse { reflectance, .. } if reflectance.needs_uv());
         m || self.emission.as_ref().is_some_and(Texture::needs_uv)
@@ -257,7 +257,7 @@ pub struct RenderScene {
 
 /// Axis-aligned boxes in f32, padded and rounded outward: which boxes meet
 /// a small cube around a point, at a compare or two per box that does not
-/// (half the cost of the same test on the f64 bounds; callgrind).
+/// (f32 boxes halve the loads of the same test on the f64 bounds).
 #[derive(Debug, Clone, Default)]
 pub(crate) struct SolidBoxes {
     /// Per box: lower x, y, z, upper x, y, z.

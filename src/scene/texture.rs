@@ -191,8 +191,8 @@ impl Texture {
 }
 
 /// `x.floor() as i64`, without the call: on the baseline x86-64 target (no
-/// SSE4.1 `roundsd`) `f64::floor` is a library function, 0.4% of a
-/// three_spheres render by callgrind. The truncation is exact for every f64
+/// SSE4.1 `roundsd`) `f64::floor` is a library call per texture lookup.
+/// The truncation is exact for every f64
 /// in i64's range and saturates outside it, as `as i64` does; NaN gives 0.
 #[inline]
 fn floor_i64(x: f64) -> i64 {

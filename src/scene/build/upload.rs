@@ -45,7 +45,7 @@ impl Builder<'_> {
         }
 
         // The context-filter flag costs nothing for queries without a filter
-        // (callgrind: identical instruction counts for the re-cast), so it is
+        // (Embree checks it only where a filter is installed), so it is
         // set whenever a filter could be needed, whatever strategy renders.
         let flags = SceneFlags {
             context_filter: has_overlap,

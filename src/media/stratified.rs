@@ -1,0 +1,951 @@
+//! Rays in stratified media (n depends on the height h = p·up − base only),
+//! traced by their invariants instead of integrating the ray equation.
+//!
+//! With the optical parameter τ (dτ = ds/n) the ray equation is
+//! d²r/dτ² = n∇n = ∇(n²/2). Across `up` the right side vanishes, so the
+//! horizontal part of v = n·t is constant: its direction e (the azimuth) and
+//! its size b = n·cos θ (θ the elevation; Snell's and Bouguer's invariant).
+//! The horizontal distance is x = b·τ. Along `up`, p = dh/dτ = n·sin θ obeys
+//! p² = n(h)² − b² =: F(h), so on a stretch where h is monotone
+//!
+//! ```text
+//! τ(h) = ∫ dh / √F(h),      s(h) = ∫ n(h) dh / √F(h)
+//! ```
+//!
+//! a 1-D quadrature. It turns where F = 0 (n(h) = b): there √F vanishes like
+//! √|h − h_t| and h as a function of τ is smooth (p changes sign). The
+//! quadrature is split into *legs* of monotone h between turning points and
+//! the box's height limits, and each leg is integrated in a variable that is
+//! regular at its turning ends: h = h_a + (h_b − h_a)·sin φ when it ends at a
+//! turn (then dh/dφ ∝ cos φ vanishes like √F), h = h_b − (h_b − h_a)·cos φ
+//! when it starts at one, both halves of a cosine when both ends turn, h linear
+//! in φ otherwise. The integrands are then bounded and smooth, and
+//! Gauss–Kronrod converges fast. F is formed as G(h)·(n + b) with
+//! G = n(h) − b = [n(h) − n(h₀)] + n₀w₀²/(1 + cos θ₀), using each field's
+//! cancellation-free index difference (`IndexField::n_diff`): G is a small
+//! number computed from small numbers, not the difference of two indices near 1.
+//!
+//! Where the quadrature is elementary it is done in closed form, with τ as the
+//! variable (no turning point needs handling: p(τ) just changes sign):
+//! - linear n = n₀ + m·h: h'' = n·m, so n'' = m²n: n(τ) = n₀ Ch + m p₀ Sh;
+//! - the exponential profiles n = A − D·e^{−h/H} (hot ground, the standard
+//!   atmosphere): u = e^{(h−h₀)/H} obeys the *linear* equation
+//!   u'' = ((A² − b²)·u − A·D₀)/H² (D₀ = D·e^{−h₀/H}), so
+//!   u(τ) = 1 + u'₀ Sh + u''₀ Cm with u'₀ = p₀/H, u''₀ = (p₀² + n₀D₀)/H²;
+//!
+//! where, with κ² = m² or (A² − b²)/H² (negative: oscillating, a duct),
+//! Ch = cosh κτ, Sh = sinh(κτ)/κ, Cm = (cosh κτ − 1)/κ², by series near 0 and
+//! from one expm1 otherwise (no cancellation as κ → 0).
+//!
+//! Where we depart from the paper (CS 348b, "A study in non-linear ray
+//! tracing"): its exact formula takes the positive square root (one branch)
+//! and is undefined past the turning point; here the branch changes at every
+//! turning point. [`Branch::Paper`] keeps the printed behaviour for tests: at
+//! the turning height the ray goes on horizontally (Φ = 90° is a fixed point
+//! of its Snell iteration).
+use glam::DVec3;
+
+use super::field::IndexField;
+use super::quadrature::{self, Panel};
+
+/// What happens at a turning point.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Branch {
+    /// The vertical direction reverses (the physics).
+    Turn,
+    /// The paper's printed branch: the ray stays at the turning height,
+    /// horizontal, for ever (a known-wrong variant for tests).
+    Paper,
+}
+
+/// How a [`StratifiedRay`] evaluates its path.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Options {
+    /// Use the quadrature even where a closed form exists (tests compare them).
+    pub quadrature: bool,
+    /// What happens at turning points.
+    pub branch: Branch,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            quadrature: false,
+            branch: Branch::Turn,
+        }
+    }
+}
+
+/// A point of the path: optical parameter, height above the start, vertical
+/// part of v (p = dh/dτ = n·sin θ) and the index there.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Point {
+    /// Optical parameter τ from the start (metres: dτ = ds/n).
+    pub tau: f64,
+    /// Height above the start, h − h₀, metres.
+    pub dh: f64,
+    /// p = dh/dτ, the vertical component of v = n·t.
+    pub p: f64,
+    /// The index of refraction there.
+    pub n: f64,
+}
+
+#[derive(Debug, Clone)]
+enum ClosedKind {
+    Linear { m: f64 },
+    Exp { a: f64, d0: f64, hs: f64 },
+}
+
+/// q(τ) = q₁ Sh + q₂ Cm with q = h − h₀ (linear) or q = u − 1 (exponential).
+#[derive(Debug, Clone)]
+struct Closed {
+    kind: ClosedKind,
+    q1: f64,
+    q2: f64,
+    k2: f64,
+}
+
+#[derive(Debug, Clone)]
+struct Leg {
+    /// τ at φ = 0 (negative for a first leg begun at a turning point behind
+    /// the start, see `StratifiedRay::new`).
+    tau0: f64,
+    /// Arc length at φ = 0.
+    s0: f64,
+    ha: f64,
+    hb: f64,
+    turn_a: bool,
+    turn_b: bool,
+    /// Converged panels over φ ∈ [0, π/2], [0, π] or [0, 1] (the leg's
+    /// map) with running τ and s.
+    panels: Vec<Panel>,
+    /// The paper branch's horizontal run after a turning point (infinite).
+    straight: bool,
+}
+
+impl Leg {
+    fn tau_len(&self) -> f64 {
+        if self.straight {
+            f64::INFINITY
+        } else {
+            self.panels.last().map_or(0.0, |p| p.i0)
+        }
+    }
+    fn s_len(&self) -> f64 {
+        self.panels.last().map_or(0.0, |p| p.i1)
+    }
+    fn dir(&self) -> f64 {
+        if self.hb >= self.ha {
+            1.0
+        } else {
+            -1.0
+        }
+    }
+    /// h(φ) and dh/dφ.
+    fn h_of(&self, phi: f64) -> (f64, f64) {
+        let span = self.hb - self.ha;
+        match (self.turn_a, self.turn_b) {
+            (false, false) => (self.ha + span * phi, span),
+            (false, true) => (self.ha + span * phi.sin(), span * phi.cos()),
+            (true, false) => {
+                let s = (0.5 * phi).sin();
+                (self.ha + span * 2.0 * s * s, span * phi.sin())
+            }
+            (true, true) => {
+                let s = (0.5 * phi).sin();
+                (self.ha + span * s * s, 0.5 * span * phi.sin())
+            }
+        }
+    }
+    /// The offset h − end from the turning end nearer φ (None without one),
+    /// from the map itself: exact where h = end + offset would round it away.
+    fn turn_offset(&self, phi: f64) -> Option<(f64, f64)> {
+        let span = self.hb - self.ha;
+        match (self.turn_a, self.turn_b) {
+            (false, false) => None,
+            (false, true) => {
+                let s = (0.5 * (std::f64::consts::FRAC_PI_2 - phi)).sin();
+                Some((self.hb, -2.0 * span * s * s))
+            }
+            (true, false) => {
+                let s = (0.5 * phi).sin();
+                Some((self.ha, 2.0 * span * s * s))
+            }
+            (true, true) => {
+                if phi < std::f64::consts::FRAC_PI_2 {
+                    let s = (0.5 * phi).sin();
+                    Some((self.ha, span * s * s))
+                } else {
+                    let c = (0.5 * phi).cos();
+                    Some((self.hb, -span * c * c))
+                }
+            }
+        }
+    }
+
+    /// φ of height h on this leg (h between ha and hb).
+    fn phi_of(&self, h: f64) -> f64 {
+        let span = self.hb - self.ha;
+        let f = if span == 0.0 {
+            0.0
+        } else {
+            ((h - self.ha) / span).clamp(0.0, 1.0)
+        };
+        match (self.turn_a, self.turn_b) {
+            (false, false) => f,
+            (false, true) => f.asin(),
+            (true, false) => 2.0 * (0.5 * f).sqrt().asin(),
+            (true, true) => 2.0 * f.sqrt().asin(),
+        }
+    }
+}
+
+#[derive(Debug, Clone)]
+struct Quad {
+    legs: Vec<Leg>,
+    /// Height limits (absolute): the box's lowest and highest heights.
+    lo: f64,
+    hi: f64,
+    branch: Branch,
+    /// No leg follows the last one (it ended at a height limit, or runs straight).
+    done: bool,
+}
+
+#[derive(Debug, Clone)]
+enum Form {
+    Closed(Closed),
+    Quad(Quad),
+}
+
+/// A ray in a stratified field: its invariants and a way to evaluate it at
+/// any optical parameter τ ≥ 0.
+#[derive(Debug, Clone)]
+pub struct StratifiedRay {
+    r0: DVec3,
+    up: DVec3,
+    /// Unit horizontal direction (any unit vector ⟂ up for a vertical ray).
+    e: DVec3,
+    h0: f64,
+    n0: f64,
+    /// The invariant n·cos θ.
+    b: f64,
+    p0: f64,
+    /// n₀ − b = n₀w₀²/(1 + cos θ₀) ≥ 0.
+    g0: f64,
+    form: Form,
+}
+
+/// (Ch, Sh, Cm) at τ for κ² = k2: cosh κτ, sinh(κτ)/κ, (cosh κτ − 1)/κ²
+/// (their trigonometric counterparts for κ² < 0), cancellation-free.
+fn hyp(k2: f64, t: f64) -> (f64, f64, f64) {
+    let z2 = k2 * t * t;
+    if z2.abs() < 1e-3 {
+        // Terms to z2⁵: the next is below 1e-3⁶/12! relative.
+        let ch =
+            1.0 + z2 / 2.0 * (1.0 + z2 / 12.0 * (1.0 + z2 / 30.0 * (1.0 + z2 / 56.0 * (1.0 + z2 / 90.0))));
+        let sh = t
+            * (1.0
+                + z2 / 6.0 * (1.0 + z2 / 20.0 * (1.0 + z2 / 42.0 * (1.0 + z2 / 72.0 * (1.0 + z2 / 110.0)))));
+        let cm = t
+            * t
+            * 0.5
+            * (1.0
+                + z2 / 12.0 * (1.0 + z2 / 30.0 * (1.0 + z2 / 56.0 * (1.0 + z2 / 90.0 * (1.0 + z2 / 132.0)))));
+        return (ch, sh, cm);
+    }
+    if k2 > 0.0 {
+        let k = k2.sqrt();
+        let em = (k * t).exp_m1();
+        let ep = 1.0 + em;
+        let c1 = em * em / (2.0 * ep); // cosh − 1
+        (1.0 + c1, em * (2.0 + em) / (2.0 * ep * k), c1 / k2)
+    } else {
+        let k = (-k2).sqrt();
+        let (s, c) = (k * t).sin_cos();
+        let half = (0.5 * k * t).sin();
+        (c, s / k, 2.0 * half * half / -k2)
+    }
+}
+
+/// Safeguarded Newton (Numerical Recipes' rtsafe) for a root of f in
+/// [lo, hi] where f(lo) has the sign of `flo` and f(hi) the other (or is 0);
+/// f returns (value, derivative). Bisects whenever Newton would leave the
+/// bracket or shrink it by less than half. Returns the bracket's end on
+/// `flo`'s side (for G: the last height still on the ray's side).
+fn bracketed_root(mut lo: f64, mut hi: f64, flo: f64, mut f: impl FnMut(f64) -> (f64, f64)) -> f64 {
+    let lo_sign = flo > 0.0;
+    let mut x = 0.5 * (lo + hi);
+    let mut step_old = (hi - lo).abs();
+    let mut step = step_old;
+    for _ in 0..400 {
+        let (v, d) = f(x);
+        if v == 0.0 {
+            return x;
+        }
+        if (v > 0.0) == lo_sign {
+            lo = x;
+        } else {
+            hi = x;
+        }
+        let width = (hi - lo).abs();
+        if width <= 4.0 * f64::EPSILON * lo.abs().max(hi.abs()) || width == 0.0 {
+            break;
+        }
+        let nx = x - v / d;
+        let inside = if lo < hi {
+            nx > lo && nx < hi
+        } else {
+            nx < lo && nx > hi
+        };
+        let slow = (2.0 * v).abs() > (step_old * d).abs();
+        step_old = step;
+        if nx.is_finite() && inside && !slow {
+            step = (nx - x).abs();
+            x = nx;
+        } else {
+            x = 0.5 * (lo + hi);
+            step = 0.5 * width;
+        }
+        if x == lo || x == hi {
+            break;
+        }
+    }
+    lo
+}
+
+impl StratifiedRay {
+    /// The ray from `r` with unit direction `t` in the stratified `field`
+    /// (validated, `up` unit), inside heights [lo, hi] (the box's: quadrature
+    /// legs end there).
+    ///
+    /// # Errors
+    ///
+    /// A message when the field is not stratified, or n at `r` is not finite
+    /// and > 0.
+    pub fn new(
+        field: &IndexField,
+        lo: f64,
+        hi: f64,
+        r: DVec3,
+        t: DVec3,
+        opts: Options,
+    ) -> Result<Self, String> {
+        let s = field.strata().ok_or_else(|| {
+            format!(
+                "the invariant tracer needs a stratified field, not {}",
+                field.kind()
+            )
+        })?;
+        let up = s.up;
+        let h0 = r.dot(up) - s.base;
+        let (mut n0, _) = field.n_h(h0).unwrap_or((f64::NAN, 0.0));
+        super::state::check_n(n0, r)?;
+        let w0 = t.dot(up);
+        let horiz = t - up * w0;
+        let c0 = horiz.length();
+        let e = if c0 > 0.0 {
+            horiz / c0
+        } else {
+            up.any_orthonormal_vector()
+        };
+        let closed = if opts.quadrature || opts.branch == Branch::Paper {
+            None
+        } else {
+            match *field {
+                IndexField::Constant { .. } => Some(ClosedKind::Linear { m: 0.0 }),
+                IndexField::Linear { m, .. } => Some(ClosedKind::Linear { m }),
+                IndexField::HotGround {
+                    n_inf, dn, h0: hs, ..
+                } => Some(ClosedKind::Exp {
+                    a: n_inf,
+                    d0: dn * (-h0 / hs).exp(),
+                    hs,
+                }),
+                IndexField::Exponential {
+                    n0: ns, scale_height, ..
+                } => Some(ClosedKind::Exp {
+                    a: 1.0,
+                    d0: -(ns - 1.0) * (-h0 / scale_height).exp(),
+                    hs: scale_height,
+                }),
+                _ => None,
+            }
+        };
+        if let Some(ClosedKind::Exp { a, d0, .. }) = closed {
+            // The same formula the closed form uses (u₀ = 1).
+            n0 = a - d0;
+        }
+        let b = n0 * c0;
+        let p0 = n0 * w0;
+        let g0 = n0 * w0 * w0 / (1.0 + c0);
+        let mut ray = StratifiedRay {
+            r0: r,
+            up,
+            e,
+            h0,
+            n0,
+            b,
+            p0,
+            g0,
+            form: Form::Quad(Quad {
+                legs: Vec::new(),
+                lo: lo.min(h0),
+                hi: hi.max(h0),
+                branch: opts.branch,
+                done: false,
+            }),
+        };
+        ray.form = match closed {
+            Some(kind) => {
+                let (q1, q2, k2) = match kind {
+                    ClosedKind::Linear { m } => (p0, n0 * m, m * m),
+                    ClosedKind::Exp { a, d0, hs } => (
+                        p0 / hs,
+                        (p0 * p0 + n0 * d0) / (hs * hs),
+                        (d0 + g0) * (a + b) / (hs * hs),
+                    ),
+                };
+                Form::Closed(Closed { kind, q1, q2, k2 })
+            }
+            None => {
+                let first = ray.first_leg(field);
+                let Form::Quad(q) = &mut ray.form else {
+                    unreachable!("set above")
+                };
+                q.done = first.straight || (!first.turn_b);
+                q.legs.push(first);
+                ray.form
+            }
+        };
+        Ok(ray)
+    }
+
+    /// The invariant n·cos θ.
+    pub fn invariant(&self) -> f64 {
+        self.b
+    }
+    /// Height of the start, h₀ = r·up − base.
+    pub fn start_height(&self) -> f64 {
+        self.h0
+    }
+    /// Unit up.
+    pub fn up(&self) -> DVec3 {
+        self.up
+    }
+    /// True when the path is evaluated in closed form (no quadrature).
+    pub fn is_closed_form(&self) -> bool {
+        matches!(self.form, Form::Closed(_))
+    }
+
+    /// World position of a point of the path.
+    pub fn position(&self, pt: &Point) -> DVec3 {
+        self.r0 + self.e * (self.b * pt.tau) + self.up * pt.dh
+    }
+    /// v = n·t at a point (its length is n).
+    pub fn velocity(&self, pt: &Point) -> DVec3 {
+        self.e * self.b + self.up * pt.p
+    }
+    /// Unit tangent at a point.
+    pub fn direction(&self, pt: &Point) -> DVec3 {
+        self.velocity(pt).normalize()
+    }
+    /// The horizontal distance covered per unit τ (the invariant b):
+    /// x = b·τ along `horizontal()`.
+    pub fn horizontal(&self) -> DVec3 {
+        self.e
+    }
+    /// The start point.
+    pub fn origin(&self) -> DVec3 {
+        self.r0
+    }
+
+    /// G(h) = n(h) − b, accurately (see the module docs), with its derivative.
+    fn g(&self, field: &IndexField, h: f64) -> (f64, f64) {
+        let d = field.n_diff(h, self.h0);
+        let slope = field.n_h(h).map_or(0.0, |v| v.1);
+        (d + self.g0, slope)
+    }
+
+    /// The first height strictly past `from` toward `to` where G < 0 changes
+    /// sign (a turning point), scanning the field's monotone pieces.
+    fn root_between(&self, field: &IndexField, from: f64, to: f64) -> Option<f64> {
+        if from == to {
+            return None;
+        }
+        let (lo, hi) = (from.min(to), from.max(to));
+        let mut marks = field.breaks_within(lo, hi);
+        if to < from {
+            marks.reverse();
+        }
+        marks.push(to);
+        let mut prev = from;
+        for x in marks {
+            let (gx, _) = self.g(field, x);
+            if gx < 0.0 {
+                // G ≥ 0 at prev (the ray's side), < 0 at x.
+                return Some(bracketed_root(prev, x, 1.0, |h| self.g(field, h)));
+            }
+            prev = x;
+        }
+        None
+    }
+
+    fn make_leg(&self, field: &IndexField, ha: f64, dir: f64, turn_a: bool, tau0: f64, s0: f64) -> Leg {
+        let Form::Quad(q) = &self.form else {
+            unreachable!("legs belong to the quadrature form")
+        };
+        let limit = if dir > 0.0 { q.hi.max(ha) } else { q.lo.min(ha) };
+        let (hb, turn_b) = match self.root_between(field, ha, limit) {
+            Some(h) => (h, true),
+            None => (limit, false),
+        };
+        let phi_max = match (turn_a, turn_b) {
+            (false, false) => 1.0,
+            (true, true) => std::f64::consts::PI,
+            _ => std::f64::consts::FRAC_PI_2,
+        };
+        let mut leg = Leg {
+            tau0,
+            s0,
+            ha,
+            hb,
+            turn_a,
+            turn_b,
+            panels: Vec::new(),
+            straight: false,
+        };
+        if hb != ha {
+            // The integrand is smooth between the field's breaks (a profile's
+            // nodes, where n'' jumps): integrate piecewise between them.
+            let mut cuts: Vec<f64> = field
+                .breaks_within(ha.min(hb), ha.max(hb))
+                .into_iter()
+                .map(|h| leg.phi_of(h))
+                .collect();
+            cuts.push(phi_max);
+            cuts.sort_by(f64::total_cmp);
+            let (mut a, mut t, mut s) = (0.0, 0.0, 0.0);
+            let mut panels = Vec::new();
+            for c in cuts {
+                if c <= a {
+                    continue;
+                }
+                for p in
+                    quadrature::adaptive(a, c, 1e-14, 0.0, 48, &mut |phi| self.integrand(field, &leg, phi))
+                {
+                    panels.push(Panel {
+                        x: p.x,
+                        i0: t + p.i0,
+                        i1: s + p.i1,
+                    });
+                }
+                let last = panels.last().copied().unwrap_or(Panel { x: c, i0: t, i1: s });
+                (a, t, s) = (c, last.i0, last.i1);
+            }
+            leg.panels = panels;
+        }
+        leg
+    }
+
+    /// On a leg at φ: (h, n(h) − n₀, G(h), dh/dφ). Near a turning end G is
+    /// taken relative to that end, where it is 0 by definition: the end is a
+    /// root of G only to rounding, and the time to reach a turning point
+    /// depends on the square root of such an error (1e-16 m of height would
+    /// cost 1e-7 m of τ). Within 1e-8 (relative) of the end, h = end + offset
+    /// would lose the offset: G there is n'(end)·offset (the next term is
+    /// smaller by offset/scale of the field).
+    fn leg_state(&self, field: &IndexField, leg: &Leg, phi: f64) -> (f64, f64, f64, f64) {
+        let (h, dhdphi) = leg.h_of(phi);
+        match leg.turn_offset(phi) {
+            Some((end, off)) if off.abs() <= 1e-8 * (1.0 + end.abs()) => {
+                let slope = field.n_h(end).map_or(0.0, |v| v.1);
+                let d_end = field.n_diff(end, self.h0);
+                (h, d_end + slope * off, slope * off, dhdphi)
+            }
+            Some((end, _)) => (h, field.n_diff(h, self.h0), field.n_diff(h, end), dhdphi),
+            None => {
+                let d = field.n_diff(h, self.h0);
+                (h, d, d + self.g0, dhdphi)
+            }
+        }
+    }
+
+    /// (dτ/dφ, ds/dφ) on a leg.
+    fn integrand(&self, field: &IndexField, leg: &Leg, phi: f64) -> (f64, f64) {
+        let (_, d, gg, dhdphi) = self.leg_state(field, leg, phi);
+        let n = self.n0 + d;
+        let it = dhdphi.abs() / (gg.max(f64::MIN_POSITIVE) * (n + self.b)).sqrt();
+        (it, n * it)
+    }
+
+    fn first_leg(&self, field: &IndexField) -> Leg {
+        let Form::Quad(q) = &self.form else {
+            unreachable!("legs belong to the quadrature form")
+        };
+        let (lo, hi) = (q.lo, q.hi);
+        if self.p0 == 0.0 {
+            // Launched horizontally: a turning point at the start; the ray
+            // goes where n grows (d²h/dτ² = n·n').
+            let slope = field.n_h(self.h0).map_or(0.0, |v| v.1);
+            if slope == 0.0 {
+                return Leg {
+                    tau0: 0.0,
+                    s0: 0.0,
+                    ha: self.h0,
+                    hb: self.h0,
+                    turn_a: true,
+                    turn_b: true,
+                    panels: Vec::new(),
+                    straight: true,
+                };
+            }
+            let dir = slope.signum();
+            return self.make_leg(field, self.h0, dir, true, 0.0, 0.0);
+        }
+        let dir = self.p0.signum();
+        // A grazing start has F(h₀) = p₀² small and a turning point just behind
+        // it: begin the leg there (its integrand is then regular at the start
+        // too) and start the ray part-way along it.
+        let reach = if dir > 0.0 { hi - self.h0 } else { self.h0 - lo }.max(0.0);
+        if reach > 0.0 {
+            if let Some(hv) = self.root_between(field, self.h0, self.h0 - dir * reach) {
+                let mut leg = self.make_leg(field, hv, dir, true, 0.0, 0.0);
+                let phi0 = leg.phi_of(self.h0);
+                let pre = quadrature::adaptive(0.0, phi0, 1e-14, 0.0, 48, &mut |phi| {
+                    self.integrand(field, &leg, phi)
+                });
+                let (t, s) = pre.last().map_or((0.0, 0.0), |p| (p.i0, p.i1));
+                leg.tau0 = -t;
+                leg.s0 = -s;
+                return leg;
+            }
+        }
+        self.make_leg(field, self.h0, dir, false, 0.0, 0.0)
+    }
+
+    /// Build legs until one reaches past τ (or none follows).
+    fn extend_to(&mut self, field: &IndexField, tau: f64) {
+        loop {
+            let Form::Quad(q) = &self.form else { return };
+            let last = q.legs.last().expect("a quadrature ray has its first leg");
+            if q.done || last.tau0 + last.tau_len() > tau {
+                return;
+            }
+            let next = if q.branch == Branch::Paper && last.turn_b {
+                Leg {
+                    tau0: last.tau0 + last.tau_len(),
+                    s0: last.s0 + last.s_len(),
+                    ha: last.hb,
+                    hb: last.hb,
+                    turn_a: true,
+                    turn_b: false,
+                    panels: Vec::new(),
+                    straight: true,
+                }
+            } else {
+                let (hb, dir, t, s) = (
+                    last.hb,
+                    -last.dir(),
+                    last.tau0 + last.tau_len(),
+                    last.s0 + last.s_len(),
+                );
+                self.make_leg(field, hb, dir, true, t, s)
+            };
+            let Form::Quad(q) = &mut self.form else { return };
+            q.done = next.straight || !next.turn_b || q.legs.len() > 10_000;
+            q.legs.push(next);
+        }
+    }
+
+    /// The point at optical parameter τ ≥ 0 (past the last leg of a
+    /// quadrature ray: its end).
+    pub fn point(&mut self, field: &IndexField, tau: f64) -> Point {
+        self.point_and_arc(field, tau, false).0
+    }
+
+    /// The arc length from the start to τ.
+    pub fn arc_length(&mut self, field: &IndexField, tau: f64) -> f64 {
+        self.point_and_arc(field, tau, true).1
+    }
+
+    fn point_and_arc(&mut self, field: &IndexField, tau: f64, want_s: bool) -> (Point, f64) {
+        match &self.form {
+            Form::Closed(c) => {
+                let pt = self.closed_point(c, tau);
+                let s = if want_s { self.closed_arc(c, tau) } else { f64::NAN };
+                (pt, s)
+            }
+            Form::Quad(_) => {
+                self.extend_to(field, tau);
+                self.quad_point(field, tau)
+            }
+        }
+    }
+
+    fn closed_point(&self, c: &Closed, tau: f64) -> Point {
+        let (ch, sh, cm) = hyp(c.k2, tau);
+        match c.kind {
+            ClosedKind::Linear { m } => {
+                let dh = c.q1 * sh + c.q2 * cm;
+                Point {
+                    tau,
+                    dh,
+                    p: c.q1 * ch + c.q2 * sh,
+                    n: self.n0 * ch + m * self.p0 * sh,
+                }
+            }
+            ClosedKind::Exp { a, d0, hs } => {
+                let du = c.q1 * sh + c.q2 * cm;
+                let u = 1.0 + du;
+                let du_dtau = c.q1 * ch + c.q2 * sh;
+                Point {
+                    tau,
+                    dh: hs * du.ln_1p(),
+                    p: hs * du_dtau / u,
+                    n: a - d0 / u,
+                }
+            }
+        }
+    }
+
+    fn closed_arc(&self, c: &Closed, tau: f64) -> f64 {
+        match c.kind {
+            ClosedKind::Linear { m } => {
+                let (_, sh, cm) = hyp(c.k2, tau);
+                self.n0 * sh + m * self.p0 * cm
+            }
+            ClosedKind::Exp { .. } => {
+                // s = ∫ n dτ: smooth in τ, Gauss–Kronrod.
+                let p = quadrature::adaptive(0.0, tau, 1e-15, 0.0, 40, &mut |t| {
+                    (self.closed_point(c, t).n, 0.0)
+                });
+                p.last().map_or(0.0, |x| x.i0)
+            }
+        }
+    }
+
+    fn quad_point(&self, field: &IndexField, tau: f64) -> (Point, f64) {
+        let Form::Quad(q) = &self.form else {
+            unreachable!("quad_point on a quadrature ray")
+        };
+        let i = q.legs.partition_point(|l| l.tau0 <= tau).saturating_sub(1);
+        let leg = &q.legs[i];
+        if leg.straight {
+            let h = leg.ha;
+            let n = self.n0 + field.n_diff(h, self.h0);
+            return (
+                Point {
+                    tau,
+                    dh: h - self.h0,
+                    p: 0.0,
+                    n,
+                },
+                leg.s0 + n * (tau - leg.tau0),
+            );
+        }
+        let target = (tau - leg.tau0).clamp(0.0, leg.tau_len());
+        let at = |phi: f64| {
+            let (h, d, gg, _) = self.leg_state(field, leg, phi);
+            let n = self.n0 + d;
+            let p = leg.dir() * (gg.max(0.0) * (n + self.b)).sqrt();
+            (h, p, n)
+        };
+        if leg.panels.is_empty() {
+            let (h, p, n) = at(0.0);
+            return (
+                Point {
+                    tau,
+                    dh: h - self.h0,
+                    p,
+                    n,
+                },
+                leg.s0,
+            );
+        }
+        let j = leg
+            .panels
+            .partition_point(|p| p.i0 < target)
+            .min(leg.panels.len() - 1);
+        let (mut phi_lo, t_lo, s_lo) = if j == 0 {
+            (0.0, 0.0, 0.0)
+        } else {
+            let p = leg.panels[j - 1];
+            (p.x, p.i0, p.i1)
+        };
+        let mut phi_hi = leg.panels[j].x;
+        let t_hi = leg.panels[j].i0;
+        // Newton on φ within the panel; the running integrals go from its
+        // start (a converged panel's sub-intervals are resolved by one rule).
+        let mut f = |phi: f64| self.integrand(field, leg, phi);
+        let frac = if t_hi > t_lo {
+            (target - t_lo) / (t_hi - t_lo)
+        } else {
+            0.0
+        };
+        let base = phi_lo;
+        let mut phi = phi_lo + (phi_hi - phi_lo) * frac;
+        let mut t_s = (t_lo, s_lo);
+        let tol = 4.0 * f64::EPSILON * (target.abs() + leg.tau0.abs() + t_hi);
+        for _ in 0..60 {
+            let ((dt, ds), _) = quadrature::gk15(base, phi, &mut f);
+            t_s = (t_lo + dt, s_lo + ds);
+            let err = t_s.0 - target;
+            if err.abs() <= tol {
+                break;
+            }
+            if err > 0.0 {
+                phi_hi = phi;
+            } else {
+                phi_lo = phi;
+            }
+            let (it, _) = f(phi);
+            let mut next = phi - err / it;
+            if !(next > phi_lo && next < phi_hi) {
+                next = 0.5 * (phi_lo + phi_hi);
+            }
+            if next == phi {
+                break;
+            }
+            phi = next;
+        }
+        let (h, p, n) = at(phi);
+        (
+            Point {
+                tau,
+                dh: h - self.h0,
+                p,
+                n,
+            },
+            leg.s0 + t_s.1,
+        )
+    }
+
+    /// The next turning point strictly after τ (p changes sign there), or ∞.
+    pub fn next_turn(&mut self, field: &IndexField, tau: f64) -> f64 {
+        match &self.form {
+            Form::Closed(c) => closed_next_turn(c, tau),
+            Form::Quad(_) => loop {
+                let Form::Quad(q) = &self.form else { unreachable!() };
+                for leg in &q.legs {
+                    let end = leg.tau0 + leg.tau_len();
+                    if leg.turn_b && !leg.straight && end > tau {
+                        return end;
+                    }
+                }
+                if q.done {
+                    return f64::INFINITY;
+                }
+                let last = q.legs.last().map_or(0.0, |l| l.tau0 + l.tau_len());
+                self.extend_to(field, last);
+            },
+        }
+    }
+
+    /// The first τ in [t0, t1] where the height above the start equals `dh`
+    /// (None when it does not get there), root-found on the monotone pieces
+    /// between turning points.
+    pub fn first_height(&mut self, field: &IndexField, dh: f64, t0: f64, t1: f64) -> Option<f64> {
+        let mut a = t0;
+        let mut pa = self.point(field, a);
+        if pa.dh == dh {
+            return Some(a);
+        }
+        while a < t1 {
+            let b = self.next_turn(field, a).min(t1);
+            let pb = self.point(field, b);
+            if (pa.dh - dh) * (pb.dh - dh) <= 0.0 {
+                let fa = pa.dh - dh;
+                return Some(bracketed_root(a, b, fa, |t| {
+                    let p = self.point(field, t);
+                    (p.dh - dh, p.p)
+                }));
+            }
+            if !b.is_finite() {
+                return None;
+            }
+            a = b;
+            pa = pb;
+        }
+        None
+    }
+
+    /// The lowest and highest heights above the start over [t0, t1].
+    pub fn height_range(&mut self, field: &IndexField, t0: f64, t1: f64) -> (f64, f64) {
+        let (a, b) = (self.point(field, t0).dh, self.point(field, t1).dh);
+        let (mut lo, mut hi) = (a.min(b), a.max(b));
+        let mut t = t0;
+        loop {
+            t = self.next_turn(field, t);
+            if t >= t1 {
+                break;
+            }
+            let d = self.point(field, t).dh;
+            lo = lo.min(d);
+            hi = hi.max(d);
+        }
+        (lo, hi)
+    }
+
+    /// The optical parameter at arc length s (Newton on s(τ), ds/dτ = n).
+    pub fn tau_at_arc(&mut self, field: &IndexField, s: f64) -> f64 {
+        let mut tau = s / self.n0;
+        let (mut lo, mut hi) = (0.0, f64::INFINITY);
+        for _ in 0..100 {
+            let (pt, st) = self.point_and_arc(field, tau, true);
+            let f = st - s;
+            if f > 0.0 {
+                hi = hi.min(tau);
+            } else {
+                lo = f64::max(lo, tau);
+            }
+            if f.abs() <= 2.0 * f64::EPSILON * s.abs() {
+                break;
+            }
+            let mut next = tau - f / pt.n;
+            if !(next > lo && next < hi) {
+                next = if hi.is_finite() {
+                    0.5 * (lo + hi)
+                } else {
+                    2.0 * tau.max(1e-300)
+                };
+            }
+            if next == tau {
+                break;
+            }
+            tau = next;
+        }
+        tau
+    }
+}
+
+/// Where q' = q₁ Ch + q₂ Sh vanishes after τ.
+fn closed_next_turn(c: &Closed, tau: f64) -> f64 {
+    let (q1, q2, k2) = (c.q1, c.q2, c.k2);
+    if q2 == 0.0 {
+        return f64::INFINITY;
+    }
+    let cand = if k2 > 0.0 {
+        // q₁ cosh κτ + (q₂/κ) sinh κτ = 0: tanh κτ = −κ q₁/q₂.
+        let k = k2.sqrt();
+        let r = -k * q1 / q2;
+        if r.abs() >= 1.0 {
+            return f64::INFINITY;
+        }
+        r.atanh() / k
+    } else if k2 == 0.0 {
+        -q1 / q2
+    } else {
+        // tan κτ = −κ q₁/q₂: every π/κ.
+        let k = (-k2).sqrt();
+        let base = (-k * q1 / q2).atan();
+        let step = std::f64::consts::PI / k;
+        let n = ((tau - base / k) / step).floor() + 1.0;
+        let t = base / k + n * step;
+        return if t > tau { t } else { t + step };
+    };
+    if cand > tau {
+        cand
+    } else {
+        f64::INFINITY
+    }
+}
