@@ -159,6 +159,13 @@ fn tri_gltf(edit: impl FnOnce(&mut serde_json::Value)) -> Vec<u8> {
     serde_json::to_vec(&v).unwrap()
 }
 
+/// The triangle's material with a base colour texture whose image is `image`.
+fn textured(v: &mut serde_json::Value, image: serde_json::Value) {
+    v["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = serde_json::json!({"index": 0});
+    v["textures"] = serde_json::json!([{"source": 0}]);
+    v["images"] = serde_json::json!([image]);
+}
+
 fn imp(bytes: &[u8], opts: &ImportOptions) -> snell::Result<snell::scene::import::Imported> {
     gltf::import_bytes("t.gltf", bytes, Path::new("."), "t.gltf", opts)
 }
@@ -215,6 +222,25 @@ fn hostile_files_are_refused_at_a_pointer() {
         (
             Box::new(|v| v["scenes"][0]["nodes"] = serde_json::json!([1])),
             "/scenes/0",
+        ),
+        // The gltf crate's validation indexes the POSITION accessor unchecked.
+        (
+            Box::new(|v| v["accessors"] = serde_json::json!([])),
+            "/meshes/0/primitives/0/attributes/POSITION",
+        ),
+        // The crate's `Image::source` unwraps the uri, or a view's mimeType.
+        (Box::new(|v| textured(v, serde_json::json!({}))), "/images/0"),
+        (
+            Box::new(|v| textured(v, serde_json::json!({"bufferView": 1}))),
+            "/images/0/mimeType",
+        ),
+        // The crate's `Camera::projection` unwraps the object its type names.
+        (
+            Box::new(|v| {
+                v["cameras"][0] = serde_json::json!({"type": "perspective",
+                    "orthographic": {"xmag": 1.0, "ymag": 1.0, "znear": 0.1, "zfar": 10.0}})
+            }),
+            "/cameras/0/perspective",
         ),
     ];
     for (edit, want) in cases {

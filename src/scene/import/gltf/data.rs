@@ -1,4 +1,5 @@
-//! A glTF file's bytes: the document (validated by the `gltf` crate, its
+//! A glTF file's bytes: the document (first checked for what the `gltf`
+//! crate would index or unwrap unchecked, then validated by the crate, its
 //! errors as JSON pointers), its buffers (the GLB's binary chunk, `data:`
 //! URIs, or files beside it; each checked to hold its declared length), and
 //! accessors read with checked bounds, so a hostile file is refused rather
@@ -69,32 +70,11 @@ pub fn load(path: &Path) -> Result<GltfData, PtrError> {
 
 /// Parse glTF or GLB bytes; `dir` resolves external buffers.
 pub fn parse(bytes: &[u8], dir: &Path) -> Result<GltfData, PtrError> {
-    let g = gltf::Gltf::from_slice(bytes).map_err(|e| match e {
-        gltf::Error::Validation(v) => {
-            let (p, err) = &v[0];
-            (
-                pointer(&p.to_string()),
-                format!(
-                    "{err}{}",
-                    if v.len() > 1 {
-                        format!(" (and {} more)", v.len() - 1)
-                    } else {
-                        String::new()
-                    }
-                ),
-            )
-        }
-        gltf::Error::Deserialize(d) => (
-            "/".into(),
-            format!(
-                "not valid glTF JSON at line {}, column {}: {d}",
-                d.line(),
-                d.column()
-            ),
-        ),
-        other => ("/".into(), other.to_string()),
-    })?;
-    let gltf::Gltf { document: doc, blob } = g;
+    let gltf::Gltf { document, blob } =
+        gltf::Gltf::from_slice_without_validation(bytes).map_err(crate_error)?;
+    let root = document.into_json();
+    unchecked_by_the_crate(&root)?;
+    let doc = gltf::Document::from_json(root).map_err(crate_error)?;
     let mut buffers = Vec::new();
     for b in doc.buffers() {
         let at = format!("/buffers/{}", b.index());
@@ -121,6 +101,89 @@ pub fn parse(bytes: &[u8], dir: &Path) -> Result<GltfData, PtrError> {
         buffers,
         dir: dir.to_path_buf(),
     })
+}
+
+/// The `gltf` crate's error as a JSON pointer and a message.
+fn crate_error(e: gltf::Error) -> PtrError {
+    match e {
+        gltf::Error::Validation(v) => {
+            let (p, err) = &v[0];
+            (
+                pointer(&p.to_string()),
+                format!(
+                    "{err}{}",
+                    if v.len() > 1 {
+                        format!(" (and {} more)", v.len() - 1)
+                    } else {
+                        String::new()
+                    }
+                ),
+            )
+        }
+        gltf::Error::Deserialize(d) => (
+            "/".into(),
+            format!(
+                "not valid glTF JSON at line {}, column {}: {d}",
+                d.line(),
+                d.column()
+            ),
+        ),
+        other => ("/".into(), other.to_string()),
+    }
+}
+
+/// What the `gltf` crate's validation or its accessors index or unwrap
+/// without checking, so that a document the crate would panic on is refused
+/// at a pointer: a POSITION attribute naming an accessor that does not exist
+/// (the validation indexes it), an image with neither a `uri` nor a
+/// `bufferView`, or in a view without a `mimeType` (`Image::source`), and a
+/// camera without the projection object its `type` names
+/// (`Camera::projection`).
+fn unchecked_by_the_crate(root: &gltf::json::Root) -> Result<(), PtrError> {
+    let n_acc = root.accessors.len();
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            for (sem, a) in &prim.attributes {
+                if a.value() >= n_acc {
+                    return Err((
+                        format!("/meshes/{m}/primitives/{p}/attributes/{}", sem.to_string()),
+                        format!("accessor {} does not exist (the file has {n_acc})", a.value()),
+                    ));
+                }
+            }
+        }
+    }
+    for (i, im) in root.images.iter().enumerate() {
+        match (&im.uri, &im.buffer_view, &im.mime_type) {
+            (None, None, _) => {
+                return Err((
+                    format!("/images/{i}"),
+                    "an image needs a uri or a bufferView".into(),
+                ))
+            }
+            (None, Some(_), None) => {
+                return Err((
+                    format!("/images/{i}/mimeType"),
+                    "an image in a bufferView needs a mimeType".into(),
+                ))
+            }
+            _ => {}
+        }
+    }
+    for (i, c) in root.cameras.iter().enumerate() {
+        use gltf::json::camera::Type;
+        use gltf::json::validation::Checked;
+        let missing = match c.type_ {
+            Checked::Valid(Type::Perspective) if c.perspective.is_none() => "perspective",
+            Checked::Valid(Type::Orthographic) if c.orthographic.is_none() => "orthographic",
+            _ => continue,
+        };
+        return Err((
+            format!("/cameras/{i}/{missing}"),
+            format!("the camera's type is {missing}, but it has no {missing} object"),
+        ));
+    }
+    Ok(())
 }
 
 /// A buffer URI's bytes: `data:…;base64,…` or a file relative to `dir`.
