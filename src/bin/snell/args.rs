@@ -330,6 +330,33 @@ pub struct FuzzArgs {
     /// Mutated Mitsuba XML / glTF scenes of --scenes-dir (default: as many as --cases), from --first.
     #[arg(long)]
     pub import_cases: Option<u64>,
+    /// The importer whose scenes are mutated (a run of one draws its cases from that format's seeds only).
+    #[arg(long, value_enum, default_value = "all")]
+    pub import_format: ImportFormatArg,
+    /// CPU seconds an imported scene may take to import, build and render at 4×3 pixels.
+    #[arg(long, default_value_t = 3.0)]
+    pub import_limit: f64,
+    /// Write each imported-scene finding's document to this directory (as c<case>_<seed file>).
+    #[arg(long)]
+    pub save_findings: Option<PathBuf>,
+}
+
+/// `--import-format`.
+#[derive(Clone, Copy, ValueEnum)]
+pub enum ImportFormatArg {
+    All,
+    Xml,
+    Gltf,
+}
+
+impl From<ImportFormatArg> for snell::fuzz_import::ImportFormat {
+    fn from(f: ImportFormatArg) -> Self {
+        match f {
+            ImportFormatArg::All => snell::fuzz_import::ImportFormat::All,
+            ImportFormatArg::Xml => snell::fuzz_import::ImportFormat::Xml,
+            ImportFormatArg::Gltf => snell::fuzz_import::ImportFormat::Gltf,
+        }
+    }
 }
 
 // `snell report`.
