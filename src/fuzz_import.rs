@@ -218,9 +218,10 @@ pub fn run(scene_dir: &Path, cases: u64, seed: u64, limit: Duration) -> ImportFu
 }
 
 /// `run` as `cfg` says. Case i is the same for any `first` (reproduce one
-/// with `snell fuzz --cases 0 --json-cases 0 --first i --import-cases 1`);
-/// a run restricted to one format draws its cases from that format's seeds
-/// only, so its case numbers differ from a run over all.
+/// with `snell fuzz --cases 0 --json-cases 0 --first i --import-cases 1`
+/// and the run's `--import-format`); a run restricted to one format draws
+/// its cases from that format's seeds only, so its case numbers differ
+/// from a run over all.
 pub fn run_with(cfg: &ImportFuzzConfig) -> ImportFuzzReport {
     let scene_dir = cfg.scene_dir.as_path();
     let mut rep = ImportFuzzReport::default();
