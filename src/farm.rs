@@ -7,7 +7,7 @@ use crate::error::{Error, Result};
 use crate::part::{read_part, scene_id, PartMeta};
 use crate::render::{Accum, PartSpec, Region, RenderSettings};
 use crate::scene::source::Source;
-use crate::scene::{load_scene_source, BuildOptions, RenderScene};
+use crate::scene::{build_scene_text, BuildOptions, RenderScene, SceneText};
 use std::path::{Path, PathBuf};
 
 /// Load a scene file with `--set` overrides; returns the scene and its
@@ -24,10 +24,10 @@ pub fn load(
     opts: &BuildOptions,
     strategy: NestedStrategy,
 ) -> Result<(RenderScene, String)> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-    let src = crate::overrides::apply(Source::new(&path.display().to_string(), text), sets)?;
+    let text = SceneText::read(path, &opts.import)?;
+    let src = crate::overrides::apply(Source::new(&text.source.file, text.source.text.clone()), sets)?;
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    let scene = load_scene_source(&src, &dir, opts)?;
+    let scene = build_scene_text(&text, &src, &dir, opts)?;
     Ok((scene, scene_id(&src.text, strategy.name())))
 }
 

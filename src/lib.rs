@@ -39,16 +39,19 @@
 //! - `cli` (default): the `snell` command line; turns on the two below and
 //!   adds clap and ctrlc.
 //! - `tooling`: benchmarks (`bench`, `ceiling`), the report (`report`, drawn
-//!   with plotters), the fuzzer (`fuzz`) and the render farm's parts (`part`,
-//!   `farm`, `merge`).
+//!   with plotters), the fuzzers (`fuzz`, `fuzz_import`) and the render
+//!   farm's parts (`part`, `farm`, `merge`).
 //! - `progress-bar`: a terminal progress bar while rendering (indicatif).
 //!
 //! With `default-features = false` the crate is the core library alone:
-//! scenes, rendering, the tracer, the warps and the media.
+//! scenes (with the glTF and Mitsuba importers), rendering, the tracer, the
+//! warps and the media.
 //!
 //! # Load a scene, render it, read the statistics
 //!
-//! [`load_scene`] reads a file (meshes and textures are found beside it);
+//! [`load_scene`] reads a file (meshes and textures are found beside it):
+//! snell TOML, glTF 2.0 (`.gltf`, `.glb`) or Mitsuba 3 XML (`.xml`), the
+//! importers' choices set by [`BuildOptions::import`] ([`ImportOptions`]);
 //! [`load_scene_str`] takes the text, a name for error messages and the
 //! directory that relative paths start from.
 //!
@@ -244,6 +247,8 @@ pub mod farm;
 #[cfg(feature = "tooling")]
 pub mod fuzz;
 #[cfg(feature = "tooling")]
+pub mod fuzz_import;
+#[cfg(feature = "tooling")]
 pub mod merge;
 #[cfg(feature = "tooling")]
 pub mod part;
@@ -259,7 +264,7 @@ pub use render::{
     render, render_part, Aov, Aovs, CancelToken, ProgressSink, RenderOptions, RenderSettings, RenderStats,
     Rendered,
 };
-pub use scene::{load_scene, load_scene_source, load_scene_str, BuildOptions, RenderScene};
+pub use scene::{load_scene, load_scene_source, load_scene_str, BuildOptions, ImportOptions, RenderScene};
 pub use warp::{HollowCylinder, Plate};
 
 /// The header line every benchmark prints first.

@@ -34,6 +34,8 @@ const LAYERS: &[&[&str]] = &[
     // What drives renders: parts, overrides, benchmarks, the warp renderer.
     &["part", "overrides", "bench", "ceiling", "warp_render"],
     &["merge", "farm", "fuzz"],
+    // The importers' fuzzer (it reuses the scene fuzzer's mutations).
+    &["fuzz_import"],
     &["report"],
 ];
 

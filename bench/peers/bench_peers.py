@@ -7,7 +7,10 @@ DRJIT_LIBLLVM_PATH); see docs/peers.md. Per reference scene of
 
 1. checks that snell's scene file (scenes/NAME.toml) says what scenes.json says
    (camera, film, integrator, lights, shapes, materials, mesh files);
-2. builds the scene for Mitsuba from scenes.json (this file's translation);
+2. loads the same scene for Mitsuba from scenes/NAME.xml with mi.load_file (the
+   XML snell imports too, whose description tests/import_mitsuba.rs checks
+   equals the TOML's), with the run's width, height, spp and seed as its
+   $parameters;
 3. renders snell and Mitsuba alternately, --reps times each, at the same size,
    spp and thread count (Mitsuba's repetition k uses seed k; snell uses its
    scene's seed), timing the render only (not scene loading or BVH builds);
@@ -48,7 +51,8 @@ def parse_args():
         default=os.environ.get("SNELL_REFERENCE_SCENES", str(REPO.parent / "shared/reference-scenes/scenes.json")),
         help="scenes.json (default ../shared/reference-scenes/scenes.json, or $SNELL_REFERENCE_SCENES)",
     )
-    p.add_argument("--snell-scenes", default=str(REPO / "scenes"), help="directory of snell's NAME.toml")
+    p.add_argument("--snell-scenes", default=str(REPO / "scenes"),
+                   help="directory of snell's NAME.toml and of NAME.xml, the same scene for Mitsuba")
     p.add_argument("--scene", action="append", choices=SCENES, help="only this scene (repeatable)")
     p.add_argument("--reps", type=int, default=3, help="timed renders per renderer and scene (interleaved)")
     p.add_argument("--spp", type=int, default=64)
@@ -151,152 +155,6 @@ def check_snell_scene(name, js, ref_dir, toml_path):
     for n in tobj:
         diff.append(f"objects.{n}: only in snell")
     return diff
-
-
-# ------------------------------------------------------- Mitsuba translation
-
-
-def rgb(v):
-    if isinstance(v, (int, float)):
-        v = [v, v, v]
-    return {"type": "rgb", "value": [float(x) for x in v]}
-
-
-def _sub(a, b):
-    return [x - y for x, y in zip(a, b)]
-
-
-def _cross(a, b):
-    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-
-
-def rect_frame(o):
-    """Corner-free description of a scenes.json rect: (center, u, v, n, su, sv)."""
-    n, u = o["normal"], o["u_axis"]
-    v = _cross(n, u)  # scenes.json: v_axis = cross(normal, u_axis); (u, v, n) is right-handed
-    su, sv = o["size"]
-    return o["center"], u, v, n, su, sv
-
-
-def rect_to_world(mi, o):
-    """Mitsuba's rectangle is [-1, 1]^2 at z = 0 with normal +z: map x to u, y to v, z to n."""
-    c, u, v, n, su, sv = rect_frame(o)
-    cols = [[x * su / 2 for x in u], [x * sv / 2 for x in v], list(n), list(c)]
-    rows = [[cols[j][i] for j in range(4)] for i in range(3)] + [[0.0, 0.0, 0.0, 1.0]]
-    return mi.ScalarTransform4f(rows)
-
-
-def texture(mi, t, rect):
-    """A constant colour, or a world-space checker on a rect (through the rect's uv)."""
-    if isinstance(t, (list, int, float)):
-        return rgb(t)
-    if t.get("type") != "checker":
-        raise ValueError(f"texture type {t.get('type')!r} not translated")
-    if rect is None:
-        raise ValueError("a checker is only translated on a rect")
-    # Mitsuba: rectangle uv = (x + 1) / 2, (y + 1) / 2 of its local [-1, 1]^2, so the
-    # world point is c + (uv.x - 1/2) su u + (uv.y - 1/2) sv v. Its world coordinates
-    # (a, b) along the checker's axes, divided by 2 * size, are the checkerboard's
-    # uv: Mitsuba's checkerboard is color0 where frac(uv.x) and frac(uv.y) are on
-    # the same side of 1/2, i.e. where floor(a/size) + floor(b/size) is even.
-    c, u, v, _n, su, sv = rect_frame(rect)
-    rows = []
-    for ax in t["axes"]:
-        i = "xyz".index(ax)
-        s = 2.0 * t["size"]
-        rows.append([su * u[i] / s, sv * v[i] / s, (c[i] - 0.5 * su * u[i] - 0.5 * sv * v[i]) / s])
-    rows.append([0.0, 0.0, 1.0])
-    return {
-        "type": "checkerboard",
-        "color0": rgb(t["color0"]),
-        "color1": rgb(t["color1"]),
-        "to_uv": mi.ScalarTransform3f(mi.ScalarMatrix3f(rows)),
-    }
-
-
-def bsdf(mi, m, rect):
-    if m["type"] == "diffuse":
-        return {"type": "diffuse", "reflectance": texture(mi, m["reflectance"], rect)}
-    if m["type"] == "dielectric":
-        return {"type": "dielectric", "int_ior": float(m["int_ior"]), "ext_ior": float(m["ext_ior"])}
-    raise ValueError(f"material {m['type']!r} not translated")
-
-
-def mitsuba_scene_dict(mi, js, ref_dir, width, height, spp, seed):
-    amb = js.get("ambient_ior", 1.0)
-    if amb != 1.0:
-        raise ValueError("ambient_ior != 1: the translation gives every dielectric explicit indices and needs 1.0")
-    integ = js["integrator"]
-    if integ["type"] != "path":
-        raise ValueError("only the path integrator is translated")
-    cam = js["camera"]
-    d = {
-        "type": "scene",
-        "integrator": {
-            "type": "path",
-            "max_depth": int(integ["max_depth"]),
-            "rr_depth": int(integ["rr_depth"]),
-            "hide_emitters": False,
-        },
-        "sensor": {
-            "type": "perspective",
-            "fov": float(cam["fov_deg"]),
-            "fov_axis": "y",
-            "to_world": mi.ScalarTransform4f().look_at(
-                origin=cam["position"], target=cam["target"], up=cam["up"]
-            ),
-            "film": {
-                "type": "hdrfilm",
-                "width": width,
-                "height": height,
-                "rfilter": {"type": "box"},
-                "pixel_format": "rgb",
-                "component_format": "float32",
-            },
-            "sampler": {"type": "independent", "sample_count": spp, "seed": seed},
-        },
-    }
-    env = js.get("environment")
-    if env is not None:
-        if env["type"] != "constant":
-            raise ValueError(f"environment {env['type']!r} not translated")
-        d["environment"] = {"type": "constant", "radiance": rgb(env["radiance"])}
-    for l in js.get("lights", []):
-        if l["type"] != "rect":
-            raise ValueError(f"light type {l['type']!r} not translated")
-        # A light is a black one-sided emitter: Mitsuba's area emitter is one-sided;
-        # a black diffuse BSDF makes it non-reflecting (and it still blocks rays).
-        d["light_" + l["name"]] = {
-            "type": "rectangle",
-            "to_world": rect_to_world(mi, l),
-            "emitter": {"type": "area", "radiance": rgb(l["radiance"])},
-            "bsdf": {"type": "diffuse", "reflectance": rgb(0.0)},
-        }
-    for o in js["objects"]:
-        t = o["type"]
-        rect = o if t == "rect" else None
-        if t == "rect":
-            s = {"type": "rectangle", "to_world": rect_to_world(mi, o)}
-        elif t == "sphere":
-            s = {"type": "sphere", "center": [float(x) for x in o["center"]], "radius": float(o["radius"])}
-        elif t == "cylinder":
-            s = {
-                "type": "cylinder",
-                "p0": [float(x) for x in o["p0"]],
-                "p1": [float(x) for x in o["p1"]],
-                "radius": float(o["radius"]),
-                "flip_normals": o.get("normal", "out") == "in",
-            }
-        elif t == "mesh":
-            # Per-vertex normals (vn) as shading normals, as snell does.
-            s = {"type": "obj", "filename": str(Path(ref_dir) / o["file"]), "face_normals": False}
-        else:
-            raise ValueError(f"shape {t!r} not translated")
-        s["bsdf"] = bsdf(mi, o["material"], rect)
-        if o.get("emission"):
-            s["emitter"] = {"type": "area", "radiance": texture(mi, o["emission"]["radiance"], rect)}
-        d["obj_" + o["name"]] = s
-    return d
 
 
 # ------------------------------------------------------------------- renders
@@ -545,7 +403,8 @@ def main():
             print(f"  {name}: {toml} says what scenes.json says (camera, film, integrator, lights, shapes, "
                   "materials, mesh files)", flush=True)
         t0 = time.perf_counter()
-        scene = mi.load_dict(mitsuba_scene_dict(mi, js, ref_path.parent, a.width, a.height, a.spp, 0))
+        xml = Path(a.snell_scenes) / f"{name}.xml"
+        scene = mi.load_file(str(xml), width=a.width, height=a.height, spp=a.spp, seed=0)
         m_load = time.perf_counter() - t0
         seeds = list(range(max(a.reps, 2)))
         s_runs, m_runs, m_imgs = [], [], {}

@@ -6,8 +6,9 @@ use crate::convert::{override_text, scene_toml, BadValue};
 use crate::errors::{scene_error, to_py, TextKind, DICT_LABEL};
 use pyo3::prelude::*;
 use snell::scene::source::Source;
-use snell::scene::{load_scene_source, BuildOptions, RenderScene};
+use snell::scene::{build_scene_text, BuildOptions, ImportOptions, RenderScene, SceneText};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// A loaded scene: the geometry built in Embree, the camera, lights and
 /// media, and the film (size, samples per pixel, seed) the file declares.
@@ -17,10 +18,12 @@ use std::path::{Path, PathBuf};
 /// :func:`snell.render`, trace single rays with :func:`snell.trace_path`.
 #[pyclass(frozen, module = "snell")]
 pub struct Scene {
-    /// The name errors carry: the file as given, `<string>` or `<dict>`.
+    /// The file as given, `<string>` or `<dict>`.
     label: String,
-    /// The TOML text as given (before overrides).
-    text: String,
+    /// The TOML as given (before overrides), named as errors name it; for a
+    /// glTF or Mitsuba file, the imported scene written as TOML, with the
+    /// import (its warnings, and where each key came from in the file).
+    text: Arc<SceneText>,
     /// Where relative file names (meshes, maps) are resolved.
     base_dir: PathBuf,
     kind: TextKind,
@@ -35,14 +38,15 @@ impl Scene {
     fn load(
         py: Python<'_>,
         label: String,
-        text: String,
+        text: Arc<SceneText>,
         base_dir: PathBuf,
         kind: TextKind,
         sets: Vec<String>,
     ) -> PyResult<Scene> {
         let build = || -> snell::Result<(String, RenderScene)> {
-            let src = snell::overrides::apply(Source::new(&label, text.clone()), &sets)?;
-            let scene = load_scene_source(&src, &base_dir, &BuildOptions::default())?;
+            let src =
+                snell::overrides::apply(Source::new(&text.source.file, text.source.text.clone()), &sets)?;
+            let scene = build_scene_text(&text, &src, &base_dir, &BuildOptions::default())?;
             Ok((src.text, scene))
         };
         let (resolved, scene) = py.detach(build).map_err(|e| to_py(py, e, kind))?;
@@ -58,28 +62,41 @@ impl Scene {
     }
 }
 
+/// TOML text named `file` in errors (not imported).
+fn written(file: &str, toml: String) -> Arc<SceneText> {
+    Arc::new(SceneText {
+        source: Source::new(file, toml),
+        imported: None,
+    })
+}
+
 fn bad_value(py: Python<'_>, file: &str, b: BadValue) -> PyErr {
     scene_error(py, file, &b.key, None, &b.message)
 }
 
-/// Load a scene file (TOML, the format of ``snell render``).
+/// Load a scene file, as ``snell render`` reads it: snell TOML, glTF 2.0
+/// (``.gltf``, ``.glb``) or Mitsuba 3 XML (``.xml``), the last two through
+/// their importers (their warnings are in :attr:`Scene.warnings`,
+/// :meth:`Scene.to_toml` is the imported scene).
 ///
-/// Relative file names in it (meshes, environment maps) are resolved
-/// against the file's directory.
+/// Relative file names in it (meshes, textures, environment maps) are
+/// resolved against the file's directory.
 ///
 /// Raises:
 ///     SceneError: the file is not a valid scene; the message and the
-///         attributes name the file, the key path, the line and the column.
+///         attributes name the file, the key path (a JSON pointer in a glTF
+///         file), the line and the column.
 ///     OSError: the file cannot be read.
 #[pyfunction]
 pub fn load_file(py: Python<'_>, path: PathBuf) -> PyResult<Scene> {
-    let text = std::fs::read_to_string(&path)
-        .map_err(|e| pyo3::exceptions::PyOSError::new_err(format!("{}: {e}", path.display())))?;
+    let text = py
+        .detach(|| SceneText::read(&path, &ImportOptions::default()))
+        .map_err(|e| to_py(py, e, TextKind::Written))?;
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
     Scene::load(
         py,
         path.display().to_string(),
-        text,
+        Arc::new(text),
         dir,
         TextKind::Written,
         Vec::new(),
@@ -102,7 +119,7 @@ pub fn load_string(py: Python<'_>, toml: String, base_dir: Option<PathBuf>, name
     Scene::load(
         py,
         name.to_string(),
-        toml,
+        written(name, toml),
         base_dir.unwrap_or_else(|| PathBuf::from(".")),
         TextKind::Written,
         Vec::new(),
@@ -132,7 +149,7 @@ pub fn load_dict(py: Python<'_>, scene: &Bound<'_, PyAny>, base_dir: Option<Path
     Scene::load(
         py,
         DICT_LABEL.to_string(),
-        text,
+        written(DICT_LABEL, text),
         base_dir.unwrap_or_else(|| PathBuf::from(".")),
         TextKind::FromDict,
         Vec::new(),

@@ -229,3 +229,21 @@ def test_no_dict_makes_rust_panic():
             pytest.fail(f"case {case}: {type(e).__name__}: {e}\n{d!r}")
     # The mutations reach both sides of the loader.
     assert outcomes["loaded"] > 10 and outcomes["refused"] > 100, outcomes
+
+
+@pytest.mark.parametrize("name", ["three_spheres.xml", "glass_of_water.glb"])
+def test_load_file_reads_mitsuba_and_gltf_scenes(scenes, name):
+    scene = snell.load_file(str(scenes / name))
+    image = snell.render(scene, width=8, height=6, spp=1, threads=1)
+    assert image.shape == (6, 8, 3)
+    assert np.isfinite(image).all() and image.max() > 0
+    assert "[camera]" in scene.to_toml()
+    assert scene.set("film.spp", 3).spp == 3
+
+
+def test_an_imported_file_error_is_located_in_that_file(tmp_path):
+    path = tmp_path / "bad.xml"
+    path.write_text('<scene version="3.0.0">\n  <shape type="no_such_shape"/>\n</scene>\n')
+    with pytest.raises(snell.SceneError) as e:
+        snell.load_file(str(path))
+    assert e.value.file == str(path) and e.value.line == 2

@@ -431,7 +431,7 @@ pub enum ShapeDesc {
     Tube(TubeDesc),
     /// `type = "lathe"`: a revolved profile (mesh).
     Lathe(LatheDesc),
-    /// `type = "mesh"`: triangles from an OBJ file.
+    /// `type = "mesh"`: triangles from an OBJ, PLY, `.serialized` or glTF file.
     Mesh(MeshDesc),
     /// `type = "heightfield"`: diamond-square terrain (mesh).
     Heightfield(HeightfieldDesc),
@@ -553,16 +553,27 @@ fn default_segments() -> u32 {
     128
 }
 
-/// A triangle mesh from a Wavefront OBJ file; counter-clockwise winding faces
-/// the normal.
+/// A triangle mesh from a file, by extension: Wavefront OBJ, PLY, Mitsuba
+/// `.serialized`, or one primitive of a glTF file; counter-clockwise winding
+/// faces the normal.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MeshDesc {
-    /// OBJ file, relative to the scene file.
+    /// Mesh file, relative to the scene file.
     pub file: String,
     /// Use the file's vertex normals for shading (default true).
     #[serde(default = "yes")]
     pub smooth: bool,
+    /// Which mesh of a Mitsuba `.serialized` file, counting from 0 (default 0).
+    #[serde(default)]
+    pub shape_index: Option<u64>,
+    /// Which mesh of a glTF file (`.gltf`, `.glb`), by index in its `meshes`
+    /// (default 0).
+    #[serde(default)]
+    pub mesh: Option<u64>,
+    /// Which primitive of that glTF mesh, counting from 0 (default 0).
+    #[serde(default)]
+    pub primitive: Option<u64>,
 }
 
 fn yes() -> bool {
@@ -586,7 +597,7 @@ pub struct HeightfieldDesc {
     pub seed: u64,
 }
 
-/// One step of an object's transform: exactly one of the three keys.
+/// One step of an object's transform: exactly one of the four keys.
 /// Analytic shapes (sphere, disk, cylinder, tube) accept only translations,
 /// rotations and uniform scales.
 #[derive(Debug, Clone, Deserialize)]
@@ -601,6 +612,10 @@ pub struct TransformDesc {
     /// Uniform (number) or per-axis (array) scale, factors > 0.
     #[serde(default)]
     pub scale: Option<ScaleDesc>,
+    /// A general affine step: four rows of four numbers, the last row
+    /// `[0, 0, 0, 1]`, invertible (imported scenes' matrices).
+    #[serde(default)]
+    pub matrix: Option<[[f64; 4]; 4]>,
 }
 
 /// A rotation about an axis through the origin.

@@ -5,6 +5,8 @@ use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use snell::dielectric::NestedStrategy;
 use snell::render::Aov;
+use snell::scene::ImportOptions;
+use snell::{Error, Result};
 use std::path::PathBuf;
 
 /// `snell --version`: the build's provenance (commit, Embree, rustc, profile).
@@ -29,8 +31,10 @@ pub struct Cli {
 
 #[derive(Subcommand)]
 pub enum Cmd {
-    /// Render a TOML scene to .png (sRGB 8-bit) or .exr (linear float32).
+    /// Render a scene (TOML, glTF .gltf/.glb, Mitsuba .xml) to .png (sRGB 8-bit) or .exr (linear float32).
     Render(RenderArgs),
+    /// Write a glTF or Mitsuba scene as snell TOML (docs/import-gltf.md, docs/import-mitsuba.md).
+    Convert(ConvertArgs),
     /// Merge part EXRs (regions, sample ranges; directories stand for their .exr files)
     /// into the whole render, bit for bit equal to a single render.
     Merge(MergeArgs),
@@ -116,6 +120,53 @@ pub struct RenderArgs {
     pub sweep_index: Option<u32>,
     #[command(flatten)]
     pub farm: FarmFlags,
+    #[command(flatten)]
+    pub import: ImportFlags,
+}
+
+/// How glTF and Mitsuba scenes are imported (docs/import-gltf.md, docs/import-mitsuba.md).
+#[derive(Args)]
+pub struct ImportFlags {
+    /// A Mitsuba parameter: -D spp=16 gives $spp the value 16 (repeatable).
+    #[arg(short = 'D', value_name = "NAME=VALUE")]
+    pub define: Vec<String>,
+    /// Refuse what cannot be mapped exactly (roughness, metals, ...) instead of warning.
+    #[arg(long)]
+    pub strict: bool,
+    /// Skip unknown plugins and parameters with a warning instead of refusing the scene.
+    #[arg(long)]
+    pub lenient: bool,
+}
+
+impl ImportFlags {
+    /// The library's import options; a `-D` without `NAME=` is refused.
+    pub fn options(&self) -> Result<ImportOptions> {
+        let mut defines = Vec::new();
+        for d in &self.define {
+            let (k, v) = d
+                .split_once('=')
+                .filter(|(k, _)| !k.is_empty())
+                .ok_or_else(|| Error::Invalid(format!("-D {d}: expected NAME=VALUE")))?;
+            defines.push((k.to_string(), v.to_string()));
+        }
+        Ok(ImportOptions {
+            defines,
+            strict: self.strict,
+            lenient: self.lenient,
+        })
+    }
+}
+
+// `snell convert`.
+#[derive(Args)]
+pub struct ConvertArgs {
+    /// The glTF (.gltf, .glb) or Mitsuba (.xml) scene.
+    pub input: PathBuf,
+    /// The TOML to write (default: print it).
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+    #[command(flatten)]
+    pub import: ImportFlags,
 }
 
 /// Render-farm options of `snell render` (docs/farm.md).
@@ -276,6 +327,36 @@ pub struct FuzzArgs {
     pub json_cases: Option<u64>,
     #[arg(long, default_value = "tests/data/fuzz")]
     pub json_dir: PathBuf,
+    /// Mutated Mitsuba XML / glTF scenes of --scenes-dir (default: as many as --cases), from --first.
+    #[arg(long)]
+    pub import_cases: Option<u64>,
+    /// The importer whose scenes are mutated (a run of one draws its cases from that format's seeds only).
+    #[arg(long, value_enum, default_value = "all")]
+    pub import_format: ImportFormatArg,
+    /// CPU seconds an imported scene may take to import, build and render at 4×3 pixels.
+    #[arg(long, default_value_t = 3.0)]
+    pub import_limit: f64,
+    /// Write each imported-scene finding's document to this directory (as c<case>_<seed file>).
+    #[arg(long)]
+    pub save_findings: Option<PathBuf>,
+}
+
+/// `--import-format`.
+#[derive(Clone, Copy, ValueEnum)]
+pub enum ImportFormatArg {
+    All,
+    Xml,
+    Gltf,
+}
+
+impl From<ImportFormatArg> for snell::fuzz_import::ImportFormat {
+    fn from(f: ImportFormatArg) -> Self {
+        match f {
+            ImportFormatArg::All => snell::fuzz_import::ImportFormat::All,
+            ImportFormatArg::Xml => snell::fuzz_import::ImportFormat::Xml,
+            ImportFormatArg::Gltf => snell::fuzz_import::ImportFormat::Gltf,
+        }
+    }
 }
 
 // `snell report`.

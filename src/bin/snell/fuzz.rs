@@ -1,5 +1,6 @@
 //! `snell fuzz`: mutation fuzzing of the scene loader and renderer, and of
-//! the grin-trace / warp-points documents; the findings on stdout.
+//! the grin-trace / warp-points documents, and of the Mitsuba / glTF
+//! importers; the findings on stdout.
 use crate::args::FuzzArgs;
 use snell::{Error, Result};
 use std::time::{Duration, Instant};
@@ -27,7 +28,34 @@ pub fn fuzz(a: FuzzArgs) -> Result<()> {
         say!("warning: no JSON seeds in {}", a.json_dir.display());
     }
     let json_ok = jr.panics.is_empty() && jr.unlocated.is_empty() && jr.slow.is_empty();
-    if json_ok && rep.panics.is_empty() && rep.unlocated_errors.is_empty() && rep.slow.is_empty() {
+    // Imported scenes get 3 s of CPU by default: the glTF glass of water
+    // (two overlapping mesh solids) takes about 0.8 s to build and start.
+    if !(a.import_limit > 0.0 && a.import_limit.is_finite()) {
+        return Err(Error::Invalid(format!(
+            "--import-limit: expected seconds > 0, got {}",
+            a.import_limit
+        )));
+    }
+    let limit = Duration::from_secs_f64(a.import_limit);
+    let t = Instant::now();
+    let format = a.import_format.into();
+    let ir = snell::fuzz_import::run_with(&snell::fuzz_import::ImportFuzzConfig {
+        scene_dir: a.scenes_dir.clone(),
+        format,
+        first: a.first,
+        cases: a.import_cases.unwrap_or(a.cases),
+        seed: a.seed,
+        limit,
+        save_findings: a.save_findings.clone(),
+    });
+    say!("{}", import_fuzz_line(&ir, t.elapsed(), format, limit));
+    print_findings(&ir.panics, &ir.unlocated, &ir.slow);
+    for (d, first, again) in ir.slow_once.iter().take(5) {
+        say!("over the limit once: {first:.2} s, then {again:.2} s: {d}");
+    }
+    let import_ok = ir.panics.is_empty() && ir.unlocated.is_empty() && ir.slow.is_empty();
+    if json_ok && import_ok && rep.panics.is_empty() && rep.unlocated_errors.is_empty() && rep.slow.is_empty()
+    {
         Ok(())
     } else {
         Err(Error::Invalid("the fuzzer found problems (see above)".into()))
@@ -67,6 +95,34 @@ fn json_fuzz_line(jr: &snell::fuzz::JsonFuzzReport, elapsed: Duration, seeds: us
         jr.slow.len(),
         jr.slowest.0,
         jr.slowest.1
+    )
+}
+
+/// The importers' fuzzer's totals.
+fn import_fuzz_line(
+    ir: &snell::fuzz_import::ImportFuzzReport,
+    elapsed: Duration,
+    format: snell::fuzz_import::ImportFormat,
+    limit: Duration,
+) -> String {
+    let formats = match format {
+        snell::fuzz_import::ImportFormat::All => "Mitsuba XML, glTF",
+        snell::fuzz_import::ImportFormat::Xml => "Mitsuba XML",
+        snell::fuzz_import::ImportFormat::Gltf => "glTF",
+    };
+    format!(
+        "{} imported scenes ({formats}) in {:.1} s: {} rendered, {} refused with a located error, {} unlocated, {} panics, {} over {} s of CPU twice ({} once only); costliest {:.3} s ({})",
+        ir.cases,
+        elapsed.as_secs_f64(),
+        ir.rendered,
+        ir.refused,
+        ir.unlocated.len(),
+        ir.panics.len(),
+        ir.slow.len(),
+        limit.as_secs_f64(),
+        ir.slow_once.len(),
+        ir.slowest.0,
+        ir.slowest.1
     )
 }
 

@@ -13,6 +13,7 @@ macro_rules! say {
 mod args;
 mod audit;
 mod bench;
+mod convert;
 mod farm;
 mod fuzz;
 mod output;
@@ -40,6 +41,7 @@ fn main() -> ExitCode {
 fn run(cli: Cli) -> Result<()> {
     match cli.cmd {
         Cmd::Render(a) => render::render(a),
+        Cmd::Convert(a) => convert::convert(a),
         Cmd::Merge(a) => farm::merge(a),
         Cmd::Table(a) => farm::table(a),
         Cmd::Audit {

@@ -17,7 +17,11 @@ pub fn render(mut a: RenderArgs) -> Result<()> {
         snell::farm::make_parent(output)?;
     }
     let load_t = Instant::now();
-    let (s, scene_id) = snell::farm::load(&a.scene, &a.set, &BuildOptions::default(), a.nested)?;
+    let build = BuildOptions {
+        import: a.import.options()?,
+        ..BuildOptions::default()
+    };
+    let (s, scene_id) = snell::farm::load(&a.scene, &a.set, &build, a.nested)?;
     let load_s = load_t.elapsed().as_secs_f64();
     for w in &s.warnings {
         eprintln!("warning: {w}");

@@ -1,6 +1,7 @@
 //! From a parsed description to a render scene: validation (every error names
 //! the file, the key path and the line:column), transforms, meshes, Embree.
 use super::desc::*;
+use super::import::{ImportOptions, SceneText};
 use super::model::{Containment, Environment, IntegratorKind, Material, RenderScene, Shape};
 use super::source::Source;
 use super::texture::{load_image, Texture};
@@ -23,13 +24,15 @@ pub const MAX_SPP: u64 = 1 << 24;
 /// Deepest heightfield subdivision (4097² vertices, ~33 M triangles).
 pub const MAX_HEIGHTFIELD_LEVELS: u32 = 12; // 4097² vertices, ~33 M triangles
 
-/// How the scene is built for a render.
-#[derive(Debug, Clone, Copy)]
+/// How the scene is read and built for a render.
+#[derive(Debug, Clone)]
 pub struct BuildOptions {
     /// Override of the Embree robust flag (default: on when the scene has priority solids).
     pub robust: Option<bool>,
     /// Embree build quality of the scene.
     pub quality: BuildQuality,
+    /// How glTF and Mitsuba scene files are imported.
+    pub import: ImportOptions,
 }
 
 impl Default for BuildOptions {
@@ -37,15 +40,34 @@ impl Default for BuildOptions {
         BuildOptions {
             robust: None,
             quality: BuildQuality::Medium,
+            import: ImportOptions::default(),
         }
     }
 }
 
-/// Load and build a scene file.
+/// Load and build a scene file: snell TOML, or glTF (`.gltf`, `.glb`) and
+/// Mitsuba XML (`.xml`) through their importers (whose warnings end up in
+/// the scene's `warnings`).
 pub fn load_scene(path: &Path, opts: &BuildOptions) -> Result<RenderScene> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let text = SceneText::read(path, &opts.import)?;
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    load_scene_str(&path.display().to_string(), &text, &dir, opts)
+    build_scene_text(&text, &text.source, &dir, opts)
+}
+
+/// Build `src` (the TOML of `text`, possibly after `--set` overrides):
+/// errors of an imported scene are placed in the imported file, and its
+/// import warnings come first in the scene's warnings.
+pub fn build_scene_text(
+    text: &SceneText,
+    src: &Source,
+    dir: &Path,
+    opts: &BuildOptions,
+) -> Result<RenderScene> {
+    let mut scene = load_scene_source(src, dir, opts).map_err(|e| text.relocate(e))?;
+    let mut warnings = text.warnings();
+    warnings.append(&mut scene.warnings);
+    scene.warnings = warnings;
+    Ok(scene)
 }
 
 /// Build a scene from TOML text; `file` names it in errors and `dir` resolves relative paths.
@@ -59,7 +81,7 @@ pub fn load_scene_source(src: &Source, dir: &Path, opts: &BuildOptions) -> Resul
     Builder {
         src,
         dir: dir.to_path_buf(),
-        opts: *opts,
+        opts: opts.clone(),
     }
     .build(&desc)
 }

@@ -293,11 +293,11 @@ impl Builder<'_> {
         ))
     }
 
-    /// Triangles from an OBJ file.
+    /// Triangles from a mesh file (OBJ, PLY, `.serialized`, glTF).
     fn obj_mesh(&self, sk: &str, m: &MeshDesc, pl: &Placement) -> Result<Shape> {
         let path = self.resolve(&m.file);
-        let mesh = meshgen::load_obj(&path, m.smooth)
-            .map_err(|e| self.err(&format!("{sk}.file"), format!("{}: {e}", path.display())))?;
+        let mesh = crate::scene::import::load_mesh(&path, m)
+            .map_err(|(key, e)| self.err(&format!("{sk}.{key}"), format!("{}: {e}", path.display())))?;
         Ok(Shape::Mesh(Arc::new(self.xf_mesh(mesh, &pl.xf))))
     }
 
@@ -538,6 +538,10 @@ impl Builder<'_> {
                 }
                 step = DMat4::from_axis_angle(axis, r.degrees.to_radians());
             }
+            if let Some(rows) = &t.matrix {
+                count += 1;
+                step = self.matrix(&format!("{k}.matrix"), rows)?;
+            }
             if let Some(tr) = t.translate {
                 count += 1;
                 step = DMat4::from_translation(self.finite3(&format!("{k}.translate"), tr)?);
@@ -545,10 +549,30 @@ impl Builder<'_> {
             if count != 1 {
                 return Err(self.err(
                     &k,
-                    "each transform step needs exactly one of translate, rotate, scale",
+                    "each transform step needs exactly one of translate, rotate, scale, matrix",
                 ));
             }
             m = step * m;
+        }
+        Ok(m)
+    }
+
+    /// A `matrix` step: finite, affine (last row 0 0 0 1) and invertible.
+    fn matrix(&self, key: &str, rows: &[[f64; 4]; 4]) -> Result<DMat4> {
+        if !rows.iter().flatten().all(|x| x.is_finite() && x.abs() <= 1e15) {
+            return Err(self.err(key, "expected finite numbers within ±1e15"));
+        }
+        if rows[3] != [0.0, 0.0, 0.0, 1.0] {
+            return Err(self.err(
+                key,
+                "expected an affine matrix: the last row must be [0, 0, 0, 1]",
+            ));
+        }
+        let m = DMat4::from_cols_array_2d(rows).transpose();
+        let lin = DMat3::from_mat4(m);
+        let size = lin.x_axis.length() * lin.y_axis.length() * lin.z_axis.length();
+        if lin.determinant().is_nan() || lin.determinant().abs() <= 1e-12 * size || size == 0.0 {
+            return Err(self.err(key, "expected an invertible matrix"));
         }
         Ok(m)
     }

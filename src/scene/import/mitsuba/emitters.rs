@@ -1,0 +1,114 @@
+//! Top-level `<emitter>`s: `constant` and `envmap` become the environment,
+//! `point` and `directional` lights; `spot` is refused (snell has no spot
+//! lights yet); `area` emitters belong inside shapes (see `shapes`).
+use super::props::{ColorParam, Ctx, Obj};
+use super::transform;
+use super::xml::Node;
+use super::Out;
+use crate::error::Result;
+use crate::scene::desc::*;
+use glam::{DMat4, DVec3};
+
+/// Read top-level `<emitter>` `n`.
+pub fn top_level(ctx: &Ctx<'_>, n: &Node, out: &mut Out) -> Result<()> {
+    let o = Obj::new(ctx, n)?;
+    let plugin = o.plugin()?;
+    let name = n.attr("id").map(str::to_string);
+    let constant = |key: &str| -> Result<[f64; 3]> {
+        match o.color(key, true)? {
+            None => Ok([1.0; 3]),
+            Some(ColorParam::Rgb(v)) => Ok(v),
+            Some(ColorParam::Texture(t)) => Err(t.at.error(format!(
+                "a textured {key} is not supported on a <emitter type=\"{plugin}\">"
+            ))),
+        }
+    };
+    o.float("sampling_weight")?;
+    let mut set_env = |e: EnvironmentDesc| -> Result<()> {
+        if let Some((_, at)) = &out.environment {
+            return Err(n.at.error(format!(
+                "a second environment emitter (the first is at line {}): snell has one environment",
+                at.line
+            )));
+        }
+        out.environment = Some((e, n.at.clone()));
+        Ok(())
+    };
+    match plugin {
+        "constant" => {
+            let radiance = constant("radiance")?;
+            set_env(EnvironmentDesc::Constant(ConstantEnv { radiance }))?;
+        }
+        "envmap" => {
+            let (file, at) = o
+                .string("filename")?
+                .ok_or_else(|| o.at().error("expected <string name=\"filename\">"))?;
+            let path = ctx.doc.resolve(file);
+            if !path.is_file() {
+                return Err(at.error(format!("{} not found", path.display())));
+            }
+            let scale = o.float_or("scale", 1.0)?;
+            let (m, _) = o.transform("to_world")?;
+            // snell's map is Mitsuba's turned half a turn about +y.
+            let half_turn = DMat4::from_axis_angle(DVec3::Y, std::f64::consts::PI);
+            if !m.abs_diff_eq(half_turn, 1e-9) {
+                ctx.warn(
+                    o.at(),
+                    "the map's orientation differs: snell places Mitsuba's envmap as if its to_world were <rotate y=\"1\" angle=\"180\"/> (no other rotation is mapped)",
+                );
+            }
+            o.string("filter_type")?;
+            o.string("wrap_mode")?;
+            set_env(EnvironmentDesc::Map(MapEnv {
+                file: ctx.doc.desc_path(&path),
+                scale,
+            }))?;
+        }
+        "point" => {
+            let (m, t) = o.transform("to_world")?;
+            let position = match o.point("position")? {
+                Some(p) if t.is_some() => {
+                    return Err(o
+                        .at()
+                        .error(format!("give position or to_world, not both (position {p})")))
+                }
+                Some(p) => p,
+                None => transform::point(&m, DVec3::ZERO),
+            };
+            let intensity = constant("intensity")?;
+            out.lights.push((
+                LightDesc::Point(PointLightDesc {
+                    name,
+                    position: position.to_array(),
+                    intensity,
+                }),
+                n.at.clone(),
+            ));
+        }
+        "directional" => {
+            let (m, t) = o.transform("to_world")?;
+            let direction = match o.point("direction")? {
+                Some(_) if t.is_some() => return Err(o.at().error("give direction or to_world, not both")),
+                Some(d) => d,
+                None => transform::vector(&m, DVec3::Z),
+            };
+            let irradiance = constant("irradiance")?;
+            out.lights.push((
+                LightDesc::Directional(DirectionalLightDesc {
+                    name,
+                    direction: direction.to_array(),
+                    irradiance,
+                }),
+                n.at.clone(),
+            ));
+        }
+        "spot" => return Err(o.at().error("snell has no spot lights yet")),
+        "area" => {
+            return Err(o
+                .at()
+                .error("an area emitter belongs inside a <shape> (it makes that shape emit)"))
+        }
+        other => return Err(o.at().error(format!("unknown emitter \"{other}\""))),
+    }
+    o.finish()
+}

@@ -1,0 +1,307 @@
+//! `<sensor>` (perspective, thinlens) with its `<film>` and `<sampler>`,
+//! and `<integrator>`: snell's camera, film and integrator.
+use super::props::{Ctx, Obj};
+use super::transform;
+use super::xml::Node;
+use crate::error::Result;
+use crate::scene::desc::{CameraDesc, FilmDesc, IntegratorDesc};
+use glam::DVec3;
+
+/// snell's deepest path, standing in for Mitsuba's unlimited `max_depth = -1`.
+pub const MAX_DEPTH: u32 = 1024;
+
+/// The camera and film of a `<sensor>`.
+pub fn sensor(ctx: &Ctx<'_>, n: &Node) -> Result<(CameraDesc, FilmDesc)> {
+    let o = Obj::new(ctx, n)?;
+    let plugin = o.plugin()?;
+    let thin = match plugin {
+        "perspective" => false,
+        "thinlens" => true,
+        "orthographic" | "telecentric" => {
+            return Err(o.at().error(format!(
+                "<sensor type=\"{plugin}\">: snell has perspective and thin-lens cameras only"
+            )))
+        }
+        other => {
+            return Err(o.at().error(format!(
+                "unknown sensor \"{other}\" (expected perspective or thinlens)"
+            )))
+        }
+    };
+    let film = film(ctx, &o)?;
+    let (w, h) = (film.width as f64, film.height as f64);
+    if film.width == 0 || film.height == 0 {
+        return Err(o.at().error("the film needs a width and height of at least 1"));
+    }
+    let (fov, axis) = match (o.float("fov")?, o.string("focal_length")?) {
+        (Some(_), Some((_, at))) => return Err(at.error("give fov or focal_length, not both")),
+        (Some(f), None) => (
+            f,
+            o.string("fov_axis")?.map(|(s, at)| (s.to_string(), at.clone())),
+        ),
+        (None, Some((f, at))) => {
+            let mm: f64 =
+                f.trim().trim_end_matches("mm").trim().parse().map_err(|_| {
+                    at.error(format!("expected a focal length such as \"50mm\", got \"{f}\""))
+                })?;
+            if mm.is_nan() || mm <= 0.0 {
+                return Err(at.error("expected a focal length > 0"));
+            }
+            // 35 mm film equivalent: the diagonal of a 36 × 24 mm frame.
+            let d = (36.0f64 * 36.0 + 24.0 * 24.0).sqrt();
+            (
+                (2.0 * (d / (2.0 * mm)).atan()).to_degrees(),
+                Some(("diagonal".to_string(), at.clone())),
+            )
+        }
+        (None, None) => (
+            90.0,
+            o.string("fov_axis")?.map(|(s, at)| (s.to_string(), at.clone())),
+        ),
+    };
+    if !(fov > 0.0 && fov < 180.0) {
+        return Err(o.at().error(format!("fov {fov}: expected degrees in (0, 180)")));
+    }
+    let half = (fov.to_radians() / 2.0).tan();
+    let axis_name = axis.as_ref().map(|(s, _)| s.as_str()).unwrap_or("x");
+    let vertical = match axis_name {
+        "y" => None,
+        "x" => Some(half * h / w),
+        "diagonal" => Some(half * h / (w * w + h * h).sqrt()),
+        "smaller" => (w < h).then_some(half * h / w),
+        "larger" => (w > h).then_some(half * h / w),
+        other => {
+            let at = axis.as_ref().map(|(_, a)| a).unwrap_or(o.at());
+            return Err(at.error(format!(
+                "fov_axis \"{other}\": expected x, y, diagonal, smaller or larger"
+            )));
+        }
+    };
+    // The vertical field keeps the file's number when it is given directly.
+    let fov_y = match vertical {
+        None => fov,
+        Some(t) => 2.0 * t.atan().to_degrees(),
+    };
+    let (m, tnode) = o.transform("to_world")?;
+    let (position, target, up) = camera_frame(&m, tnode)?;
+    for k in ["near_clip", "far_clip"] {
+        if let Some(v) = o.float(k)? {
+            let default = if k == "near_clip" { 1e-2 } else { 1e4 };
+            if v != default {
+                ctx.warn(o.at(), format!("{k} = {v} is ignored: snell does not clip"));
+            }
+        }
+    }
+    for k in ["principal_point_offset_x", "principal_point_offset_y"] {
+        if o.float(k)?.is_some_and(|v| v != 0.0) {
+            ctx.warn(
+                o.at(),
+                format!("{k} is ignored: snell's image is centred on the view axis"),
+            );
+        }
+    }
+    for k in ["shutter_open", "shutter_close"] {
+        o.float(k)?;
+    }
+    let (aperture_radius, focus_distance) = if thin {
+        (
+            o.float_or("aperture_radius", 0.0)?,
+            Some(o.float_or("focus_distance", 0.0)?),
+        )
+    } else {
+        (0.0, None)
+    };
+    o.finish()?;
+    Ok((
+        CameraDesc {
+            position: position.to_array(),
+            target: target.to_array(),
+            up: up.to_array(),
+            fov: fov_y,
+            aperture_radius,
+            focus_distance,
+            inside: None,
+        },
+        film,
+    ))
+}
+
+/// Position, target and up of the camera placed by `m`: a single
+/// `<lookat>`'s own numbers, else read from the matrix (which must be a
+/// rotation and translation: snell's images are never mirrored or skewed).
+fn camera_frame(m: &glam::DMat4, t: Option<&Node>) -> Result<(DVec3, DVec3, DVec3)> {
+    if let Some(t) = t {
+        if let [s] = &t.children[..] {
+            if s.tag == "lookat" {
+                return transform::lookat_args(s);
+            }
+        }
+    }
+    let at = t.map(|t| &t.at);
+    let p = transform::point(m, DVec3::ZERO);
+    let f = transform::vector(m, DVec3::Z);
+    let up = transform::vector(m, DVec3::Y);
+    let left = transform::vector(m, DVec3::X);
+    let ortho = (f.length() - 1.0).abs() < 1e-6
+        && (up.length() - 1.0).abs() < 1e-6
+        && f.dot(up).abs() < 1e-6
+        && left.dot(f).abs() < 1e-6;
+    // Mitsuba's image x runs along −left: it must be snell's forward × up.
+    let mirrored = f.cross(up).dot(-left) < 0.0;
+    if !ortho || mirrored {
+        let msg = "the sensor's to_world must be a rotation and translation (no scale, skew or mirror)";
+        return Err(match at {
+            Some(a) => a.error(msg),
+            None => crate::error::Error::Invalid(msg.into()),
+        });
+    }
+    Ok((p, p + f, up))
+}
+
+/// The `<film>` and `<sampler>` of sensor `o`.
+fn film(ctx: &Ctx<'_>, o: &Obj<'_, '_>) -> Result<FilmDesc> {
+    let mut film = FilmDesc {
+        width: 768,
+        height: 576,
+        spp: 4,
+        seed: 0,
+        filter: "box".into(),
+    };
+    if let Some(f) = o.object("film")? {
+        let f = Obj::new(ctx, f)?;
+        match f.plugin()? {
+            "hdrfilm" | "specfilm" => {}
+            other => {
+                return Err(f
+                    .at()
+                    .error(format!("unknown film \"{other}\" (expected hdrfilm)")))
+            }
+        }
+        let size = |k: &str, d: u64| -> Result<u64> {
+            match f.int(k)? {
+                None => Ok(d),
+                Some(v) if (1..=1 << 16).contains(&v) => Ok(v as u64),
+                Some(v) => Err(f.at().error(format!("{k} {v}: expected 1..=65536 pixels"))),
+            }
+        };
+        film.width = size("width", 768)?;
+        film.height = size("height", 576)?;
+        for k in ["crop_offset_x", "crop_offset_y", "crop_width", "crop_height"] {
+            if f.int(k)?.is_some() {
+                ctx.warn(
+                    f.at(),
+                    format!("{k} is ignored: snell renders the whole film (use --region)"),
+                );
+            }
+        }
+        for k in ["file_format", "pixel_format", "component_format"] {
+            f.string(k)?;
+        }
+        for k in ["sample_border", "compensate", "banner", "high_quality_edges"] {
+            f.bool_or(k, false)?;
+        }
+        match f.object("rfilter")? {
+            None => ctx.warn(
+                f.at(),
+                "no <rfilter>: Mitsuba's default is a Gaussian; snell renders a one-pixel box",
+            ),
+            Some(r) => {
+                let r = Obj::new(ctx, r)?;
+                let p = r.plugin()?;
+                if p != "box" {
+                    ctx.warn(
+                        r.at(),
+                        format!("rfilter \"{p}\" rendered as a one-pixel box (snell's only filter)"),
+                    );
+                }
+                r.float("radius")?;
+                r.float("stddev")?;
+                r.float("b")?;
+                r.float("c")?;
+                r.int("lobes")?;
+                r.finish()?;
+            }
+        }
+        f.finish()?;
+    } else {
+        ctx.warn(
+            o.at(),
+            "no <film>: Mitsuba's default 768x576 with a Gaussian filter, rendered with a box",
+        );
+    }
+    if let Some(s) = o.object("sampler")? {
+        let s = Obj::new(ctx, s)?;
+        match s.plugin()? {
+            "independent" | "stratified" | "multijitter" | "orthogonal" | "ldsampler" => {}
+            other => return Err(s.at().error(format!("unknown sampler \"{other}\""))),
+        }
+        match s.int("sample_count")? {
+            None => {}
+            Some(v) if v >= 1 => film.spp = v as u64,
+            Some(v) => return Err(s.at().error(format!("sample_count {v}: expected at least 1"))),
+        }
+        match s.int("seed")? {
+            None => {}
+            Some(v) if v >= 0 => film.seed = v as u64,
+            Some(v) => return Err(s.at().error(format!("seed {v}: expected 0 or more"))),
+        }
+        s.bool_or("jitter", true)?;
+        s.float("strength")?;
+        s.finish()?;
+    }
+    Ok(film)
+}
+
+/// An `<integrator>`: path-tracing kinds map to snell's path tracer.
+pub fn integrator(ctx: &Ctx<'_>, n: &Node) -> Result<IntegratorDesc> {
+    let o = Obj::new(ctx, n)?;
+    let plugin = o.plugin()?;
+    let r = match plugin {
+        "path" | "volpath" | "volpathmis" | "prb" | "direct" => {
+            let depth = if plugin == "direct" {
+                for k in ["emitter_samples", "bsdf_samples", "shading_samples"] {
+                    o.int(k)?;
+                }
+                2
+            } else {
+                match o.int("max_depth")? {
+                    None | Some(-1) => MAX_DEPTH,
+                    Some(d) if d >= 0 => (d as u64).min(u32::MAX as u64) as u32,
+                    Some(d) => return Err(o.at().error(format!("max_depth {d}: expected -1 or a depth >= 0"))),
+                }
+            };
+            let rr = match o.int("rr_depth")? {
+                None => 5,
+                Some(d) if d >= 0 => (d as u64).min(u32::MAX as u64) as u32,
+                Some(d) => return Err(o.at().error(format!("rr_depth {d}: expected a depth >= 0"))),
+            };
+            if o.bool_or("hide_emitters", false)? {
+                ctx.warn(o.at(), "hide_emitters is ignored: snell shows emitters seen directly");
+            }
+            IntegratorDesc {
+                kind: "path".into(),
+                max_depth: depth,
+                rr_depth: rr,
+            }
+        }
+        "moment" | "aov" => {
+            o.string("aovs")?;
+            let inner = o.objects("integrator")?;
+            let Some(first) = inner.first() else {
+                return Err(o.at().error(format!("<integrator type=\"{plugin}\"> wraps no integrator")));
+            };
+            ctx.warn(
+                o.at(),
+                format!("the \"{plugin}\" wrapper is unwrapped: snell renders its inner integrator (no extra channels)"),
+            );
+            integrator(ctx, first)?
+        }
+        other => {
+            return Err(o.at().error(format!(
+                "unknown integrator \"{other}\" (snell maps path, volpath, volpathmis, prb, direct, and the moment/aov wrappers)"
+            )))
+        }
+    };
+    o.finish()?;
+    Ok(r)
+}
