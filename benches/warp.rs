@@ -183,20 +183,9 @@ fn solvers(sum: &mut Summary, opts: &Options) {
             .for_each(|((o, c), p)| plate.warp_batch(eye, p, o, c));
         t.elapsed().as_secs_f64()
     };
-    // Process CPU time (user + system, clock ticks of 10 ms) for the batch
-    // run ten times: vertices per CPU-second, whatever else the shared
-    // machine runs.
-    let cpu_s = || -> f64 {
-        std::fs::read_to_string("/proc/self/stat")
-            .ok()
-            .and_then(|s| {
-                // Fields after the command name: state, ppid, ..., utime (11), stime (12).
-                let f: Vec<&str> = s.rsplit(')').next()?.split_whitespace().collect();
-                let ticks = |i: usize| f.get(i).and_then(|x| x.parse::<f64>().ok());
-                Some((ticks(11)? + ticks(12)?) / 100.0)
-            })
-            .unwrap_or(0.0)
-    };
+    // Process CPU time for the batch run ten times: vertices per CPU-second,
+    // whatever else the shared machine runs.
+    let cpu_s = || snell::timing::process_cpu_s().unwrap_or(0.0);
     let (c0, t0) = (cpu_s(), Instant::now());
     for _ in 0..10 {
         batch(&mut out, &mut class);
