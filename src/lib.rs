@@ -223,6 +223,7 @@ pub mod dielectric;
 #[allow(unsafe_code)] // the one FFI module: every unsafe block says why it is sound
 pub mod embree;
 pub mod error;
+pub mod grin_fan;
 pub mod image_io;
 pub mod integrator;
 pub mod media;

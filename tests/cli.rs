@@ -213,3 +213,41 @@ fn grin_trace_and_warp_points_batch_tools() {
         .any(|i| i["family"] == "through4"));
     let _ = std::fs::remove_dir_all(&d);
 }
+
+#[test]
+fn grin_fan_writes_svg_and_json_and_refuses_bad_flags() {
+    let d = tmpdir("fan");
+    let (svg, json) = (d.join("fan.svg"), d.join("fan.json"));
+    let out = snell()
+        .args(["grin-fan", "scenes/mirage_road.toml", "--rays", "7", "-o"])
+        .arg(&svg)
+        .arg("--json")
+        .arg(&json)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = std::fs::read_to_string(&svg).unwrap();
+    assert_eq!(text.matches("<polyline").count(), 7);
+    let fan: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(fan["rays"].as_array().unwrap().len(), 7);
+    assert!(
+        fan["objects"].as_array().unwrap().iter().any(|o| o == "car"),
+        "{}",
+        fan["objects"]
+    );
+    for (args, says) in [
+        (vec!["--rays", "1"], "--rays"),
+        (vec!["--from", "2", "--to", "-2"], "--from/--to"),
+        (vec!["--from", "-1"], "--to"),
+    ] {
+        let out = snell()
+            .args(["grin-fan", "scenes/mirage_road.toml", "-o"])
+            .arg(d.join("bad.svg"))
+            .args(&args)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && err.contains(says), "{args:?}: {err}");
+        assert!(!d.join("bad.svg").exists());
+    }
+}

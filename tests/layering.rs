@@ -29,8 +29,8 @@ const LAYERS: &[&[&str]] = &[
     // The nested rule; image files.
     &["dielectric", "image_io"],
     &["integrator"],
-    // Renders and the audit of interior lists.
-    &["render", "audit"],
+    // Renders, the audit of interior lists, the fan of curved rays.
+    &["render", "audit", "grin_fan"],
     // What drives renders: parts, overrides, benchmarks, the warp renderer.
     &["part", "overrides", "bench", "ceiling", "warp_render"],
     &["merge", "farm", "fuzz"],

@@ -48,6 +48,10 @@ pub enum Cmd {
     },
     /// Trace single rays in gradient-index fields (JSON in, JSON out).
     GrinTrace(QueriesArgs),
+    /// Draw a fan of rays from the scene's camera through its medium as
+    /// height against distance (SVG), with the scene's profile and the hits:
+    /// where to put the camera and objects for a mirage.
+    GrinFan(GrinFanArgs),
     /// Warp points through a plate or a hollow cylinder (JSON in, JSON out).
     WarpPoints(QueriesArgs),
     /// Render a [warp] scene with straight primary rays through warped meshes
@@ -257,6 +261,40 @@ pub struct QueriesArgs {
     pub queries: PathBuf,
     #[arg(short, long)]
     pub output: Option<PathBuf>,
+}
+
+// `snell grin-fan`.
+#[derive(Args)]
+pub struct GrinFanArgs {
+    pub scene: PathBuf,
+    #[arg(short, long, default_value = "fan.svg")]
+    pub output: PathBuf,
+    /// Rays in the fan (at least 2).
+    #[arg(long, default_value_t = 41)]
+    pub rays: u32,
+    /// Lowest elevation, degrees above the horizontal (default: the bottom of the camera's view).
+    #[arg(long, allow_hyphen_values = true, requires = "to")]
+    pub from: Option<f64>,
+    /// Highest elevation, degrees above the horizontal (default: the top of the camera's view).
+    #[arg(long, allow_hyphen_values = true, requires = "from")]
+    pub to: Option<f64>,
+    /// How far to draw, metres (default: a tenth beyond the farthest hit).
+    #[arg(long)]
+    pub max_distance: Option<f64>,
+    /// rk45 error tolerance of the rays, metres (default: the medium's, at most 1 mm).
+    #[arg(long)]
+    pub tolerance: Option<f64>,
+    /// Turn the fan's plane toward this world point (e.g. an object beside the view's centre).
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
+    pub toward: Option<String>,
+    /// Also write the fan (paths, hits, profile) as JSON.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Override a scene key, as for `snell render` (repeatable).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+    #[command(flatten)]
+    pub import: ImportFlags,
 }
 
 // `snell warp-render`.

@@ -16,6 +16,7 @@ mod bench;
 mod convert;
 mod farm;
 mod fuzz;
+mod grin_fan;
 mod output;
 mod queries;
 mod render;
@@ -48,6 +49,7 @@ fn run(cli: Cli) -> Result<()> {
             which: AuditCmd::Nested(a),
         } => audit::audit_nested(a),
         Cmd::GrinTrace(a) => queries::grin_trace(a),
+        Cmd::GrinFan(a) => grin_fan::grin_fan(a),
         Cmd::WarpPoints(a) => queries::warp_points(a),
         Cmd::WarpRender(a) => warp_render::warp_render(a),
         Cmd::Fuzz(a) => fuzz::fuzz(a),
