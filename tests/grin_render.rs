@@ -317,3 +317,58 @@ fn invariant_renders_match_a_fine_render_within_noise() {
     assert!(x > 1.3, "no power: pixel tolerance x100 scores {x:.2}");
     assert_eq!(default.stats.counters.grin_failures, 0);
 }
+
+/// A `[medium] atmosphere` loads as the profile of Ciddor's index over the
+/// bounds; giving both `field` and `atmosphere`, neither, or an unknown key
+/// is a located error.
+#[test]
+fn atmosphere_media_load_and_bad_ones_are_located() {
+    let s = load_scene(Path::new("scenes/hot_road_air.toml"), &BuildOptions::default()).unwrap();
+    let m = s.medium.as_ref().expect("a medium");
+    assert_eq!(m.field().kind(), "profile");
+    let text = std::fs::read_to_string("scenes/hot_road_air.toml").unwrap();
+    let doc: toml::Value = toml::from_str(&text).unwrap();
+    let atm: snell::media::Atmosphere = doc["medium"]["atmosphere"].clone().try_into().unwrap();
+    for h in [0.001, 0.01, 0.1, 1.0, 2.5] {
+        let n = m.ior_at(glam::DVec3::new(0.0, h, -100.0));
+        assert!((n - atm.n_at(h)).abs() < 1e-10, "h {h}: {n} vs {}", atm.n_at(h));
+    }
+    // The hot air's index is below the cool air's by the amount the scene says.
+    let drop = atm.n_at(2.5) - atm.n_at(0.0);
+    assert!((2.0e-5..3.5e-5).contains(&drop), "{drop:e}");
+
+    let base = text.replace(
+        "atmosphere = {",
+        "field = { kind = \"linear\", n0 = 1.0003, m = 0.0 }\natmosphere = {",
+    );
+    let cases = [
+        (base, "not both"),
+        (
+            text.replace(
+                "atmosphere = { heights",
+                "atmosphere = { temperature = 3.0, heights",
+            ),
+            "temperature",
+        ),
+        (
+            text.lines()
+                .filter(|l| !l.starts_with("atmosphere"))
+                .collect::<Vec<_>>()
+                .join("\n"),
+            "expected `field",
+        ),
+        (text.replace("55.0, 36.0", "155.0, 36.0"), "Ciddor"),
+    ];
+    for (t, says) in cases {
+        let e = match snell::scene::load_scene_str(
+            "hot_road_air.toml",
+            &t,
+            Path::new("scenes"),
+            &BuildOptions::default(),
+        ) {
+            Ok(_) => panic!("{says}: the scene loaded"),
+            Err(e) => e.to_string(),
+        };
+        assert!(e.contains("hot_road_air.toml") && e.contains(says), "{says}: {e}");
+    }
+}

@@ -175,6 +175,12 @@ pub enum IndexField {
         /// Height of the origin of h along `up`, metres: h = p·up − base (default 0).
         #[serde(default = "default_base")]
         base: f64,
+        /// The thinnest layer the table describes, metres (default: the
+        /// closest nodes' spacing): chords stay short enough to see it. A
+        /// table sampled finer than its features (an `atmosphere`) says here
+        /// how thin they are.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        layer: Option<f64>,
     },
     /// A heat plume over a source at `center` with deterministic turbulence:
     /// n = n_amb − dn·G(p)·(1 + amplitude·T(p)), G = exp(−ρ²/(2 radius²) − (h/height)²)
@@ -222,6 +228,45 @@ pub struct Strata {
     pub up: DVec3,
     /// The height is h = p·up − base, metres.
     pub base: f64,
+}
+
+/// The longest chord a field allows ([`IndexField::feature_scale`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum FeatureScale {
+    /// The same length in every direction (infinite: no limit).
+    Length(f64),
+    /// A layer `thickness` thick across `up`, rays in it curving at most
+    /// `curvature` (max|∇n|/n, per metre).
+    Layer {
+        /// Thickness of the thinnest layer, metres.
+        thickness: f64,
+        /// Bound on the rays' curvature, per metre.
+        curvature: f64,
+        /// Unit normal of the layers.
+        up: DVec3,
+    },
+}
+
+impl FeatureScale {
+    /// The longest chord (arc length) for a ray with unit tangent `t` that
+    /// cannot step over a feature. For a layer of one `thickness`: with the
+    /// path's curvature bounded by a, a run ℓ climbs at most ℓ·|t·up| + aℓ²/2,
+    /// so ℓ = 2·thickness/(|t·up| + √((t·up)² + 2a·thickness)). A nearly
+    /// horizontal ray may then take chords of kilometres where the thickness
+    /// along the path would force metres.
+    pub fn along(&self, t: DVec3) -> f64 {
+        match *self {
+            FeatureScale::Length(l) => l,
+            FeatureScale::Layer {
+                thickness,
+                curvature,
+                up,
+            } => {
+                let tu = t.dot(up).abs();
+                2.0 * thickness / (tu + (tu * tu + 2.0 * curvature * thickness).sqrt())
+            }
+        }
+    }
 }
 
 fn splitmix(state: &mut u64) -> u64 {
@@ -358,7 +403,21 @@ impl IndexField {
                 )?;
                 *up = unit_up(&k("up"), *up)?;
             }
-            IndexField::Profile { heights, n, up, base } => {
+            IndexField::Profile {
+                heights,
+                n,
+                up,
+                base,
+                layer,
+            } => {
+                if let Some(l) = layer {
+                    check(
+                        &k("layer"),
+                        l.is_finite() && *l > 0.0,
+                        "a finite layer > 0 (metres)",
+                        *l,
+                    )?;
+                }
                 check(
                     &k("heights"),
                     heights.len() >= 2,
@@ -631,14 +690,10 @@ impl IndexField {
         self.eval(p).1
     }
 
-    /// The longest chord (arc length) for a ray with unit tangent `t` that
-    /// cannot step over a feature of the field. For the inversion layer that is
-    /// a vertical extent of one `thickness`: with the path's curvature bounded by
-    /// a = max|∇n|/n ≤ |dn|/(2·thickness) + |m|, a run ℓ climbs at most
-    /// ℓ·|t·up| + aℓ²/2, so ℓ = 2·thickness/(|t·up| + √((t·up)² + 2a·thickness)).
-    /// A nearly horizontal ray may then take chords of kilometres where
-    /// `feature_length` (thickness along the path) would force metres.
-    pub fn feature_length_along(&self, t: DVec3) -> f64 {
+    /// What bounds a chord's length so that it cannot step over a feature of
+    /// the field, computed once per medium ([`FeatureScale::along`] per
+    /// chord: a profile's largest slope is a scan of its table).
+    pub fn feature_scale(&self) -> FeatureScale {
         match *self {
             IndexField::Inversion {
                 n0,
@@ -648,28 +703,32 @@ impl IndexField {
                 up,
                 ..
             } => {
-                let tu = t.dot(up.normalize_or_zero()).abs();
                 // n is near n0 in any air-like layer; 0.5 keeps the bound finite otherwise.
                 let n_min = (n0 - dn.abs()).max(0.5);
-                let a = (dn.abs() / (2.0 * thickness) + m.abs()) / n_min;
-                2.0 * thickness / (tu + (tu * tu + 2.0 * a * thickness).sqrt())
+                FeatureScale::Layer {
+                    thickness,
+                    curvature: (dn.abs() / (2.0 * thickness) + m.abs()) / n_min,
+                    up: up.normalize_or_zero(),
+                }
             }
             IndexField::Profile {
                 ref heights,
                 ref n,
                 up,
+                layer,
                 ..
             } => {
                 // As for the inversion, with the closest nodes as the layer.
-                let thickness = profile::min_spacing(heights);
-                let tu = t.dot(up.normalize_or_zero()).abs();
                 let lo = heights[0];
                 let hi = heights[heights.len() - 1];
                 let n_min = n.iter().copied().fold(f64::INFINITY, f64::min).max(0.5);
-                let a = profile::max_abs_slope(heights, n, lo, hi) / n_min;
-                2.0 * thickness / (tu + (tu * tu + 2.0 * a * thickness).sqrt())
+                FeatureScale::Layer {
+                    thickness: layer.unwrap_or_else(|| profile::min_spacing(heights)),
+                    curvature: profile::max_abs_slope(heights, n, lo, hi) / n_min,
+                    up: up.normalize_or_zero(),
+                }
             }
-            _ => self.feature_length(),
+            _ => FeatureScale::Length(self.feature_length()),
         }
     }
 
@@ -694,7 +753,9 @@ impl IndexField {
                 }
             }
             IndexField::Inversion { thickness, .. } => thickness,
-            IndexField::Profile { ref heights, .. } => profile::min_spacing(heights),
+            IndexField::Profile {
+                ref heights, layer, ..
+            } => layer.unwrap_or_else(|| profile::min_spacing(heights)),
             _ => f64::INFINITY,
         }
     }

@@ -3,6 +3,7 @@
 //! chords whose deviation from the true arc is bounded by a tolerance).
 //!
 //! Pure f64, no Embree. See docs/grin.md for the derivations.
+pub mod atmosphere;
 pub mod exact;
 pub mod field;
 pub mod footprint;
@@ -22,7 +23,8 @@ use std::str::FromStr;
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
-pub use field::{Aabb, IndexField, Strata};
+pub use atmosphere::Atmosphere;
+pub use field::{Aabb, FeatureScale, IndexField, Strata};
 pub use footprint::Footprint;
 pub use grin_trace::grin_trace_json;
 use invariant_cast::{InvariantCast, InvariantSetup, Step};
@@ -204,6 +206,8 @@ pub fn check_method(field: &IndexField, method: Method, key: &str) -> Result<(),
 #[derive(Debug, Clone, PartialEq)]
 pub struct Medium {
     field: IndexField,
+    /// The field's chord limit, computed once.
+    feature: FeatureScale,
     bounds: Aabb,
     method: Method,
     tolerance: f64,
@@ -328,6 +332,7 @@ impl Medium {
             None
         };
         Ok(Medium {
+            feature: field.feature_scale(),
             field,
             bounds,
             method,
@@ -774,7 +779,7 @@ impl CurvedRay {
         let radius = st.radius();
         let mut ell = (8.0 * 0.8 * tol * radius)
             .sqrt()
-            .min(medium.field.feature_length_along(st.t))
+            .min(medium.feature.along(st.t))
             .min(self.ell_prev * 4.0)
             .min(exit);
         let mut points = Vec::new();

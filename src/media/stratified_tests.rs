@@ -40,6 +40,7 @@ fn table() -> IndexField {
         n,
         up: DVec3::Y,
         base: 0.0,
+        layer: None,
     }
 }
 
@@ -379,6 +380,7 @@ fn profile_validation_names_the_node_and_interpolation_stays_between_nodes() {
             n,
             up: DVec3::Y,
             base: 0.0,
+            layer: None,
         }
         .validated("medium.field")
         .unwrap_err()
@@ -401,6 +403,7 @@ fn profile_validation_names_the_node_and_interpolation_stays_between_nodes() {
         n: vec![1.0, 1.0002, 1.00025, 1.0003],
         up: DVec3::Y,
         base: 0.0,
+        layer: None,
     };
     let mut last = 0.0;
     for i in 0..=500 {

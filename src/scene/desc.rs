@@ -115,7 +115,12 @@ pub enum WarpGlassDesc {
 #[serde(deny_unknown_fields)]
 pub struct MediumDesc {
     /// `field`: the index of refraction n(x) inside the box (docs/grin.md; key `kind`).
-    pub field: crate::media::IndexField,
+    #[serde(default)]
+    pub field: Option<crate::media::IndexField>,
+    /// `atmosphere`: instead of `field`, air given by its temperature profile
+    /// and ground pressure, its index from Ciddor's equations (`media::atmosphere`).
+    #[serde(default)]
+    pub atmosphere: Option<crate::media::Atmosphere>,
     /// `bounds`: the world-space box the field fills; outside it rays are straight.
     pub bounds: BoundsDesc,
     /// auto (default: invariant for fields of height alone along a coordinate
@@ -133,7 +138,7 @@ pub struct MediumDesc {
     pub step: f64,
     /// Method invariant: how far a chord may stray from its arc, as a
     /// fraction of a pixel of the film (the pixel's footprint at the distance
-    /// from the camera; default 0.25). Ignored by the other methods.
+    /// from the camera; default 0.1). Ignored by the other methods.
     #[serde(default)]
     pub pixel_tolerance: Option<f64>,
 }

@@ -367,17 +367,36 @@ impl Builder<'_> {
         Ok(match &d.medium {
             None => None,
             Some(m) => {
+                let bounds = crate::media::Aabb::new(
+                    self.finite3("medium.bounds.min", m.bounds.min)?,
+                    self.finite3("medium.bounds.max", m.bounds.max)?,
+                );
+                let field = match (&m.field, &m.atmosphere) {
+                    (Some(f), None) => f.clone(),
+                    (None, Some(a)) => {
+                        // The table spans the bounds' heights along `up`.
+                        let up = a.up.normalize_or_zero();
+                        let hs = bounds.corners().map(|c| c.dot(up) - a.base);
+                        let (lo, hi) = hs.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| (l.min(v), h.max(v)));
+                        a.to_field("medium.atmosphere", lo, hi).map_err(|e| self.medium_err(e))?
+                    }
+                    (Some(_), Some(_)) => {
+                        return Err(self.err("medium.atmosphere", "expected either `field` or `atmosphere`, not both".to_string()))
+                    }
+                    (None, None) => {
+                        return Err(self.err(
+                            "medium",
+                            "expected `field = { kind = ... }` or `atmosphere = { heights = [...], celsius = [...] }`".to_string(),
+                        ))
+                    }
+                };
                 let method: crate::media::Method = if m.method == "auto" {
-                    crate::media::Method::auto_for(&m.field)
+                    crate::media::Method::auto_for(&field)
                 } else {
                     m.method
                         .parse()
                         .map_err(|e: crate::media::MediumError| self.medium_err(e))?
                 };
-                let bounds = crate::media::Aabb::new(
-                    self.finite3("medium.bounds.min", m.bounds.min)?,
-                    self.finite3("medium.bounds.max", m.bounds.max)?,
-                );
                 if m.tolerance.is_finite() && m.tolerance < 1e-9 {
                     return Err(self.err(
                         "medium.tolerance",
@@ -389,7 +408,7 @@ impl Builder<'_> {
                     ));
                 }
                 Some(
-                    crate::media::Medium::try_new(m.field.clone(), bounds, method, m.tolerance, m.step)
+                    crate::media::Medium::try_new(field, bounds, method, m.tolerance, m.step)
                         .and_then(|x| x.with_pixel_tolerance(m.pixel_tolerance))
                         .map_err(|e| self.medium_err(e))?,
                 )

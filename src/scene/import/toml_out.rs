@@ -65,10 +65,17 @@ pub fn to_toml(desc: &SceneDesc) -> Result<String> {
         object(&mut o, ob);
     }
     if let Some(m) = &desc.medium {
-        let field = toml::Value::try_from(&m.field)
-            .map_err(|e| Error::Invalid(format!("medium.field: cannot be written as TOML: {e}")))?;
         let _ = writeln!(o, "\n[medium]");
-        let _ = writeln!(o, "field = {}", inline_value(&field));
+        if let Some(f) = &m.field {
+            let field = toml::Value::try_from(f)
+                .map_err(|e| Error::Invalid(format!("medium.field: cannot be written as TOML: {e}")))?;
+            let _ = writeln!(o, "field = {}", inline_value(&field));
+        }
+        if let Some(a) = &m.atmosphere {
+            let atm = toml::Value::try_from(a)
+                .map_err(|e| Error::Invalid(format!("medium.atmosphere: cannot be written as TOML: {e}")))?;
+            let _ = writeln!(o, "atmosphere = {}", inline_value(&atm));
+        }
         let _ = writeln!(
             o,
             "bounds = {{ min = {}, max = {} }}",
