@@ -428,6 +428,7 @@ mod tests {
                 }
             }
         }
+        eprintln!("Ciddor vs Edlén {worst:e}; pressure-only scaling {worst_wrong:e}");
         assert!(worst < 5e-8, "Ciddor vs Edlén: {worst:e}");
         assert!(
             worst_wrong > 20.0 * 5e-8,
