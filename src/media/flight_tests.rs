@@ -101,7 +101,8 @@ fn errors(m: &Medium) -> (Vec<f64>, f64) {
 /// chord tracer finds at 1e-9 m: median within 0.1 px, 90 % within 0.5 px,
 /// all within 2 px (the turbulence focuses like a lens array, so a step's
 /// error can grow on the way: the chords at the scene's 5e-4 m, with 7× the
-/// evaluations, are within 0.04 px). Straight stretches on a gradient bound a
+/// evaluations, are within 0.04 px). The same with a box inside the bounds
+/// (rays near it cast chords). Straight stretches on a gradient bound a
 /// thousand times too small throw the median past the threshold.
 #[test]
 fn flights_agree_with_the_chord_tracer_and_a_bound_too_small_does_not() {
@@ -114,6 +115,13 @@ fn flights_agree_with_the_chord_tracer_and_a_bound_too_small_does_not() {
         errs.len()
     );
     assert!(median <= 0.1 && p90 <= 0.5 && worst <= 2.0);
+    // A box inside the bounds (beside the plume's core): rays near it cast
+    // chords, the others fly; the exits agree as well.
+    let near = flying(1.0).with_obstacles([Aabb::new(DVec3::new(0.3, 0.9, 0.2), DVec3::new(0.5, 1.1, 0.4))]);
+    let (errs, near_evals) = errors(&near);
+    let (median, p90, worst) = quantiles(&errs);
+    eprintln!("with a box inside: median {median:.3} px, 90 % {p90:.3}, worst {worst:.3}; {near_evals:.1} evaluations per ray");
+    assert!(median <= 0.1 && p90 <= 0.5 && worst <= 2.0 && near_evals > evals);
     let (wrong, _) = errors(&flying(1.0).with_straight_scale(1e-3));
     let (median, p90, worst) = quantiles(&wrong);
     eprintln!("bound ×1e-3: median {median:.3} px, 90 % {p90:.3}, worst {worst:.3}");

@@ -825,7 +825,7 @@ impl CurvedRay {
         };
         self.last_curved = false;
         if !self.h_next.is_finite() {
-            self.h_next = medium.field.feature_length().min(b.diagonal());
+            self.h_next = medium.flight_step.min(b.diagonal());
         }
         let mut cap = f64::INFINITY;
         let mut first = true;
