@@ -127,3 +127,43 @@ fn flights_agree_with_the_chord_tracer_and_a_bound_too_small_does_not() {
     eprintln!("bound ×1e-3: median {median:.3} px, 90 % {p90:.3}, worst {worst:.3}");
     assert!(median > 0.1, "{median}");
 }
+
+/// A ray that flies and then casts chords near a box inside the bounds: a
+/// hit on the first chord after the flight is refined on the arc (the
+/// chord tracer at 1e-9 m crossing the same plane), not on an arc from
+/// where the flight began.
+#[test]
+fn hits_after_a_flight_are_refined_on_the_arc() {
+    let boxed = flying(1.0).with_obstacles([Aabb::new(DVec3::new(0.3, 0.9, 0.2), DVec3::new(0.5, 1.1, 0.4))]);
+    // The first chord of `ray` crossing the plane through q with normal n
+    // (at or after the first one with `skipped` > 0 when `after_flight`).
+    let crossing = |m: &Medium, ray: &mut CurvedRay, q: DVec3, n: DVec3, after_flight: bool| {
+        for _ in 0..100_000 {
+            let c = ray.next_chord(m);
+            assert!(ray.failure().is_none() && c.length > 0.0);
+            if after_flight {
+                if c.skipped > 0.0 && ray.is_inside() {
+                    return (c, 0.5 * c.length, c.origin + c.dir * (0.5 * c.length));
+                }
+                continue;
+            }
+            let t = (q - c.origin).dot(n) / c.dir.dot(n);
+            if t >= 0.0 && t <= c.length {
+                return (c, t, c.origin + c.dir * t);
+            }
+        }
+        panic!("no such chord");
+    };
+    let d = (DVec3::new(0.4, 1.0, 0.4) - EYE).normalize();
+    let mut ray = boxed.start_ray(EYE, d);
+    let (chord, t, p) = crossing(&boxed, &mut ray, DVec3::ZERO, DVec3::Z, true);
+    let (hit, _) = ray.refine_hit(&boxed, &chord, t, p, chord.dir);
+    let fine = medium(1e-9);
+    let (_, _, arc) = crossing(&fine, &mut fine.start_ray(EYE, d), p, chord.dir, false);
+    let miss = (hit - arc).length();
+    eprintln!(
+        "refined hit {miss:.2e} m from the arc's crossing (chord after {:.3} m of flight)",
+        chord.skipped
+    );
+    assert!(miss < 1e-3, "{miss}");
+}

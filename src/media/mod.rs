@@ -777,7 +777,9 @@ impl CurvedRay {
                         }
                         continue;
                     }
-                    Ok(false) => {}
+                    // Geometry is near: the chord (and a hit's refinement)
+                    // starts where the flight stopped.
+                    Ok(false) => self.prev = self.st,
                     Err(e) => return self.fail(e),
                 }
             }
