@@ -831,7 +831,7 @@ impl CurvedRay {
         }
         let mut cap = f64::INFINITY;
         let mut first = true;
-        loop {
+        for _ in 0..1_000_000 {
             let st = self.st;
             let (tol_pos, tol_ang) = medium.flight_tolerances(st.r);
             let gap = b.clip(st.r, st.t).map_or(0.0, |(_, t1)| t1.max(0.0));
@@ -876,6 +876,10 @@ impl CurvedRay {
                 _ => cap = 0.5 * h,
             }
         }
+        Err(format!(
+            "flight: more than 1e6 steps without leaving the bounds, at {:?}",
+            self.st.r
+        ))
     }
 
     fn exit_straight(&mut self, medium: &Medium, dir: DVec3) -> Chord {
