@@ -42,6 +42,10 @@ pub struct Counters {
     pub chords: u64,
     /// Curved rays whose integrator failed (the path ended black).
     pub grin_failures: u64,
+    /// Path segments that entered a gradient-index medium's bounds.
+    pub medium_segments: u64,
+    /// Field evaluations (n and ∇n at one point) for curved rays.
+    pub field_evals: u64,
 }
 
 impl Counters {
@@ -69,6 +73,8 @@ impl AddAssign for Counters {
             segments,
             chords,
             grin_failures,
+            medium_segments,
+            field_evals,
         } = o;
         self.samples += samples;
         self.queries += queries;
@@ -84,6 +90,8 @@ impl AddAssign for Counters {
         self.segments += segments;
         self.chords += chords;
         self.grin_failures += grin_failures;
+        self.medium_segments += medium_segments;
+        self.field_evals += field_evals;
     }
 }
 

@@ -269,7 +269,7 @@ pub fn sum_stats<'a>(
     stats: impl Iterator<Item = Option<&'a serde_json::Value>>,
     parts: usize,
 ) -> serde_json::Value {
-    const SUMMED: [&str; 17] = [
+    const SUMMED: [&str; 19] = [
         "wall_s",
         "cpu_s",
         "samples",
@@ -286,6 +286,8 @@ pub fn sum_stats<'a>(
         "segments",
         "chords",
         "grin_failures",
+        "medium_segments",
+        "field_evals",
         "load_s",
     ];
     let mut ints = std::collections::BTreeMap::<&str, u64>::new();

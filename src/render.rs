@@ -162,6 +162,9 @@ impl RenderStats {
             "false_hits_per_ray": per(c.false_hits, c.queries),
             "filter_calls_per_ray": per(c.filter_calls, c.queries),
             "chords_per_segment": per(c.chords, c.segments),
+            "chords_per_medium_segment": per(c.chords, c.medium_segments),
+            "evals_per_chord": per(c.field_evals, c.chords),
+            "evals_per_medium_segment": per(c.field_evals, c.medium_segments),
             "provenance": crate::provenance::json(),
         });
         if let (Some(o), serde_json::Value::Object(d)) = (j.as_object_mut(), derived) {

@@ -273,6 +273,25 @@ fn cast(
         });
     };
     let mut curved = med.start_ray(ray.org.as_dvec3(), ray.dir.as_dvec3());
+    let out = cast_curved(tr, med, &mut curved, ray, list, st);
+    st.field_evals += curved.evaluations();
+    if curved.entered() {
+        st.medium_segments += 1;
+    }
+    out
+}
+
+/// [`cast`] through the medium: the chords of `curved` until one hits or
+/// escapes.
+fn cast_curved(
+    tr: Tracer<'_>,
+    med: &crate::media::Medium,
+    curved: &mut crate::media::CurvedRay,
+    ray: &Ray,
+    list: &mut InteriorList,
+    st: &mut Counters,
+) -> Result<(Segment, dielectric::Coincident)> {
+    let scene = tr.scene;
     let mut travelled = 0.0f64;
     // The first chord is inside the medium when the ray starts in its bounds;
     // every later chord is (the first one ends at the entry).

@@ -84,6 +84,14 @@ pub enum Method {
 /// rk45 render at a tenth of its metre tolerance (docs/grin.md).
 pub const DEFAULT_PIXEL_TOLERANCE: f64 = 0.1;
 
+/// The fraction of a pixel each rk45 step of a flight may err by (in
+/// position at its distance from the eye, and in direction) when the scene
+/// does not say (`medium.pixel_tolerance`).
+/// Steps are mostly capped by the field's `flight_step`, which is what
+/// holds the error: at 1 px heat_shimmer's block means are 1.09× the
+/// seed-to-seed noise of a fine render, uncapped at 0.1 px 1.36×.
+pub const DEFAULT_FLIGHT_PIXEL_TOLERANCE: f64 = 1.0;
+
 /// Below this a chord tolerance means nothing to Embree's f32 chords (a
 /// micrometre; the footprint goes to 0 at the eye).
 const MIN_CHORD_TOLERANCE: f64 = 1e-6;
@@ -221,6 +229,13 @@ pub struct Medium {
     obstacles: Obstacles,
     /// What method `invariant`'s rays share (None for other methods).
     invariant: Option<InvariantSetup>,
+    /// A lower bound on n in the bounds (curvature bounds divide by it).
+    n_floor: f64,
+    /// Scales the gradient bound of a flight's straight stretches (1; tests
+    /// shrink it to show what a bound too small does).
+    straight_scale: f64,
+    /// The longest step of a flight, metres.
+    flight_step: f64,
 }
 
 /// The largest index a medium may reach (real media are below ~4).
@@ -326,6 +341,7 @@ impl Medium {
                 format!("expected n > 0 everywhere in the bounds, but {what}"),
             ));
         }
+        let flight_step = field.flight_step();
         let invariant = if method == Method::Invariant {
             InvariantSetup::new(&field, &bounds, None)
         } else {
@@ -342,6 +358,9 @@ impl Medium {
             view: None,
             invariant,
             obstacles: Obstacles::unknown(),
+            n_floor: n_min,
+            straight_scale: 1.0,
+            flight_step,
         })
     }
 
@@ -391,6 +410,15 @@ impl Medium {
         self
     }
 
+    /// The same medium with the gradient bound of flights' straight
+    /// stretches multiplied by `scale` (< 1: too small, drops the field
+    /// where it matters; for tests).
+    #[cfg(test)]
+    pub(crate) fn with_straight_scale(mut self, scale: f64) -> Medium {
+        self.straight_scale = scale;
+        self
+    }
+
     /// The fraction of a pixel chords may deviate, as given (None: the
     /// default).
     pub fn pixel_tolerance(&self) -> Option<f64> {
@@ -427,6 +455,34 @@ impl Medium {
     pub fn tolerance_at(&self, p: DVec3) -> f64 {
         self.footprint()
             .map_or(self.tolerance, |f| f.at(p, MIN_CHORD_TOLERANCE))
+    }
+
+    /// Does a ray inside the bounds fly (integrate without chords while no
+    /// geometry is near, [`CurvedRay::next_chord`])? For rk45 through a 3-D
+    /// field when the scene's geometry is known as boxes. (Stratified fields
+    /// have method `invariant` for that.)
+    pub fn flies(&self) -> bool {
+        self.method == Method::Rk45 && self.field.strata().is_none() && !self.obstacles.is_unknown()
+    }
+
+    /// The error allowed per step of a flight: (metres, radians). With a view,
+    /// `pixel_tolerance` (default [`DEFAULT_FLIGHT_PIXEL_TOLERANCE`]) of the
+    /// pixel footprint at `p` and of the pixel angle, which bound what the
+    /// error moves in the image (footprint.rs); without one `tolerance`
+    /// metres, and `tolerance` radians (what moves a point a metre on by the
+    /// tolerance).
+    pub fn flight_tolerances(&self, p: DVec3) -> (f64, f64) {
+        match self.view {
+            Some((eye, pixel_angle)) => {
+                let f = Footprint {
+                    eye,
+                    pixel_angle,
+                    fraction: self.pixel_tolerance.unwrap_or(DEFAULT_FLIGHT_PIXEL_TOLERANCE),
+                };
+                (f.at(p, MIN_CHORD_TOLERANCE), f.angle())
+            }
+            None => (self.tolerance, self.tolerance),
+        }
     }
 
     /// Can the straight chord meet geometry? (False only when it misses
@@ -489,6 +545,7 @@ impl Medium {
             ell_prev: f64::INFINITY,
             evals: 0,
             chords: 0,
+            entered: false,
             inv: None,
         }
     }
@@ -533,6 +590,8 @@ pub struct CurvedRay {
     ell_prev: f64,
     evals: u64,
     chords: u64,
+    /// The ray has been inside the bounds.
+    entered: bool,
     /// Method `invariant` while inside the bounds.
     inv: Option<InvariantCast>,
 }
@@ -573,6 +632,10 @@ impl CurvedRay {
     /// failure `next_chord` returns chords of length 0.
     pub fn failure(&self) -> Option<&str> {
         self.failure.as_deref()
+    }
+    /// True once the ray has been inside the bounds.
+    pub fn entered(&self) -> bool {
+        self.entered
     }
     /// True while the ray is inside the bounds and being integrated.
     pub fn is_inside(&self) -> bool {
@@ -646,6 +709,7 @@ impl CurvedRay {
                         }
                         self.prev = self.st;
                         self.mode = Mode::Inside;
+                        self.entered = true;
                         if entry > 0.0 {
                             return straight(entry);
                         }
@@ -704,6 +768,26 @@ impl CurvedRay {
                     }
                 }
             }
+            if medium.flies() {
+                match self.fly(medium, &mut skipped) {
+                    Ok(true) => {
+                        // Left the bounds: straight from here (a ray that
+                        // re-enters where it stands flies again).
+                        exits += 1;
+                        if exits > 4 {
+                            return self.fail(format!(
+                                "ray stuck on the medium's boundary at {:?}, tangent {:?}",
+                                self.st.r, self.st.t
+                            ));
+                        }
+                        continue;
+                    }
+                    // Geometry is near: the chord (and a hit's refinement)
+                    // starts where the flight stopped.
+                    Ok(false) => self.prev = self.st,
+                    Err(e) => return self.fail(e),
+                }
+            }
             let mut stepper = medium.stepper();
             let res = if medium.method.is_paper() {
                 self.paper_chord(medium, &mut stepper)
@@ -716,6 +800,91 @@ impl CurvedRay {
                 Err(e) => self.fail(e),
             };
         }
+    }
+
+    /// Integrates without chords while no geometry can be met (see
+    /// [`Medium::flies`]): rk45 steps, each shorter than the distance to the
+    /// nearest obstacle box (an arc is no further from its start than its
+    /// length), held to [`Medium::flight_tolerances`]. Ok(true) when the ray
+    /// has left the bounds (its arc length inside added to `skipped`),
+    /// Ok(false) when geometry is too close for a step worth taking: the
+    /// caller casts chords from there.
+    fn fly(&mut self, medium: &Medium, skipped: &mut f64) -> Result<bool, String> {
+        let mut stepper = medium.stepper();
+        let out = self.fly_steps(medium, &mut stepper, skipped);
+        self.evals += stepper.evals;
+        out
+    }
+
+    fn fly_steps(
+        &mut self,
+        medium: &Medium,
+        stepper: &mut Stepper<'_>,
+        skipped: &mut f64,
+    ) -> Result<bool, String> {
+        let b = medium.bounds;
+        // Straight from p over ℓ: with the curvature at most κ = max|∇n|/n
+        // along the way the direction is off by at most κℓ and the position
+        // by κℓ²/2; negligible at half the tolerances.
+        let straight = |p: DVec3, t: DVec3, l: f64, tol_pos: f64, tol_ang: f64| {
+            let k = medium.straight_scale * medium.field.grad_bound_on_segment(p, p + t * l) / medium.n_floor;
+            k * l <= 0.5 * tol_ang && 0.5 * k * l * l <= 0.5 * tol_pos
+        };
+        self.last_curved = false;
+        if !self.h_next.is_finite() {
+            self.h_next = medium.flight_step.min(b.diagonal());
+        }
+        let mut cap = f64::INFINITY;
+        let mut first = true;
+        for _ in 0..1_000_000 {
+            let st = self.st;
+            let (tol_pos, tol_ang) = medium.flight_tolerances(st.r);
+            let gap = b.clip(st.r, st.t).map_or(0.0, |(_, t1)| t1.max(0.0));
+            // The bound is worth its exponentials where a ray starts (it may
+            // miss the plume altogether) and within a few steps of the exit.
+            let check = first || gap <= 2.0 * medium.flight_step;
+            first = false;
+            if check && straight(st.r, st.t, gap, tol_pos, tol_ang) {
+                self.st.r += st.t * gap;
+                self.st.s += gap;
+                *skipped += gap;
+                self.mode = Mode::Outside;
+                return Ok(true);
+            }
+            let clear = medium.obstacles.distance(st.r, &b);
+            let max_h = gap.min(0.99 * clear).min(cap).min(medium.flight_step);
+            if clear < 0.5 * gap.min(self.h_next) {
+                return Ok(false);
+            }
+            let mut h_next = self.h_next;
+            let (next, h) = stepper.rk45_step_image(&st, &mut h_next, max_h, tol_pos, tol_ang)?;
+            self.h_next = h_next;
+            if b.contains(next.r) {
+                self.st = next;
+                *skipped += h;
+                cap = f64::INFINITY;
+                continue;
+            }
+            // The arc crossed a face before the tangent line did: back along
+            // the end tangent to the face when that stretch is short enough
+            // to be straight, else the step again, shorter.
+            match b.clip(next.r, next.t) {
+                Some((_, t1)) if t1 <= 0.0 && straight(next.r, -next.t, -t1, tol_pos, tol_ang) => {
+                    self.st = next;
+                    self.st.r += next.t * t1;
+                    self.st.s += t1;
+                    *skipped += h + t1;
+                    self.mode = Mode::Outside;
+                    return Ok(true);
+                }
+                Some((_, t1)) if t1 <= 0.0 && h + t1 > 0.0 => cap = (h + t1).max(0.1 * h),
+                _ => cap = 0.5 * h,
+            }
+        }
+        Err(format!(
+            "flight: more than 1e6 steps without leaving the bounds, at {:?}",
+            self.st.r
+        ))
     }
 
     fn exit_straight(&mut self, medium: &Medium, dir: DVec3) -> Chord {
@@ -929,3 +1098,6 @@ mod tests;
 
 #[cfg(test)]
 mod stratified_tests;
+
+#[cfg(test)]
+mod flight_tests;

@@ -99,6 +99,17 @@ impl<'a> Stepper<'a> {
     ///
     /// A message when n is not finite or not > 0 at one of the stages.
     pub fn dp45(&mut self, st: &State, h: f64) -> Result<(State, f64), String> {
+        let (end, er, ev) = self.dp45_parts(st, h)?;
+        Ok((end, er.max(h.abs() * ev / end.n)))
+    }
+
+    /// [`Stepper::dp45`] with the error estimate in two parts: position
+    /// (metres) and v (|δv|, so |δv|/n is the direction's in radians).
+    ///
+    /// # Errors
+    ///
+    /// As [`Stepper::dp45`].
+    pub fn dp45_parts(&mut self, st: &State, h: f64) -> Result<(State, f64, f64), String> {
         let mut kr = [DVec3::ZERO; 7];
         let mut kv = [DVec3::ZERO; 7];
         kr[0] = st.v / st.n;
@@ -132,8 +143,60 @@ impl<'a> Stepper<'a> {
             er += kr[j] * (h * E[j]);
             ev += kv[j] * (h * E[j]);
         }
-        let err = er.length().max(h.abs() * ev.length() / end.n);
-        Ok((end, err))
+        Ok((end, er.length(), ev.length()))
+    }
+
+    /// One accepted rk45 step of at most `max_h` held to image tolerances: the
+    /// position error to `tol_pos` metres and the direction error to `tol_ang` radians, each scaled by
+    /// `h / span` (a share of the path of length `span` the errors add up
+    /// over). Same step-size control as [`Stepper::rk45_step`].
+    ///
+    /// # Errors
+    ///
+    /// As [`Stepper::rk45_step`].
+    pub fn rk45_step_image(
+        &mut self,
+        st: &State,
+        h_next: &mut f64,
+        max_h: f64,
+        tol_pos: f64,
+        tol_ang: f64,
+    ) -> Result<(State, f64), String> {
+        loop {
+            let h = h_next.min(max_h);
+            let (next, er, ev) = match self.dp45_parts(st, h) {
+                Ok(x) => x,
+                Err(e) if h > 1e-9 * (1.0 + st.s.abs()) => {
+                    self.rejected += 1;
+                    *h_next = h * 0.25;
+                    let _ = e;
+                    continue;
+                }
+                Err(e) => return Err(e),
+            };
+            let ratio = (er / tol_pos).max(ev / (next.n * tol_ang));
+            if ratio <= 1.0 {
+                let grow = if ratio == 0.0 {
+                    5.0
+                } else {
+                    (0.9 * ratio.powf(-0.2)).clamp(0.2, 5.0)
+                };
+                *h_next = if h >= *h_next || !h_next.is_finite() {
+                    h * grow
+                } else {
+                    h_next.max(h * grow)
+                };
+                return Ok((next, h));
+            }
+            self.rejected += 1;
+            *h_next = h * (0.9 * ratio.powf(-0.25)).clamp(0.1, 0.9);
+            if h_next.is_nan() || *h_next <= 1e-13 * (1.0 + st.s.abs()) {
+                return Err(format!(
+                    "rk45: step size underflow at arc length {:e} m (tolerances {tol_pos:e} m, {tol_ang:e} rad)",
+                    st.s
+                ));
+            }
+        }
     }
 
     /// One classical RK4 step of length h (4 evaluations, the last one at the end point).

@@ -388,6 +388,7 @@ fn analytic_gradients_match_finite_differences() {
             waves: 6,
             seed: 7,
             up: DVec3::Y,
+            table: Default::default(),
         },
     ];
     for f in fields {

@@ -138,7 +138,9 @@ pub struct MediumDesc {
     pub step: f64,
     /// Method invariant: how far a chord may stray from its arc, as a
     /// fraction of a pixel of the film (the pixel's footprint at the distance
-    /// from the camera; default 0.1). Ignored by the other methods.
+    /// from the camera; default 0.1). Method rk45 through a 3-D field (a
+    /// plume): the error each step of a flight may leave, in the same unit
+    /// (default 1; docs/grin.md). Ignored by the other methods.
     #[serde(default)]
     pub pixel_tolerance: Option<f64>,
 }
