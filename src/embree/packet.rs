@@ -1,7 +1,7 @@
 //! Packets of rays for Embree's packet queries (`rtcIntersect8/16`,
 //! `rtcOccluded8/16`): the path tracer's lanes, the warp renderer's primary
 //! rays, and the ceiling's packet replay.
-use super::{init_context, Hit, Scene, INVALID_ID};
+use super::{init_context, Hit, LaneRay, Scene, INVALID_ID};
 use embree_sys as sys;
 use glam::Vec3A as V3;
 
@@ -23,6 +23,20 @@ pub trait RayPacket<const N: usize>: Default {
     fn intersect(&mut self, scene: &Scene, coherent: bool);
     /// Occlusion of the active lanes.
     fn occlude(&mut self, scene: &Scene, coherent: bool);
+    /// [`intersect`](Self::intersect) against the scene's meshes alone
+    /// ([`Scene::has_meshes_only`]; the whole scene when it has no such twin).
+    fn intersect_meshes(&mut self, scene: &Scene, coherent: bool);
+    /// [`occlude`](Self::occlude) against the scene's meshes alone (as
+    /// [`intersect_meshes`](Self::intersect_meshes)).
+    fn occlude_meshes(&mut self, scene: &Scene, coherent: bool);
+    /// Lane `i`'s ray as a query stands: `None` when the lane is inactive or
+    /// (after [`occlude`](Self::occlude)) already occluded; its `tfar` is
+    /// the nearest hit's t after [`intersect`](Self::intersect).
+    fn lane(&self, i: usize) -> Option<LaneRay>;
+    /// Make `hit` lane `i`'s hit (its t becomes the lane's tfar).
+    fn set_hit(&mut self, i: usize, hit: &Hit);
+    /// Mark lane `i` occluded.
+    fn set_occluded(&mut self, i: usize);
 }
 
 macro_rules! ray_packet {
@@ -142,6 +156,39 @@ macro_rules! ray_packet {
             }
             fn occlude(&mut self, scene: &Scene, coherent: bool) {
                 self.query(scene.raw, coherent, true);
+            }
+            fn intersect_meshes(&mut self, scene: &Scene, coherent: bool) {
+                self.query(scene.meshes_or_all(), coherent, false);
+            }
+            fn occlude_meshes(&mut self, scene: &Scene, coherent: bool) {
+                self.query(scene.meshes_or_all(), coherent, true);
+            }
+            #[inline]
+            fn lane(&self, i: usize) -> Option<LaneRay> {
+                let r = &self.rh.ray;
+                (self.valid[i] != 0 && r.tfar[i] != f32::NEG_INFINITY).then(|| LaneRay {
+                    org: V3::new(r.org_x[i], r.org_y[i], r.org_z[i]),
+                    dir: V3::new(r.dir_x[i], r.dir_y[i], r.dir_z[i]),
+                    tnear: r.tnear[i],
+                    tfar: r.tfar[i],
+                })
+            }
+            #[inline]
+            fn set_hit(&mut self, i: usize, hit: &Hit) {
+                let h = &mut self.rh.hit;
+                self.rh.ray.tfar[i] = hit.t;
+                h.Ng_x[i] = hit.ng.x;
+                h.Ng_y[i] = hit.ng.y;
+                h.Ng_z[i] = hit.ng.z;
+                h.u[i] = hit.u;
+                h.v[i] = hit.v;
+                h.primID[i] = hit.prim_id;
+                h.geomID[i] = hit.geom_id;
+                h.instID[0][i] = INVALID_ID;
+            }
+            #[inline]
+            fn set_occluded(&mut self, i: usize) {
+                self.rh.ray.tfar[i] = f32::NEG_INFINITY;
             }
         }
     };

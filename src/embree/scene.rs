@@ -40,6 +40,12 @@ pub struct SceneFlags {
 pub struct SceneBuilder {
     device: Device,
     raw: sys::RTCScene,
+    /// The scene of the triangle meshes alone (null unless asked for by
+    /// [`with_meshes_only`](Self::with_meshes_only)): each mesh is attached
+    /// to both under the same geometry id.
+    meshes_only: sys::RTCScene,
+    /// The build quality of both scenes.
+    quality: sys::RTCBuildQuality,
     // Boxed so each UserGeom keeps its address (Embree holds pointers to it) when the Vec grows.
     #[allow(clippy::vec_box)]
     user: Vec<Box<UserGeom>>,
@@ -52,10 +58,12 @@ unsafe impl Send for SceneBuilder {}
 
 impl Drop for SceneBuilder {
     fn drop(&mut self) {
-        if !self.raw.is_null() {
-            // SAFETY: `raw` is a valid scene owned by this builder (set to null when
-            // ownership moves to a `Scene`).
-            unsafe { sys::rtcReleaseScene(self.raw) };
+        for s in [self.raw, self.meshes_only] {
+            if !s.is_null() {
+                // SAFETY: a valid scene owned by this builder (set to null when
+                // ownership moves to a `Scene`).
+                unsafe { sys::rtcReleaseScene(s) };
+            }
         }
     }
 }
@@ -90,6 +98,8 @@ impl SceneBuilder {
         let b = SceneBuilder {
             device: device.clone(),
             raw,
+            meshes_only: ptr::null_mut(),
+            quality: q,
             user: Vec::new(),
             context_filter: flags.context_filter,
         };
@@ -102,12 +112,49 @@ impl SceneBuilder {
         Ok(b)
     }
 
-    fn attach(&mut self, geom: sys::RTCGeometry) -> Result<u32, EmbreeError> {
+    /// Also build a second scene of the triangle meshes alone, every mesh
+    /// under the geometry id it has in the whole scene ([`Scene::has_meshes_only`]):
+    /// for queries that intersect the analytic shapes themselves. Call it
+    /// before adding geometry; the meshes are shared, not copied (Embree
+    /// attaches one geometry to several scenes), only the BVH is built twice.
+    ///
+    /// # Errors
+    /// [`EmbreeError::Embree`] when Embree cannot create the scene.
+    pub fn with_meshes_only(mut self) -> Result<Self, EmbreeError> {
+        // SAFETY: valid device and scene handles; the new scene gets the
+        // whole scene's flags and build quality.
+        let raw = unsafe {
+            let raw = sys::rtcNewScene(self.device.inner.raw);
+            if !raw.is_null() {
+                sys::rtcSetSceneFlags(raw, sys::rtcGetSceneFlags(self.raw));
+            }
+            raw
+        };
+        self.device.inner.check()?;
+        if raw.is_null() {
+            return Err(EmbreeError::Embree {
+                code: "RTC_ERROR_UNKNOWN",
+                message: "rtcNewScene returned NULL".into(),
+            });
+        }
+        self.meshes_only = raw;
+        // SAFETY: valid scene handle; the quality is a valid enum value.
+        unsafe { sys::rtcSetSceneBuildQuality(raw, self.quality) };
+        Ok(self)
+    }
+
+    /// Attach `geom` (and, for a mesh, to the meshes-only scene if there is one).
+    fn attach(&mut self, geom: sys::RTCGeometry, mesh: bool) -> Result<u32, EmbreeError> {
         // SAFETY: `geom` was created on this device and is fully set up; attaching
-        // transfers a reference to the scene, after which we drop ours.
+        // transfers a reference to each scene, after which we drop ours. The id
+        // is free in the meshes-only scene: it holds a subset of the whole
+        // scene's geometries under the same ids.
         let id = unsafe {
             sys::rtcCommitGeometry(geom);
             let id = sys::rtcAttachGeometry(self.raw, geom);
+            if mesh && !self.meshes_only.is_null() {
+                sys::rtcAttachGeometryByID(self.meshes_only, geom, id);
+            }
             sys::rtcReleaseGeometry(geom);
             id
         };
@@ -176,7 +223,7 @@ impl SceneBuilder {
             ptr::copy_nonoverlapping(vertices.as_ptr() as *const f32, vb, nv * 3);
             ptr::copy_nonoverlapping(indices.as_ptr() as *const u32, ib, indices.len() * 3);
         }
-        self.attach(geom)
+        self.attach(geom, true)
     }
 
     /// Attach an analytic shape as user geometry and return its geometry id.
@@ -218,7 +265,7 @@ impl SceneBuilder {
             }
         }
         self.user.push(data);
-        self.attach(geom)
+        self.attach(geom, false)
     }
 
     /// Build the acceleration structure. The result may be queried from many threads.
@@ -233,10 +280,17 @@ impl SceneBuilder {
         self.device.inner.check()?;
         // A shape's bounds callback that panicked left its box unset.
         check_user_panics(&self.user)?;
+        if !self.meshes_only.is_null() {
+            // SAFETY: valid scene handle whose geometries are committed.
+            unsafe { sys::rtcCommitScene(self.meshes_only) };
+            self.device.inner.check()?;
+        }
         let raw = std::mem::replace(&mut self.raw, ptr::null_mut());
+        let meshes_only = std::mem::replace(&mut self.meshes_only, ptr::null_mut());
         Ok(Scene {
             device: self.device.clone(),
             raw,
+            meshes_only,
             context_filter: self.context_filter,
             filter_table: std::sync::OnceLock::new(),
             user: std::mem::take(&mut self.user),
@@ -252,6 +306,8 @@ pub struct Scene {
     device: Device,
     /// The scene handle (also used by the packet queries of `packet.rs`).
     pub(super) raw: sys::RTCScene,
+    /// The meshes alone ([`SceneBuilder::with_meshes_only`]), or null.
+    pub(super) meshes_only: sys::RTCScene,
     /// Built with `RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION`.
     context_filter: bool,
     /// [`Scene::filter_table`]'s table.
@@ -273,6 +329,10 @@ impl Drop for Scene {
     fn drop(&mut self) {
         // SAFETY: `raw` is a valid scene owned solely by this value.
         unsafe { sys::rtcReleaseScene(self.raw) };
+        if !self.meshes_only.is_null() {
+            // SAFETY: as `raw`.
+            unsafe { sys::rtcReleaseScene(self.meshes_only) };
+        }
     }
 }
 
@@ -317,6 +377,20 @@ fn from_rayhit(rh: &sys::RTCRayHit) -> Option<Hit> {
 }
 
 impl Scene {
+    /// Was a scene of the meshes alone built beside it ([`SceneBuilder::with_meshes_only`])?
+    pub fn has_meshes_only(&self) -> bool {
+        !self.meshes_only.is_null()
+    }
+
+    /// The meshes-only twin if there is one, else the whole scene.
+    pub(super) fn meshes_or_all(&self) -> sys::RTCScene {
+        if self.meshes_only.is_null() {
+            self.raw
+        } else {
+            self.meshes_only
+        }
+    }
+
     /// The device this scene was built on.
     pub fn device(&self) -> &Device {
         &self.device

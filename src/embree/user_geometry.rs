@@ -93,7 +93,7 @@ impl Candidates {
     /// Insertion sort by t: at most four items, where a generic slice sort
     /// shows in a nested trace's profile.
     #[inline]
-    fn sort(&mut self) {
+    pub fn sort(&mut self) {
         // SAFETY: as in `as_slice`, mutably.
         let items =
             unsafe { std::slice::from_raw_parts_mut(self.items.as_mut_ptr() as *mut Candidate, self.len) };

@@ -699,7 +699,7 @@ pub fn path_lanes<const N: usize, P: RayPacket<N>>(
         // parallel), not only for the camera rays: it paid on refractive
         // scenes. Shadow rays go without: they are slower in it (docs/peers.md).
         let coherent = paths.iter().flatten().all(|p| p.only_specular);
-        near.intersect(&scene.embree, coherent);
+        intersect_packet(scene, near, coherent);
         shadow.clear();
         // Which lanes the packet answered (the others are cast one by one
         // below), and the surface points of their hits, every lane's before
@@ -749,7 +749,7 @@ pub fn path_lanes<const N: usize, P: RayPacket<N>>(
             ended[i] = !go;
         }
         if pending.iter().any(Option::is_some) {
-            shadow.occlude(&scene.embree, false);
+            occlude_packet(scene, shadow);
         }
         // In each path's order: its shadow ray before its next segment.
         for i in 0..n {
@@ -766,6 +766,33 @@ pub fn path_lanes<const N: usize, P: RayPacket<N>>(
         }
     }
     Ok(out)
+}
+
+/// Nearest hits of the active lanes of `packet` in `scene`: Embree's, or
+/// with an [`AnalyticSet`](crate::scene::shapes::AnalyticSet), Embree's
+/// among the meshes completed by the set's.
+#[inline]
+fn intersect_packet<const N: usize, P: RayPacket<N>>(scene: &RenderScene, packet: &mut P, coherent: bool) {
+    match &scene.analytic_set {
+        Some(set) => {
+            packet.intersect_meshes(&scene.embree, coherent);
+            set.intersect(packet);
+        }
+        None => packet.intersect(&scene.embree, coherent),
+    }
+}
+
+/// Occlusion of the active lanes of `packet` (shadow rays: not coherent),
+/// as [`intersect_packet`] finds hits.
+#[inline]
+fn occlude_packet<const N: usize, P: RayPacket<N>>(scene: &RenderScene, packet: &mut P) {
+    match &scene.analytic_set {
+        Some(set) => {
+            packet.occlude_meshes(&scene.embree, false);
+            set.occlude(packet);
+        }
+        None => packet.occlude(&scene.embree, false),
+    }
 }
 
 /// Whitted: direct light at diffuse surfaces (one sample per light), perfect

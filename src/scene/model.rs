@@ -189,6 +189,9 @@ pub enum IntegratorKind {
 pub struct RenderScene {
     /// The Embree scene of every geometry.
     pub embree: crate::embree::Scene,
+    /// The analytic shapes, when the path tracer's packets intersect them
+    /// itself (`embree` then has a twin of its meshes alone).
+    pub analytic_set: Option<crate::scene::shapes::AnalyticSet>,
     /// Geometry records, indexed by Embree geometry id.
     pub geoms: Vec<GeomRecord>,
     /// Priority solids, indexed by solid index.

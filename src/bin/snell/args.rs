@@ -105,6 +105,11 @@ pub struct RenderArgs {
     /// How false hits of nested dielectrics are skipped.
     #[arg(long, default_value = "filter")]
     pub nested: NestedStrategy,
+    /// Who intersects the analytic shapes for the path tracer's packets:
+    /// `auto` (snell itself when the scene has at most 8 analytic primitives
+    /// and no medium: the same hits, without Embree's callbacks) or `embree`.
+    #[arg(long, value_enum, default_value = "auto")]
+    pub analytic_shapes: AnalyticShapes,
     /// Diagnostic layers: false_hits,list_depth,tir,fallbacks (EXR channels, or PNGs beside a PNG).
     #[arg(long, value_delimiter = ',', value_parser = aov_parser())]
     pub aov: Vec<Aov>,
@@ -329,6 +334,13 @@ pub struct WarpRenderArgs {
     pub stats_json: Option<PathBuf>,
     #[arg(long)]
     pub quiet: bool,
+}
+
+/// `--analytic-shapes` of `snell render`.
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum AnalyticShapes {
+    Auto,
+    Embree,
 }
 
 /// `--method` of `snell warp-render` (`snell::warp::WarpMethod` is no

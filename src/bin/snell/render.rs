@@ -19,6 +19,7 @@ pub fn render(mut a: RenderArgs) -> Result<()> {
     let load_t = Instant::now();
     let build = BuildOptions {
         import: a.import.options()?,
+        analytic_set: a.analytic_shapes == crate::args::AnalyticShapes::Auto,
         ..BuildOptions::default()
     };
     let (s, scene_id) = snell::farm::load(&a.scene, &a.set, &build, a.nested)?;

@@ -4,6 +4,7 @@ use super::{Builder, Pending};
 use crate::embree::{Device, Scene, SceneBuilder, SceneFlags};
 use crate::error::Result;
 use crate::scene::model::{Containment, GeomRecord, Material, Shape, Solid};
+use crate::scene::shapes::AnalyticSet;
 
 /// What the upload hands back to the scene.
 pub(super) struct Uploaded {
@@ -15,12 +16,15 @@ pub(super) struct Uploaded {
     pub solid_by_geom: Vec<Option<u32>>,
     pub has_overlap: bool,
     pub masked_solids: Vec<u32>,
+    pub analytic_set: Option<AnalyticSet>,
 }
 
 impl Builder<'_> {
     /// Rank the solids by (priority, declaration order), find whether any
-    /// two may overlap (bounds intersect), and build the Embree scene.
-    pub(super) fn upload(&self, pending: Vec<Pending>) -> Result<Uploaded> {
+    /// two may overlap (bounds intersect), and build the Embree scene (with
+    /// a twin of its meshes alone when `set_wanted` and the analytic shapes
+    /// are few enough for an [`AnalyticSet`]).
+    pub(super) fn upload(&self, pending: Vec<Pending>, set_wanted: bool) -> Result<Uploaded> {
         // Solids: ranks by (priority, declaration order).
         let mut order: Vec<usize> = (0..pending.len())
             .filter(|&i| pending[i].solid.is_some())
@@ -59,6 +63,18 @@ impl Builder<'_> {
         let use_masks = has_overlap && device.ray_masks();
         let mut masked_solids = Vec::new();
         let mut eb = SceneBuilder::new(&device, flags, self.opts.quality)?;
+        // Geometry ids follow `pending`'s order (asserted below).
+        let analytic_set = set_wanted
+            .then(|| {
+                AnalyticSet::try_new(pending.iter().enumerate().filter_map(|(i, p)| match &p.shape {
+                    Shape::Analytic(a) => Some((i as u32, *a)),
+                    Shape::Mesh(_) => None,
+                }))
+            })
+            .flatten();
+        if analytic_set.is_some() {
+            eb = eb.with_meshes_only()?;
+        }
         let mut geoms = Vec::with_capacity(pending.len());
         let mut solids = Vec::new();
         let mut containment = Vec::new();
@@ -118,6 +134,7 @@ impl Builder<'_> {
             rank_by_geom,
             solid_by_geom,
             has_overlap,
+            analytic_set,
             masked_solids: {
                 masked_solids.sort_unstable();
                 masked_solids.into_iter().map(|(_, s)| s).collect()

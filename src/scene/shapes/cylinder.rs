@@ -37,7 +37,7 @@ impl Cylinder {
 
     /// Primitive 0.
     #[inline(always)]
-    fn wall(&self) -> Wall<DVec3> {
+    pub(super) fn wall(&self) -> Wall<DVec3> {
         Wall {
             base: self.p0,
             axis: self.axis,

@@ -20,6 +20,7 @@ mod disk;
 mod mesh;
 mod normalize;
 mod segment;
+mod set;
 mod sphere;
 mod tube;
 mod wall;
@@ -29,6 +30,7 @@ pub use cylinder::Cylinder;
 pub use disk::Disk;
 pub use mesh::Mesh;
 pub(crate) use normalize::normalize_or;
+pub use set::{AnalyticSet, MAX_SET_PRIMITIVES};
 pub use sphere::Sphere;
 pub use tube::Tube;
 

@@ -57,6 +57,24 @@ impl Wall<DVec3> {
         }
     }
 
+    /// The crossings given the segment's `roots` (found for many lanes at
+    /// once by `AnalyticSet`) of a wall about the y axis, onto `out`
+    /// (`flip`: normals towards the axis): what [`Self::intersect_lanes`]
+    /// pushes for the segment.
+    #[inline(always)]
+    pub(super) fn push_crossings_about_y(
+        &self,
+        flip: bool,
+        seg: &Segment,
+        roots: Roots,
+        out: &mut Candidates,
+    ) {
+        debug_assert!(self.axis == DVec3::Y);
+        self.about_y().emit(seg, roots, |t, radial| {
+            out.push(candidate(t, if flip { -radial } else { radial }))
+        })
+    }
+
     /// The unit normal at `p`, away from the axis.
     #[inline(always)]
     pub(super) fn normal(&self, p: DVec3) -> DVec3 {
@@ -99,7 +117,7 @@ impl<A: Axis> Wall<A> {
     /// The roots of the ray with the infinite cylinder, in the quadratic's
     /// order.
     #[inline(always)]
-    fn roots(&self, seg: &Segment) -> Roots {
+    pub(super) fn roots(&self, seg: &Segment) -> Roots {
         let (o, d, axis, r) = (seg.o, seg.d, self.axis, self.radius);
         let op = o - self.base;
         let d_perp = axis.across(d, axis.along(d));
