@@ -29,7 +29,7 @@ use rayon::prelude::*;
 use snell::camera::Camera;
 use snell::timing::{self, median};
 use snell::warp::{
-    approx_tube::approx_tube_image, CylinderWarper, HollowCylinder, Plate, PlateStatus, WarpGlass,
+    approx_tube::approx_tube_image, CylinderWarper, HollowCylinder, Plate, PlateStatus, SimdLevel, WarpGlass,
 };
 use snell::warp_render::pipeline::Pipeline;
 use snell::warp_render::{
@@ -140,6 +140,9 @@ struct Summary {
     plate_gbs: f64,
     copy_gbs: f64,
     cyl_100k_ms: f64,
+    /// The fast solve alone (no tables) per 100k vertices at each SIMD
+    /// level this CPU has, widest first.
+    cyl_levels_100k_ms: Vec<(SimdLevel, f64)>,
     cyl_parity_100k_ms: f64,
     cyl_us_per_vertex: f64,
     cyl_images: f64,
@@ -282,25 +285,42 @@ fn cylinder_solver(sum: &mut Summary, eye: DVec3, opts: &Options) {
         });
     // The warp's call (`images_no_parity`: the renderer needs no parity),
     // and `images` with the parity `warp-points` reports, interleaved.
-    let (mut tt, mut tf, mut tp) = (vec![], vec![], vec![]);
-    let mut imgs = 0usize;
-    for _ in 0..opts.reps {
-        // The renderer's call: tables for these targets (their β range and
-        // the families they need).
-        let t = Instant::now();
-        let w = CylinderWarper::for_targets(c, eye, &pts).unwrap();
-        tt.push(t.elapsed().as_secs_f64());
-        let t = Instant::now();
-        // As the renderer calls it: in chunks of 256 targets, batched.
-        imgs = pts
-            .par_chunks(256)
+    let (mut tt, mut tp) = (vec![], vec![]);
+    // The fast solve at each SIMD level this CPU has, widest (the
+    // default) first, the same images at each.
+    let levels: Vec<SimdLevel> = [SimdLevel::Avx512, SimdLevel::Avx2, SimdLevel::Scalar]
+        .into_iter()
+        .filter(|&l| l <= SimdLevel::detect())
+        .collect();
+    let mut tl = vec![vec![]; levels.len()];
+    let mut imgs = None;
+    // As the renderer calls it: in chunks of 256 targets, batched.
+    let solve = |w: &CylinderWarper| -> usize {
+        pts.par_chunks(256)
             .map(|ch| {
                 let mut n = 0;
                 w.images_batch(ch, false, |_, r| n += r.map_or(0, |v| v.len()));
                 n
             })
-            .sum();
-        tf.push(t.elapsed().as_secs_f64());
+            .sum()
+    };
+    for _ in 0..opts.reps {
+        // The renderer's call: tables for these targets (their β range and
+        // the families they need).
+        let t = Instant::now();
+        let mut w = CylinderWarper::for_targets(c, eye, &pts).unwrap();
+        tt.push(t.elapsed().as_secs_f64());
+        // The levels in turn, their order rotated from one repetition to
+        // the next (no level always runs first).
+        for j in 0..levels.len() {
+            let li = (j + tt.len()) % levels.len();
+            w.set_simd_level(levels[li]);
+            let t = Instant::now();
+            let n = solve(&w);
+            tl[li].push(t.elapsed().as_secs_f64());
+            assert_eq!(*imgs.get_or_insert(n), n, "{:?}", levels[li]);
+        }
+        w.set_simd_level(levels[0]);
         if opts.no_parity {
             // The warp's call alone (e.g. its instruction counts).
             tp.push(0.0);
@@ -313,7 +333,23 @@ fn cylinder_solver(sum: &mut Summary, eye: DVec3, opts: &Options) {
             .sum();
         tp.push(t.elapsed().as_secs_f64());
     }
-    let (tables, fast, with_parity) = (median(&tt), median(&tf), median(&tp));
+    let imgs = imgs.unwrap_or(0);
+    let (tables, fast, with_parity) = (median(&tt), median(&tl[0]), median(&tp));
+    let per_100k = |t: f64| t * 1e5 / pts.len() as f64 * 1e3;
+    sum.cyl_levels_100k_ms = levels
+        .iter()
+        .zip(&tl)
+        .map(|(l, t)| (*l, per_100k(median(t))))
+        .collect();
+    println!(
+        "cylinder fast solve (no tables) per 100k vertices by SIMD level, median of {} interleaved runs: {}",
+        opts.reps,
+        sum.cyl_levels_100k_ms
+            .iter()
+            .map(|(l, ms)| format!("{l:?} ({} lanes) {ms:.1} ms", l.lanes()))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
     if opts.only == Some(Part::Cylinder) {
         // Profiling the fast solver alone.
         println!(
@@ -842,6 +878,11 @@ fn main() -> snell::Result<()> {
             "copy_gb_per_s": sum.copy_gbs,
             "cylinder_100k_ms": sum.cyl_100k_ms,
             "cylinder_100k_ms_with_parity": sum.cyl_parity_100k_ms,
+            "cylinder_solve_100k_ms_by_simd_level": sum
+                .cyl_levels_100k_ms
+                .iter()
+                .map(|(l, ms)| (format!("{l:?}"), serde_json::json!(ms)))
+                .collect::<serde_json::Map<_, _>>(),
             "cylinder_us_per_vertex": sum.cyl_us_per_vertex,
             "cylinder_images_per_vertex": sum.cyl_images,
             "tube_1600_speedup": tube.exact_s / tube.frame_s,

@@ -206,8 +206,9 @@
 //! # Layers
 //!
 //! Bottom to top (`tests/layering.rs` enforces them): [`ray`], [`optics`],
-//! [`sampling`], [`counters`] → [`embree`] (the only FFI; the one other
-//! `unsafe` is the cylinder warp's AVX2 lanes) → [`error`] → [`camera`],
+//! [`sampling`], [`counters`] → [`embree`] (the only FFI and the only
+//! `unsafe`; explicit SIMD, such as the cylinder warp's lanes, goes through
+//! the safe `pulp` crate with run-time dispatch) → [`error`] → [`camera`],
 //! [`media`], [`warp`] solvers, [`accum`] → [`scene`] (the model and its
 //! builder) → [`dielectric`] (the nested rule) → [`integrator`] → [`render`](mod@render),
 //! [`audit`] → overrides, the warp renderer, and with `tooling` the parts, the

@@ -1,28 +1,100 @@
-//! The closed-form residual and Jacobian of `HollowCylinder::resid_jac`
-//! for four (b, β) at once, in the four f64 lanes of an AVX register: the
-//! fast cylinder solver's Newton polishes of several targets are
-//! evaluated together.
+//! The closed-form residual and Jacobian of `HollowCylinder::resid_jac`,
+//! and the Newton step taken from it, for several (b, β) at once in the
+//! f64 lanes of a vector register: the fast cylinder solver's Newton
+//! polishes of many targets are stepped together.
 //!
-//! Each lane is the scalar `resid_jac` term by term (the same operations
-//! in the same order, none fused), so a lane gives the scalar function's
-//! bits (tested). The four families are computed in every lane and the
-//! lane's own is selected (blends instead of branches). The dozen square
-//! roots and divisions of an evaluation, a dependent chain in the scalar
-//! code, then run four lanes per instruction.
+//! Each lane is the scalar `resid_jac` and `step` term by term (the same
+//! operations in the same order, none fused into a multiply-add), so a
+//! lane gives the scalar functions' bits (tested at every level; only a
+//! NaN's sign and payload, which Rust leaves unspecified, may differ). The
+//! four families are computed in every lane and the lane's own is selected
+//! (blends instead of branches). The dozen square roots and divisions of an
+//! evaluation, a dependent chain in the scalar code, then run four or eight
+//! lanes per instruction.
 //!
-//! AVX2 is checked at run time; without it (or off x86-64) each lane is
-//! the scalar `resid_jac`. Intrinsics, because plain `[f64; 4]` code
-//! compiled for AVX2 is not enough: LLVM vectorises it mostly in pairs and
-//! keeps most square roots and divisions scalar, no faster than four scalar
-//! calls. This module and `src/embree/`
-//! are the crate's only `unsafe` (the dispatch, reading the lanes out and
-//! loading four rows of `Rows` into a register).
-#![allow(unsafe_code)]
+//! The vector code is written once, generic over `pulp::Simd`, and
+//! monomorphised for AVX-512 (`pulp::x86::V4`, eight lanes) and AVX2 with
+//! FMA (`V3`, four lanes); the widest level the CPU has is chosen at run
+//! time, once per warper (`Consts`), and a caller may cap it
+//! (`SimdLevel`). Without either (or off x86-64) each row is the scalar
+//! `resid_jac` and `step`. pulp's level tokens exist only where the CPU
+//! has the instructions and it enables them for the generic code, so this
+//! module has no `unsafe`. Explicit vectors, because plain `[f64; 4]` code
+//! left to LLVM is not enough: it vectorises it mostly in pairs and keeps
+//! most square roots and divisions scalar, no faster than four scalar
+//! calls.
 use super::tube::{Family, HollowCylinder};
 use glam::DVec2;
 
-/// Lanes per evaluation.
-pub(crate) const LANES: usize = 4;
+/// The instruction sets the cylinder warp's fast solver can evaluate its
+/// Newton steps with, narrowest first (so `min` caps a level).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum SimdLevel {
+    /// One evaluation at a time (any CPU).
+    Scalar,
+    /// AVX2 with FMA (x86-64-v3): four f64 lanes.
+    Avx2,
+    /// AVX-512 F/BW/CD/DQ/VL (x86-64-v4): eight f64 lanes.
+    Avx512,
+}
+
+impl SimdLevel {
+    /// The widest level this CPU has.
+    pub fn detect() -> SimdLevel {
+        Isa::new(SimdLevel::Avx512).level()
+    }
+
+    /// The f64 lanes of one evaluation.
+    pub fn lanes(self) -> usize {
+        match self {
+            SimdLevel::Scalar => 1,
+            SimdLevel::Avx2 => 4,
+            SimdLevel::Avx512 => 8,
+        }
+    }
+}
+
+/// The level chosen: pulp's token, which proves the CPU has its
+/// instructions.
+#[derive(Clone, Copy, Debug)]
+enum Isa {
+    Scalar,
+    #[cfg(target_arch = "x86_64")]
+    V3(pulp::x86::V3),
+    #[cfg(target_arch = "x86_64")]
+    V4(pulp::x86::V4),
+}
+
+impl Isa {
+    /// The widest level up to `max` that the CPU has.
+    fn new(max: SimdLevel) -> Isa {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if max >= SimdLevel::Avx512 {
+                if let Some(s) = pulp::x86::V4::try_new() {
+                    return Isa::V4(s);
+                }
+            }
+            if max >= SimdLevel::Avx2 {
+                if let Some(s) = pulp::x86::V3::try_new() {
+                    return Isa::V3(s);
+                }
+            }
+        }
+        let _ = max;
+        Isa::Scalar
+    }
+
+    fn level(self) -> SimdLevel {
+        match self {
+            Isa::Scalar => SimdLevel::Scalar,
+            #[cfg(target_arch = "x86_64")]
+            Isa::V3(_) => SimdLevel::Avx2,
+            #[cfg(target_arch = "x86_64")]
+            Isa::V4(_) => SimdLevel::Avx512,
+        }
+    }
+}
 
 /// One lane's problem: the family, the target's 2-D position and height
 /// above the eye, and the point (b, β).
@@ -39,44 +111,46 @@ pub(crate) struct LaneIn {
 pub(crate) type LaneOut = Option<([f64; 2], [[f64; 2]; 2])>;
 
 /// What `resid_jac` needs of the tube and the eye (per warper, not per
-/// evaluation), and whether the CPU has AVX2 (checked once).
+/// evaluation), and the instruction set to evaluate it with (detected
+/// once).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Consts {
     cyl: HollowCylinder,
     e: DVec2,
-    avx2: bool,
+    isa: Isa,
+    /// The tests' deliberately wrong variant: one multiply-add of the
+    /// vector code fused, which the bit-for-bit tests must catch.
+    #[cfg(test)]
+    fused: bool,
 }
 
 impl Consts {
+    /// The widest level the CPU has.
     pub fn new(c: &HollowCylinder, e: DVec2) -> Consts {
-        #[cfg(target_arch = "x86_64")]
-        let avx2 = std::arch::is_x86_feature_detected!("avx2");
-        #[cfg(not(target_arch = "x86_64"))]
-        let avx2 = false;
-        Consts { cyl: *c, e, avx2 }
+        Consts::with_level(c, e, SimdLevel::Avx512)
     }
 
-    /// The same without the vector path (the tests' comparison).
-    #[cfg(test)]
-    fn scalar(mut self) -> Consts {
-        self.avx2 = false;
-        self
+    /// The widest level up to `max` that the CPU has (the tests and the
+    /// bench compare the levels).
+    pub fn with_level(c: &HollowCylinder, e: DVec2, max: SimdLevel) -> Consts {
+        Consts {
+            cyl: *c,
+            e,
+            isa: Isa::new(max),
+            #[cfg(test)]
+            fused: false,
+        }
     }
-}
 
-/// `resid_jac` of each lane. Every lane's target is outside the hollow
-/// for through4, tir2 and wall2 and inside it for hollow2, as the fast
-/// solver's jobs are. Unused lanes may repeat a used one.
-#[cfg(test)]
-pub(crate) fn resid_jac4(k: &Consts, lanes: &[LaneIn; LANES]) -> [LaneOut; LANES] {
-    #[cfg(target_arch = "x86_64")]
-    if k.avx2 {
-        // SAFETY: `avx::resid_jac4` requires AVX2, which `Consts::new`
-        // found with `is_x86_feature_detected!`; it reads only its
-        // arguments.
-        return unsafe { avx::resid_jac4(k, lanes) };
+    /// The level the evaluations run at.
+    pub fn level(&self) -> SimdLevel {
+        self.isa.level()
     }
-    lanes.map(|l| k.cyl.resid_jac(l.fam, k.e, l.p, l.dv, l.b, l.beta))
+
+    /// Rows per evaluation (a batch's size scales with it).
+    pub fn lanes(&self) -> usize {
+        self.level().lanes()
+    }
 }
 
 /// A Newton step's outcome (`step`).
@@ -92,7 +166,7 @@ pub(crate) enum Step {
 
 /// One Newton step in (b, β) from `resid_jac`'s answer `ev` at (b, β):
 /// the convergence test (max |r| ≤ tol, the max written as the vector
-/// max computes it, which differs from `f64::max` only for a NaN), then
+/// code computes it, which differs from `f64::max` only for a NaN), then
 /// −J⁻¹·r (failed on a singular J or |β| ≥ 0.999999).
 pub(crate) fn step(ev: LaneOut, b: f64, beta: f64, tol: f64) -> Step {
     let Some((r, j)) = ev else {
@@ -115,21 +189,9 @@ pub(crate) fn step(ev: LaneOut, b: f64, beta: f64, tol: f64) -> Step {
     Step::Next(nb, nbeta)
 }
 
-/// `step` of each lane from its own point, with tolerances `tol` (the
-/// tests' reference for the vector step; the solver calls `newton_rows`).
-#[cfg(test)]
-pub(crate) fn newton4(k: &Consts, lanes: &[LaneIn; LANES], tol: [f64; LANES]) -> [Step; LANES] {
-    #[cfg(target_arch = "x86_64")]
-    if k.avx2 {
-        // SAFETY: as in `resid_jac4`.
-        return unsafe { avx::newton4(k, lanes, tol) };
-    }
-    std::array::from_fn(|i| {
-        let l = &lanes[i];
-        let ev = k.cyl.resid_jac(l.fam, k.e, l.p, l.dv, l.b, l.beta);
-        step(ev, l.b, l.beta, tol[i])
-    })
-}
+/// `Rows::pad`'s multiple: AVX2's lanes (AVX-512 runs the last four rows
+/// of an odd count of fours in them).
+pub(crate) const PAD: usize = 4;
 
 /// A family as a lane's code (`Rows::fam`, the vector code's blends).
 #[inline]
@@ -158,12 +220,12 @@ pub(crate) const NEXT: u8 = 0;
 pub(crate) const ROOT: u8 = 1;
 pub(crate) const FAIL: u8 = 2;
 
-/// Running Newton polishes as a struct of arrays, one row each: the four
-/// lanes of an evaluation are loaded from four consecutive rows as
-/// vectors, and the next point is stored back the same way, instead of
-/// gathering each lane from a polish and scattering the step into it. The
-/// rows' count is kept a multiple of `LANES` (`pad`); padding rows repeat
-/// the last real one and are ignored.
+/// Running Newton polishes as a struct of arrays, one row each: the lanes
+/// of an evaluation are loaded from consecutive rows as vectors, and the
+/// next point is stored back the same way, instead of gathering each lane
+/// from a polish and scattering the step into it. The rows' count is kept
+/// a multiple of `PAD` (`pad`); padding rows repeat the last real one and
+/// are ignored.
 #[derive(Clone, Default)]
 pub(crate) struct Rows {
     pub fam: Vec<f64>,
@@ -205,10 +267,10 @@ impl Rows {
         self.tol.push(tol);
     }
 
-    /// Keeps the first `n` rows and pads them to a multiple of `LANES`
-    /// with copies of the last one.
+    /// Keeps the first `n` rows and pads them to a multiple of `PAD` with
+    /// copies of the last one.
     pub fn pad(&mut self, n: usize) {
-        let m = n.div_ceil(LANES) * LANES;
+        let m = n.div_ceil(PAD) * PAD;
         for v in self.cols_mut() {
             v.truncate(n);
             if n > 0 {
@@ -240,457 +302,531 @@ impl Rows {
 
 /// One Newton step of every row (`rows` padded, `status` as long): the
 /// outcome of `step` into `status`, and for a row that steps its next
-/// point into its b and β. Rows are evaluated four at a time in AVX2
-/// registers where the CPU has it (the same bits as `newton4`, which is
-/// `step` bit for bit), else one at a time with `resid_jac` and `step`.
+/// point into its b and β. Rows are evaluated eight (AVX-512) or four
+/// (AVX2) at a time in vector registers (each lane `resid_jac` and `step`
+/// bit for bit), or one at a time with `resid_jac` and `step` at the
+/// scalar level. With AVX-512 a last group of four rows runs in AVX2's
+/// four lanes, so that the rows need padding to four only: a batch of one
+/// target (`images`) has one or two polishes.
 pub(crate) fn newton_rows(k: &Consts, rows: &mut Rows, status: &mut [u8]) {
-    #[cfg(target_arch = "x86_64")]
-    if k.avx2 {
-        // SAFETY: as in `resid_jac4`; it reads and writes only its
-        // arguments.
-        return unsafe { avx::newton_rows(k, rows, status) };
-    }
-    for (i, st) in status.iter_mut().enumerate().take(rows.b.len()) {
-        let l = rows.lane(i);
-        let ev = k.cyl.resid_jac(l.fam, k.e, l.p, l.dv, l.b, l.beta);
-        *st = match step(ev, l.b, l.beta, rows.tol[i]) {
-            Step::Fail => FAIL,
-            Step::Root => ROOT,
-            Step::Next(b, beta) => {
-                (rows.b[i], rows.beta[i]) = (b, beta);
-                NEXT
+    let n = rows.b.len();
+    match k.isa {
+        #[cfg(target_arch = "x86_64")]
+        Isa::V4(s) => {
+            let eights = n / 8 * 8;
+            if eights > 0 {
+                pulp::Simd::vectorize(s, vector::NewtonRows::new(k, rows, status, 0..eights));
             }
-        };
+            if eights < n {
+                pulp::Simd::vectorize(*s, vector::NewtonRows::new(k, rows, status, eights..n));
+            }
+        }
+        #[cfg(target_arch = "x86_64")]
+        Isa::V3(s) => pulp::Simd::vectorize(s, vector::NewtonRows::new(k, rows, status, 0..n)),
+        Isa::Scalar => {
+            for (i, st) in status.iter_mut().enumerate().take(rows.b.len()) {
+                let l = rows.lane(i);
+                let ev = k.cyl.resid_jac(l.fam, k.e, l.p, l.dv, l.b, l.beta);
+                *st = match step(ev, l.b, l.beta, rows.tol[i]) {
+                    Step::Fail => FAIL,
+                    Step::Root => ROOT,
+                    Step::Next(b, beta) => {
+                        (rows.b[i], rows.beta[i]) = (b, beta);
+                        NEXT
+                    }
+                };
+            }
+        }
     }
 }
 
-#[cfg(target_arch = "x86_64")]
-mod avx {
-    #[cfg(test)]
-    use super::{fam_code, LaneIn, Step};
-    use super::{Consts, DVec2, LANES};
-    use std::arch::x86_64::*;
-
-    macro_rules! sp {
-        ($x:expr) => {
-            _mm256_set1_pd($x)
-        };
-    }
-    macro_rules! add {
-        ($a:expr, $b:expr) => {
-            _mm256_add_pd($a, $b)
-        };
-    }
-    macro_rules! sub {
-        ($a:expr, $b:expr) => {
-            _mm256_sub_pd($a, $b)
-        };
-    }
-    macro_rules! mul {
-        ($a:expr, $b:expr) => {
-            _mm256_mul_pd($a, $b)
-        };
-    }
-    macro_rules! div {
-        ($a:expr, $b:expr) => {
-            _mm256_div_pd($a, $b)
-        };
-    }
-    macro_rules! sqrt {
-        ($a:expr) => {
-            _mm256_sqrt_pd($a)
-        };
-    }
-    macro_rules! neg {
-        ($a:expr) => {
-            _mm256_xor_pd($a, sp!(-0.0))
-        };
-    }
-    // Comparisons as the scalar code's tests: NGE = !(a >= b) and
-    // NLE = !(a <= b) (true for a NaN), NLT = !(a < b), LT = a < b.
-    macro_rules! cmp {
-        ($op:ident, $a:expr, $b:expr) => {
-            _mm256_cmp_pd::<$op>($a, $b)
-        };
-    }
-    macro_rules! and {
-        ($a:expr, $b:expr) => {
-            _mm256_and_pd($a, $b)
-        };
-    }
-    // m ? a : b, lane by lane.
-    macro_rules! sel {
-        ($m:expr, $a:expr, $b:expr) => {
-            _mm256_blendv_pd($b, $a, $m)
-        };
-    }
-    // The product of unit complex numbers (x, y) (rotations composed).
-    macro_rules! cmul {
-        ($a:expr, $b:expr) => {{
-            let (a, b) = ($a, $b);
-            (
-                sub!(mul!(a.0, b.0), mul!(a.1, b.1)),
-                add!(mul!(a.0, b.1), mul!(a.1, b.0)),
-            )
-        }};
-    }
-
-    /// `resid_jac`'s answer in four lanes: `ok` (all ones where it is
-    /// `Some`), the residual and the Jacobian.
-    struct Eval {
-        ok: __m256d,
-        g: __m256d,
-        r1: __m256d,
-        g_b: __m256d,
-        g_beta: __m256d,
-        climb_b: __m256d,
-        climb_beta: __m256d,
-    }
-
-    /// The lanes of a vector.
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    fn out(v: __m256d) -> [f64; LANES] {
-        // SAFETY: __m256d and [f64; 4] are both 32 bytes of plain data,
-        // every bit pattern valid for both.
-        unsafe { std::mem::transmute::<__m256d, [f64; LANES]>(v) }
-    }
-
-    /// `HollowCylinder::resid_jac` of each lane.
-    #[cfg(test)]
-    #[target_feature(enable = "avx2")]
-    pub(super) fn resid_jac4(k: &Consts, lanes: &[LaneIn; LANES]) -> [super::LaneOut; LANES] {
-        let v = eval(k, lanes);
-        let mask = _mm256_movemask_pd(v.ok);
-        let (g, r1, g_b, g_beta, climb_b, climb_beta) = (
-            out(v.g),
-            out(v.r1),
-            out(v.g_b),
-            out(v.g_beta),
-            out(v.climb_b),
-            out(v.climb_beta),
-        );
-        std::array::from_fn(|i| {
-            (mask & (1 << i) != 0)
-                .then(|| ([g[i], r1[i]], [[g_b[i], g_beta[i]], [climb_b[i], climb_beta[i]]]))
-        })
-    }
-
-    /// `super::step` of each lane (the same operations: bit for bit).
-    #[cfg(test)]
-    #[target_feature(enable = "avx2")]
-    pub(super) fn newton4(k: &Consts, lanes: &[LaneIn; LANES], tol: [f64; LANES]) -> [Step; LANES] {
-        let v = eval(k, lanes);
-        let b = _mm256_setr_pd(lanes[0].b, lanes[1].b, lanes[2].b, lanes[3].b);
-        let beta = _mm256_setr_pd(lanes[0].beta, lanes[1].beta, lanes[2].beta, lanes[3].beta);
-        let tol = _mm256_setr_pd(tol[0], tol[1], tol[2], tol[3]);
-        let (nb, nbeta, ok, root, bad) = step_v(&v, b, beta, tol);
-        let (nb, nbeta) = (out(nb), out(nbeta));
-        std::array::from_fn(|i| {
-            let bit = 1 << i;
-            if ok & bit == 0 {
-                Step::Fail
-            } else if root & bit != 0 {
-                Step::Root
-            } else if bad & bit != 0 {
-                Step::Fail
-            } else {
-                Step::Next(nb[i], nbeta[i])
-            }
-        })
-    }
-
-    /// `super::newton_rows`, four rows at a time (each group loaded and
-    /// stored as vectors): b and β of a lane that steps are overwritten
-    /// with the next point, and the lane's outcome goes to `status`.
-    #[target_feature(enable = "avx2")]
-    pub(super) fn newton_rows(k: &Consts, rows: &mut super::Rows, status: &mut [u8]) {
-        let n = rows.b.len();
-        let mut i = 0;
-        while i + LANES <= n {
-            let ld = |v: &[f64]| {
-                let a: &[f64; LANES] = v[i..i + LANES].try_into().expect("four rows");
-                // SAFETY: `a` is four readable f64 (`loadu` needs no
-                // alignment).
-                unsafe { _mm256_loadu_pd(a.as_ptr()) }
-            };
-            let (b, beta) = (ld(&rows.b), ld(&rows.beta));
-            let v = eval_v(
-                k,
-                ld(&rows.fam),
-                b,
-                beta,
-                ld(&rows.px),
-                ld(&rows.py),
-                ld(&rows.dv),
+/// `resid_jac` of every row (`rows` padded), evaluated as `newton_rows`
+/// evaluates it (the tests' view of the vector evaluation).
+#[cfg(test)]
+pub(crate) fn resid_jac_rows(k: &Consts, rows: &Rows) -> Vec<LaneOut> {
+    let n = rows.b.len();
+    match k.isa {
+        #[cfg(target_arch = "x86_64")]
+        Isa::V4(s) => {
+            let eights = n / 8 * 8;
+            let mut out = pulp::Simd::vectorize(
+                s,
+                vector::EvalRows {
+                    k,
+                    rows,
+                    range: 0..eights,
+                },
             );
-            let (nb, nbeta, ok, root, bad) = step_v(&v, b, beta, ld(&rows.tol));
-            // Only lanes that step move (a root keeps its point).
-            let moves = !root & ok & !bad & 0xf;
-            let m = _mm256_castsi256_pd(_mm256_setr_epi64x(
-                -((moves & 1) as i64),
-                -((moves >> 1 & 1) as i64),
-                -((moves >> 2 & 1) as i64),
-                -((moves >> 3 & 1) as i64),
+            out.extend(pulp::Simd::vectorize(
+                *s,
+                vector::EvalRows {
+                    k,
+                    rows,
+                    range: eights..n,
+                },
             ));
-            let (nb, nbeta) = (out(sel!(m, nb, b)), out(sel!(m, nbeta, beta)));
-            rows.b[i..i + LANES].copy_from_slice(&nb);
-            rows.beta[i..i + LANES].copy_from_slice(&nbeta);
-            for l in 0..LANES {
-                let bit = 1 << l;
-                status[i + l] = if ok & bit == 0 {
-                    super::FAIL
-                } else if root & bit != 0 {
-                    super::ROOT
-                } else if bad & bit != 0 {
-                    super::FAIL
-                } else {
-                    super::NEXT
-                };
+            out
+        }
+        #[cfg(target_arch = "x86_64")]
+        Isa::V3(s) => pulp::Simd::vectorize(s, vector::EvalRows { k, rows, range: 0..n }),
+        Isa::Scalar => (0..rows.b.len())
+            .map(|i| {
+                let l = rows.lane(i);
+                k.cyl.resid_jac(l.fam, k.e, l.p, l.dv, l.b, l.beta)
+            })
+            .collect(),
+    }
+}
+
+/// The vector code, generic over pulp's levels: `F` and `M` wrap a vector
+/// of f64 and a lane mask with the level's token, so that the formulas
+/// read as the scalar ones (each operator one vector instruction, in the
+/// scalar code's order: Rust's operators associate to the left as the
+/// scalar expressions do).
+#[cfg(target_arch = "x86_64")]
+mod vector {
+    use super::{Consts, Rows, FAIL, NEXT, ROOT};
+    use glam::DVec2;
+    use pulp::{Simd, WithSimd};
+    use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Not, Range, Sub};
+
+    /// The widest level's lanes (the buffers of a vector's lanes).
+    const MAX_LANES: usize = 8;
+
+    /// f64 lanes.
+    #[derive(Clone, Copy)]
+    struct F<S: Simd>(S, S::f64s);
+
+    /// A lane mask (all lanes' comparisons are IEEE: ordered ones false
+    /// for a NaN, their negations true).
+    #[derive(Clone, Copy)]
+    struct M<S: Simd>(S, S::m64s);
+
+    macro_rules! binop {
+        ($tr:ident, $f:ident, $op:ident) => {
+            impl<S: Simd> $tr for F<S> {
+                type Output = F<S>;
+                #[inline(always)]
+                fn $f(self, o: F<S>) -> F<S> {
+                    F(self.0, self.0.$op(self.1, o.1))
+                }
             }
-            i += LANES;
+        };
+    }
+    binop!(Add, add, add_f64s);
+    binop!(Sub, sub, sub_f64s);
+    binop!(Mul, mul, mul_f64s);
+    binop!(Div, div, div_f64s);
+
+    impl<S: Simd> Neg for F<S> {
+        type Output = F<S>;
+        /// The sign bit flipped, as the scalar `-x`.
+        #[inline(always)]
+        fn neg(self) -> F<S> {
+            F(self.0, self.0.neg_f64s(self.1))
         }
     }
 
-    /// `super::step` in four lanes: the next (b, β), and the bit masks of
-    /// the lanes where the evaluation exists (`ok`), the residual is
-    /// within `tol` (`root`) and the step fails (`bad`).
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    fn step_v(v: &Eval, b: __m256d, beta: __m256d, tol: __m256d) -> (__m256d, __m256d, i32, i32, i32) {
-        let (ag, ar1) = (
-            _mm256_andnot_pd(sp!(-0.0), v.g),
-            _mm256_andnot_pd(sp!(-0.0), v.r1),
-        );
-        // `step`'s `if r0 > r1 { r0 } else { r1 }`.
-        let norm = _mm256_max_pd(ag, ar1);
-        let root = _mm256_movemask_pd(cmp!(_CMP_LE_OQ, norm, tol));
-        let det = sub!(mul!(v.g_b, v.climb_beta), mul!(v.g_beta, v.climb_b));
-        let bad_det = _mm256_or_pd(
-            cmp!(_CMP_EQ_OQ, det, sp!(0.0)),
-            cmp!(_CMP_NLT_UQ, _mm256_andnot_pd(sp!(-0.0), det), sp!(f64::INFINITY)),
-        );
-        let nb = sub!(b, div!(sub!(mul!(v.g, v.climb_beta), mul!(v.r1, v.g_beta)), det));
-        let nbeta = sub!(beta, div!(sub!(mul!(v.g_b, v.r1), mul!(v.climb_b, v.g)), det));
-        let bad_beta = cmp!(_CMP_NLT_UQ, _mm256_andnot_pd(sp!(-0.0), nbeta), sp!(0.999_999));
-        let ok = _mm256_movemask_pd(v.ok);
-        let bad = _mm256_movemask_pd(_mm256_or_pd(bad_det, bad_beta));
-        (nb, nbeta, ok, root, bad)
+    impl<S: Simd> F<S> {
+        #[inline(always)]
+        fn splat(s: S, x: f64) -> F<S> {
+            F(s, s.splat_f64s(x))
+        }
+        #[inline(always)]
+        fn sqrt(self) -> F<S> {
+            F(self.0, self.0.sqrt_f64s(self.1))
+        }
+        /// The sign bit cleared, as `f64::abs`.
+        #[inline(always)]
+        fn abs(self) -> F<S> {
+            F(self.0, self.0.abs_f64s(self.1))
+        }
+        #[inline(always)]
+        fn eq(self, o: F<S>) -> M<S> {
+            M(self.0, self.0.equal_f64s(self.1, o.1))
+        }
+        #[inline(always)]
+        fn lt(self, o: F<S>) -> M<S> {
+            M(self.0, self.0.less_than_f64s(self.1, o.1))
+        }
+        #[inline(always)]
+        fn le(self, o: F<S>) -> M<S> {
+            M(self.0, self.0.less_than_or_equal_f64s(self.1, o.1))
+        }
+        #[inline(always)]
+        fn gt(self, o: F<S>) -> M<S> {
+            M(self.0, self.0.greater_than_f64s(self.1, o.1))
+        }
+        #[inline(always)]
+        fn ge(self, o: F<S>) -> M<S> {
+            M(self.0, self.0.greater_than_or_equal_f64s(self.1, o.1))
+        }
+        /// The scalar `a > b { a } else { b }` (not `f64::max`: the
+        /// second operand for a NaN in either).
+        #[inline(always)]
+        fn max(self, o: F<S>) -> F<S> {
+            self.gt(o).sel(self, o)
+        }
+        /// `self` from the `n` rows of `v` from `i` (`n` the lanes).
+        #[inline(always)]
+        fn load(s: S, v: &[f64], i: usize) -> F<S> {
+            F(s, S::as_simd_f64s(&v[i..i + S::F64_LANES]).0[0])
+        }
+        /// Into the rows of `v` from `i`.
+        #[inline(always)]
+        fn store(self, v: &mut [f64], i: usize) {
+            S::as_mut_simd_f64s(&mut v[i..i + S::F64_LANES]).0[0] = self.1;
+        }
+        /// The lanes (the first `S::F64_LANES` of the array).
+        #[inline(always)]
+        fn lanes(self) -> [f64; MAX_LANES] {
+            let mut a = [0.0; MAX_LANES];
+            self.store(&mut a, 0);
+            a
+        }
     }
 
-    /// `HollowCylinder::resid_jac` in four lanes (see there for the
-    /// formulas; the names are the same). Intrinsics are safe to call
-    /// here (the function enables AVX2); the macros only abbreviate them.
+    impl<S: Simd> BitAnd for M<S> {
+        type Output = M<S>;
+        #[inline(always)]
+        fn bitand(self, o: M<S>) -> M<S> {
+            M(self.0, self.0.and_m64s(self.1, o.1))
+        }
+    }
+    impl<S: Simd> BitOr for M<S> {
+        type Output = M<S>;
+        #[inline(always)]
+        fn bitor(self, o: M<S>) -> M<S> {
+            M(self.0, self.0.or_m64s(self.1, o.1))
+        }
+    }
+    impl<S: Simd> Not for M<S> {
+        type Output = M<S>;
+        #[inline(always)]
+        fn not(self) -> M<S> {
+            M(self.0, self.0.not_m64s(self.1))
+        }
+    }
+    impl<S: Simd> M<S> {
+        /// `a` where the mask is set, else `b`, lane by lane.
+        #[inline(always)]
+        fn sel(self, a: F<S>, b: F<S>) -> F<S> {
+            F(self.0, self.0.select_f64s(self.1, a.1, b.1))
+        }
+    }
+
+    type V2<S> = (F<S>, F<S>);
+
+    /// The product of unit complex numbers (x, y) (rotations composed).
+    #[inline(always)]
+    fn cmul<S: Simd>(a: V2<S>, b: V2<S>) -> V2<S> {
+        (a.0 * b.0 - a.1 * b.1, a.0 * b.1 + a.1 * b.0)
+    }
+
+    /// `resid_jac`'s answer in the lanes: `ok` (where it is `Some`), the
+    /// residual and the Jacobian.
+    struct Eval<S: Simd> {
+        ok: M<S>,
+        g: F<S>,
+        r1: F<S>,
+        g_b: F<S>,
+        g_beta: F<S>,
+        climb_b: F<S>,
+        climb_beta: F<S>,
+    }
+
+    /// One evaluation's rows, loaded.
+    struct In<S: Simd> {
+        fam: F<S>,
+        b: F<S>,
+        beta: F<S>,
+        px: F<S>,
+        py: F<S>,
+        dv: F<S>,
+    }
+
+    impl<S: Simd> In<S> {
+        #[inline(always)]
+        fn load(s: S, rows: &Rows, i: usize) -> In<S> {
+            In {
+                fam: F::load(s, &rows.fam, i),
+                b: F::load(s, &rows.b, i),
+                beta: F::load(s, &rows.beta, i),
+                px: F::load(s, &rows.px, i),
+                py: F::load(s, &rows.py, i),
+                dv: F::load(s, &rows.dv, i),
+            }
+        }
+    }
+
+    /// `super::newton_rows` of the rows of `range` (a multiple of the
+    /// lanes long) at level `S`.
+    pub(super) struct NewtonRows<'a> {
+        k: &'a Consts,
+        rows: &'a mut Rows,
+        status: &'a mut [u8],
+        range: Range<usize>,
+    }
+
+    impl<'a> NewtonRows<'a> {
+        pub(super) fn new(
+            k: &'a Consts,
+            rows: &'a mut Rows,
+            status: &'a mut [u8],
+            range: Range<usize>,
+        ) -> Self {
+            NewtonRows {
+                k,
+                rows,
+                status,
+                range,
+            }
+        }
+    }
+
+    impl WithSimd for NewtonRows<'_> {
+        type Output = ();
+        #[inline(always)]
+        fn with_simd<S: Simd>(self, s: S) {
+            let NewtonRows {
+                k,
+                rows,
+                status,
+                range,
+            } = self;
+            let n = S::F64_LANES;
+            let sp = |x: f64| F::splat(s, x);
+            let mut i = range.start;
+            while i + n <= range.end {
+                let x = In::load(s, rows, i);
+                let v = eval(s, k, &x);
+                let (nb, nbeta, st) = step(s, &v, x.b, x.beta, F::load(s, &rows.tol, i));
+                // Only lanes that step move (a root keeps its point).
+                let moves = st.eq(sp(f64::from(NEXT)));
+                moves.sel(nb, x.b).store(&mut rows.b, i);
+                moves.sel(nbeta, x.beta).store(&mut rows.beta, i);
+                let st = st.lanes();
+                for (o, c) in status[i..i + n].iter_mut().zip(st) {
+                    *o = c as u8;
+                }
+                i += n;
+            }
+        }
+    }
+
+    /// `super::resid_jac_rows` at level `S`.
     #[cfg(test)]
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    fn eval(k: &Consts, lanes: &[LaneIn; LANES]) -> Eval {
-        let get =
-            |f: fn(&LaneIn) -> f64| _mm256_setr_pd(f(&lanes[0]), f(&lanes[1]), f(&lanes[2]), f(&lanes[3]));
-        let fam = _mm256_setr_pd(
-            fam_code(lanes[0].fam),
-            fam_code(lanes[1].fam),
-            fam_code(lanes[2].fam),
-            fam_code(lanes[3].fam),
-        );
-        eval_v(
-            k,
-            fam,
-            get(|l| l.b),
-            get(|l| l.beta),
-            get(|l| l.p.x),
-            get(|l| l.p.y),
-            get(|l| l.dv),
-        )
+    pub(super) struct EvalRows<'a> {
+        pub k: &'a Consts,
+        pub rows: &'a Rows,
+        pub range: Range<usize>,
     }
 
-    /// `eval` of lanes already in registers (`fam` the codes of
-    /// `fam_code`).
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    fn eval_v(
-        k: &Consts,
-        fam: __m256d,
-        b: __m256d,
-        beta: __m256d,
-        px: __m256d,
-        py: __m256d,
-        dv: __m256d,
-    ) -> Eval {
-        let wall = cmp!(_CMP_EQ_OQ, fam, sp!(1.0));
-        let tir = cmp!(_CMP_EQ_OQ, fam, sp!(2.0));
-        let hollow = cmp!(_CMP_EQ_OQ, fam, sp!(3.0));
+    #[cfg(test)]
+    impl WithSimd for EvalRows<'_> {
+        type Output = Vec<super::LaneOut>;
+        #[inline(always)]
+        fn with_simd<S: Simd>(self, s: S) -> Vec<super::LaneOut> {
+            let EvalRows { k, rows, range } = self;
+            let n = S::F64_LANES;
+            let mut out = Vec::new();
+            let mut i = range.start;
+            while i + n <= range.end {
+                let v = eval(s, k, &In::load(s, rows, i));
+                let ok = v.ok.sel(F::splat(s, 1.0), F::splat(s, 0.0)).lanes();
+                let [g, r1, g_b, g_beta, climb_b, climb_beta] =
+                    [v.g, v.r1, v.g_b, v.g_beta, v.climb_b, v.climb_beta].map(F::lanes);
+                out.extend((0..n).map(|l| {
+                    (ok[l] == 1.0)
+                        .then(|| ([g[l], r1[l]], [[g_b[l], g_beta[l]], [climb_b[l], climb_beta[l]]]))
+                }));
+                i += n;
+            }
+            out
+        }
+    }
+
+    /// `super::step` in the lanes: the next (b, β), and the outcome as a
+    /// lane's value (`NEXT`, `ROOT`, `FAIL`).
+    #[inline(always)]
+    fn step<S: Simd>(s: S, v: &Eval<S>, b: F<S>, beta: F<S>, tol: F<S>) -> (F<S>, F<S>, F<S>) {
+        let sp = |x: f64| F::splat(s, x);
+        let (ag, ar1) = (v.g.abs(), v.r1.abs());
+        // `step`'s `if r0 > r1 { r0 } else { r1 }`.
+        let norm = ag.max(ar1);
+        let root = norm.le(tol);
+        let det = v.g_b * v.climb_beta - v.g_beta * v.climb_b;
+        // det == 0 or not finite (a NaN or an infinity).
+        let bad_det = det.eq(sp(0.0)) | !det.abs().lt(sp(f64::INFINITY));
+        let nb = b - (v.g * v.climb_beta - v.r1 * v.g_beta) / det;
+        let nbeta = beta - (v.g_b * v.r1 - v.climb_b * v.g) / det;
+        // A NaN or |β| ≥ 0.999999.
+        let bad_beta = !nbeta.abs().lt(sp(0.999_999));
+        let (next, root_c, fail) = (sp(f64::from(NEXT)), sp(f64::from(ROOT)), sp(f64::from(FAIL)));
+        let st =
+            v.ok.sel(root.sel(root_c, (bad_det | bad_beta).sel(fail, next)), fail);
+        (nb, nbeta, st)
+    }
+
+    /// `HollowCylinder::resid_jac` in the lanes (see there for the
+    /// formulas; the names are the same). The comparisons of its early
+    /// returns are negated as written there: `!(a >= b)` is true for a NaN.
+    #[inline(always)]
+    fn eval<S: Simd>(s: S, k: &Consts, x: &In<S>) -> Eval<S> {
+        let sp = |x: f64| F::splat(s, x);
+        let In {
+            fam,
+            b,
+            beta,
+            px,
+            py,
+            dv,
+        } = *x;
+        let wall = fam.eq(sp(1.0));
+        let tir = fam.eq(sp(2.0));
+        let hollow = fam.eq(sp(3.0));
         let c = &k.cyl;
-        let (big, small) = (sp!(c.outer_radius), sp!(c.inner_radius));
-        let (one, two, zero) = (sp!(1.0), sp!(2.0), sp!(0.0));
-        let ab = _mm256_andnot_pd(sp!(-0.0), b);
+        let (big, small) = (sp(c.outer_radius), sp(c.inner_radius));
+        let (one, two, zero) = (sp(1.0), sp(2.0), sp(0.0));
+        let ab = b.abs();
         let rho = k.e.length();
-        let mut ok = and!(cmp!(_CMP_NGE_UQ, ab, big), cmp!(_CMP_NGE_UQ, ab, sp!(rho)));
-        let bb = mul!(beta, beta);
-        let ma = sqrt!(sub!(one, bb));
-        let mg = sqrt!(sub!(sp!(c.ior * c.ior), bb));
-        let kk = div!(ma, mg);
-        let k_beta = mul!(
-            mul!(kk, beta),
-            sub!(div!(one, mul!(mg, mg)), div!(one, mul!(ma, ma)))
-        );
-        let al = mul!(ab, kk);
-        let sg = sel!(cmp!(_CMP_LT_OQ, b, zero), sp!(-1.0), one);
-        let (al_b, al_beta) = (mul!(sg, kk), mul!(ab, k_beta));
+        let mut ok = !ab.ge(big) & !ab.ge(sp(rho));
+        let bb = beta * beta;
+        let ma = (one - bb).sqrt();
+        let mg = (sp(c.ior * c.ior) - bb).sqrt();
+        let kk = ma / mg;
+        let k_beta = kk * beta * (one / (mg * mg) - one / (ma * ma));
+        let al = ab * kk;
+        let sg = b.lt(zero).sel(sp(-1.0), one);
+        let (al_b, al_beta) = (sg * kk, ab * k_beta);
         let inward = -k.e / rho;
         let perp_i = DVec2::new(-inward.y, inward.x);
-        let x = neg!(div!(b, sp!(rho)));
-        let cx = sqrt!(sub!(one, mul!(x, x)));
+        let x = -(b / sp(rho));
+        let cx = (one - x * x).sqrt();
         let h0 = (
-            add!(mul!(sp!(inward.x), cx), mul!(sp!(perp_i.x), x)),
-            add!(mul!(sp!(inward.y), cx), mul!(sp!(perp_i.y), x)),
+            sp(inward.x) * cx + sp(perp_i.x) * x,
+            sp(inward.y) * cx + sp(perp_i.y) * x,
         );
-        let q = div!(neg!(x), cx);
-        let m_rho = sp!(-1.0 / rho);
+        let q = -x / cx;
+        let m_rho = sp(-1.0 / rho);
         let h0_b = (
-            mul!(add!(mul!(sp!(inward.x), q), sp!(perp_i.x)), m_rho),
-            mul!(add!(mul!(sp!(inward.y), q), sp!(perp_i.y)), m_rho),
+            (sp(inward.x) * q + sp(perp_i.x)) * m_rho,
+            (sp(inward.y) * q + sp(perp_i.y)) * m_rho,
         );
-        let psi0_b = add!(mul!(h0_b.0, neg!(h0.1)), mul!(h0_b.1, h0.0));
-        let s1 = div!(ab, big);
-        let c1 = sqrt!(sub!(one, mul!(s1, s1)));
-        let s2 = div!(al, big);
-        let c2 = sqrt!(sub!(one, mul!(s2, s2)));
-        let rot12 = (add!(mul!(c1, c2), mul!(s1, s2)), sub!(mul!(s1, c2), mul!(c1, s2)));
-        let (ex, ey) = (sp!(k.e.x), sp!(k.e.y));
-        let air0 = sub!(neg!(add!(mul!(ex, h0.0), mul!(ey, h0.1))), mul!(big, c1));
-        ok = and!(ok, cmp!(_CMP_NLE_UQ, air0, zero));
-        let air0_b = add!(
-            neg!(add!(mul!(ex, h0_b.0), mul!(ey, h0_b.1))),
-            div!(mul!(sg, s1), c1)
-        );
-        let t1 = div!(one, mul!(big, c1));
-        let t2 = div!(one, mul!(big, c2));
+        let psi0_b = h0_b.0 * -h0.1 + h0_b.1 * h0.0;
+        let s1 = ab / big;
+        let c1 = (one - s1 * s1).sqrt();
+        let s2 = al / big;
+        let c2 = (one - s2 * s2).sqrt();
+        let rot12 = (c1 * c2 + s1 * s2, s1 * c2 - c1 * s2);
+        let (ex, ey) = (sp(k.e.x), sp(k.e.y));
+        let air0 = -(ex * h0.0 + ey * h0.1) - big * c1;
+        ok = ok & !air0.le(zero);
+        let air0_b = -(ex * h0_b.0 + ey * h0_b.1) + sg * s1 / c1;
+        let t1 = one / (big * c1);
+        let t2 = one / (big * c2);
         // Every family's terms in every lane (NaN where the lane's own
         // family does not need them), then the lane's own selected.
-        let s3 = div!(al, small);
-        let c3 = sqrt!(sub!(one, mul!(s3, s3)));
-        let t3 = div!(one, mul!(small, c3));
-        let s4 = div!(ab, small);
-        let c4 = sqrt!(sub!(one, mul!(s4, s4)));
-        let t4 = div!(one, mul!(small, c4));
-        let r2 = cmul!(rot12, rot12);
-        let s2c2 = div!(s2, c2);
-        let s3c3 = div!(s3, c3);
+        let s3 = al / small;
+        let c3 = (one - s3 * s3).sqrt();
+        let t3 = one / (small * c3);
+        let s4 = ab / small;
+        let c4 = (one - s4 * s4).sqrt();
+        let t4 = one / (small * c4);
+        let r2 = cmul(rot12, rot12);
+        let s2c2 = s2 / c2;
+        let s3c3 = s3 / c3;
         // wall2
-        let w_ok = cmp!(_CMP_NLT_UQ, al, small);
-        let w_glass = mul!(sp!(2.0 * c.outer_radius), c2);
-        let w_glass_al = div!(mul!(sp!(-2.0), s2), c2);
-        let w_tb = mul!(two, t1);
-        let w_tl = mul!(sp!(-2.0), t2);
+        let w_ok = !al.lt(small);
+        let w_glass = sp(2.0 * c.outer_radius) * c2;
+        let w_glass_al = sp(-2.0) * s2 / c2;
+        let w_tb = two * t1;
+        let w_tl = sp(-2.0) * t2;
         // tir2
-        let t_ok = and!(cmp!(_CMP_NLE_UQ, ab, small), cmp!(_CMP_NGE_UQ, al, small));
-        let refl = (
-            neg!(sub!(one, mul!(mul!(two, s3), s3))),
-            mul!(mul!(sp!(-2.0), s3), c3),
-        );
-        let t_turn = cmul!(r2, refl);
-        let t_glass = mul!(two, sub!(mul!(big, c2), mul!(small, c3)));
-        let t_glass_al = mul!(two, add!(neg!(s2c2), s3c3));
-        let t_tl = add!(mul!(sp!(-2.0), t2), mul!(two, t3));
+        let t_ok = !ab.le(small) & !al.ge(small);
+        let refl = (-(one - two * s3 * s3), sp(-2.0) * s3 * c3);
+        let t_turn = cmul(r2, refl);
+        let t_glass = two * (big * c2 - small * c3);
+        let t_glass_al = two * (-s2c2 + s3c3);
+        let t_tl = sp(-2.0) * t2 + two * t3;
         // through4 and hollow2
-        let f_ok = cmp!(_CMP_NGE_UQ, ab, small);
-        let rot43 = (
-            add!(mul!(c4, c3), mul!(s4, s3)),
-            neg!(sub!(mul!(s4, c3), mul!(c4, s3))),
-        );
-        let half = cmul!(rot12, rot43);
-        let g1 = sub!(mul!(big, c2), mul!(small, c3));
-        let g1_al = add!(neg!(s2c2), s3c3);
-        let h_tb = sub!(t1, t4);
-        let h_tl = add!(neg!(t2), t3);
-        let f_turn = cmul!(half, half);
-        let f_air = add!(air0, mul!(sp!(2.0 * c.inner_radius), c4));
-        let f_air_b = sub!(air0_b, div!(mul!(mul!(two, sg), s4), c4));
-        // The lane's own family: wall2, tir2, hollow2, else through4.
-        let pick = |w: __m256d, t: __m256d, h: __m256d, f: __m256d| {
-            _mm256_blendv_pd(_mm256_blendv_pd(_mm256_blendv_pd(f, h, hollow), t, tir), w, wall)
-        };
-        ok = and!(ok, pick(w_ok, t_ok, f_ok, f_ok));
+        let f_ok = !ab.ge(small);
+        let rot43 = (c4 * c3 + s4 * s3, -(s4 * c3 - c4 * s3));
+        let half = cmul(rot12, rot43);
+        let g1 = big * c2 - small * c3;
+        let g1_al = -s2c2 + s3c3;
+        let h_tb = t1 - t4;
+        let h_tl = -t2 + t3;
+        let f_turn = cmul(half, half);
+        let f_air = air0 + sp(2.0 * c.inner_radius) * c4;
+        let f_air_b = air0_b - two * sg * s4 / c4;
+        // The lane's own family: wall2, tir2, hollow2, else through4 (the
+        // codes exclude each other).
+        let pick = |w: F<S>, t: F<S>, h: F<S>, f: F<S>| wall.sel(w, tir.sel(t, hollow.sel(h, f)));
+        ok = ok & ((wall & w_ok) | (tir & t_ok) | (!(wall | tir) & f_ok));
         let turn = (
             pick(r2.0, t_turn.0, half.0, f_turn.0),
             pick(r2.1, t_turn.1, half.1, f_turn.1),
         );
-        let final_radius = sel!(hollow, small, big);
+        let final_radius = hollow.sel(small, big);
         let air = pick(air0, air0, air0, f_air);
         let air_b = pick(air0_b, air0_b, air0_b, f_air_b);
-        let glass = pick(w_glass, t_glass, g1, mul!(two, g1));
-        let glass_al = pick(w_glass_al, t_glass_al, g1_al, mul!(two, g1_al));
-        let tb = pick(w_tb, w_tb, h_tb, mul!(two, h_tb));
-        let tl = pick(w_tl, t_tl, h_tl, mul!(two, h_tl));
-        let turn = (turn.0, mul!(sg, turn.1));
-        let hf = cmul!(h0, turn);
-        let perp = (neg!(hf.1), hf.0);
-        let psi_b = add!(add!(psi0_b, tb), mul!(tl, kk));
-        let psi_beta = mul!(mul!(sg, tl), al_beta);
-        let hc = sqrt!(_mm256_max_pd(
-            sub!(mul!(final_radius, final_radius), mul!(b, b)),
-            zero
-        ));
-        let sigma = sel!(hollow, sp!(-1.0), one);
-        let shc = mul!(sigma, hc);
-        let nb = neg!(b);
-        let origin = (
-            add!(mul!(perp.0, nb), mul!(hf.0, shc)),
-            add!(mul!(perp.1, nb), mul!(hf.1, shc)),
-        );
-        let swing = (
-            add!(mul!(hf.0, b), mul!(perp.0, shc)),
-            add!(mul!(hf.1, b), mul!(perp.1, shc)),
-        );
-        let sbh = div!(mul!(sigma, b), hc);
+        let glass = pick(w_glass, t_glass, g1, two * g1);
+        let glass_al = pick(w_glass_al, t_glass_al, g1_al, two * g1_al);
+        let tb = pick(w_tb, w_tb, h_tb, two * h_tb);
+        let tl = pick(w_tl, t_tl, h_tl, two * h_tl);
+        let turn = (turn.0, sg * turn.1);
+        let hf = cmul(h0, turn);
+        let perp = (-hf.1, hf.0);
+        let psi_b = psi0_b + tb + tl * kk;
+        let psi_beta = sg * tl * al_beta;
+        // `(ρ_f² − b²).max(0.0)`: the same as `max` for a NaN (0) and for
+        // ±0 (never −0 here: ρ_f > 0).
+        let hc = (final_radius * final_radius - b * b).max(zero).sqrt();
+        let sigma = hollow.sel(sp(-1.0), one);
+        let shc = sigma * hc;
+        let nb = -b;
+        let origin = (perp.0 * nb + hf.0 * shc, perp.1 * nb + hf.1 * shc);
+        let swing = (hf.0 * b + perp.0 * shc, hf.1 * b + perp.1 * shc);
+        let sbh = sigma * b / hc;
         let o_b = (
-            sub!(sub!(mul!(swing.0, psi_b), perp.0), mul!(hf.0, sbh)),
-            sub!(sub!(mul!(swing.1, psi_b), perp.1), mul!(hf.1, sbh)),
+            swing.0 * psi_b - perp.0 - hf.0 * sbh,
+            swing.1 * psi_b - perp.1 - hf.1 * sbh,
         );
-        let o_beta = (mul!(swing.0, psi_beta), mul!(swing.1, psi_beta));
-        let rel = (sub!(px, origin.0), sub!(py, origin.1));
-        let along = add!(mul!(rel.0, hf.0), mul!(rel.1, hf.1));
-        ok = and!(ok, cmp!(_CMP_NLE_UQ, along, zero));
+        let o_beta = (swing.0 * psi_beta, swing.1 * psi_beta);
+        let rel = (px - origin.0, py - origin.1);
+        let along = rel.0 * hf.0 + rel.1 * hf.1;
+        ok = ok & !along.le(zero);
         // a.perp_dot(b) = a.x·b.y − a.y·b.x; a.dot(b) = a.x·b.x + a.y·b.y.
-        macro_rules! perp_dot {
-            ($a:expr, $b:expr) => {
-                sub!(mul!($a.0, $b.1), mul!($a.1, $b.0))
-            };
-        }
-        macro_rules! dot {
-            ($a:expr, $b:expr) => {
-                add!(mul!($a.0, $b.0), mul!($a.1, $b.1))
-            };
-        }
-        let g = perp_dot!(hf, rel);
-        let g_b = sub!(mul!(neg!(along), psi_b), perp_dot!(hf, o_b));
-        let g_beta = sub!(mul!(neg!(along), psi_beta), perp_dot!(hf, o_beta));
-        let along_b = sub!(mul!(g, psi_b), dot!(hf, o_b));
-        let along_beta = sub!(mul!(g, psi_beta), dot!(hf, o_beta));
-        let glass_b = mul!(glass_al, al_b);
-        let glass_beta = mul!(glass_al, al_beta);
-        let aa = add!(air, along);
-        let run = add!(div!(aa, ma), div!(glass, mg));
-        let climb = mul!(beta, run);
-        let climb_b = mul!(beta, add!(div!(add!(air_b, along_b), ma), div!(glass_b, mg)));
-        let climb_beta = add!(
-            run,
-            mul!(
-                beta,
-                add!(
-                    add!(
-                        add!(div!(along_beta, ma), div!(mul!(aa, beta), mul!(mul!(ma, ma), ma))),
-                        div!(glass_beta, mg)
-                    ),
-                    div!(mul!(glass, beta), mul!(mul!(mg, mg), mg))
-                )
-            )
-        );
+        let perp_dot = |a: V2<S>, b: V2<S>| a.0 * b.1 - a.1 * b.0;
+        let dot = |a: V2<S>, b: V2<S>| a.0 * b.0 + a.1 * b.1;
+        let g = perp_dot(hf, rel);
+        #[cfg(test)]
+        let g = if k.fused {
+            F(s, s.mul_add_f64s(hf.0 .1, rel.1 .1, (-(hf.1 * rel.0)).1))
+        } else {
+            g
+        };
+        let g_b = -along * psi_b - perp_dot(hf, o_b);
+        let g_beta = -along * psi_beta - perp_dot(hf, o_beta);
+        let along_b = g * psi_b - dot(hf, o_b);
+        let along_beta = g * psi_beta - dot(hf, o_beta);
+        let glass_b = glass_al * al_b;
+        let glass_beta = glass_al * al_beta;
+        let aa = air + along;
+        let run = aa / ma + glass / mg;
+        let climb = beta * run;
+        let climb_b = beta * ((air_b + along_b) / ma + glass_b / mg);
+        let climb_beta = run
+            + beta
+                * (along_beta / ma
+                    + aa * beta / (ma * ma * ma)
+                    + glass_beta / mg
+                    + glass * beta / (mg * mg * mg));
         Eval {
             ok,
             g,
-            r1: sub!(climb, dv),
+            r1: climb - dv,
             g_b,
             g_beta,
             climb_b,
@@ -704,148 +840,271 @@ mod tests {
     use super::*;
     use crate::warp::tube::test_rng::Lcg;
 
-    /// Every lane is the scalar `resid_jac`, bit for bit, for every family,
-    /// in and out of its domain (the `None`s too), with the families mixed
-    /// across the lanes, and so is the Newton step taken from it (`newton4`
-    /// against `step`); on a CPU without AVX2 this compares the scalar
-    /// path with itself.
-    #[test]
-    fn lanes_equal_the_scalar_resid_jac() {
-        let mut rng = Lcg(7);
-        for (r_in, eye) in [(0.8, DVec2::new(0.3, 4.0)), (0.5, DVec2::new(-2.5, -1.5))] {
-            let c = HollowCylinder::try_new(glam::DVec3::ZERO, glam::DVec3::Y, 1.0, r_in, 1.5).unwrap();
-            let k = Consts::new(&c, eye);
-            let fams = [Family::Through4, Family::Tir2, Family::Wall2, Family::Hollow2];
-            let (mut some, mut none) = (0, 0);
-            let mut steps = [0; 3];
-            for _ in 0..4000 {
-                let lanes: [LaneIn; LANES] = std::array::from_fn(|_| {
-                    let fam = fams[(rng.next() * 4.0) as usize % 4];
-                    let p = if fam == Family::Hollow2 {
-                        DVec2::new(rng.next() - 0.5, rng.next() - 0.5) * r_in
-                    } else {
-                        DVec2::new(rng.next() * 12.0 - 6.0, rng.next() * 12.0 - 6.0)
-                    };
-                    LaneIn {
-                        fam,
-                        p,
-                        dv: rng.next() * 6.0 - 3.0,
-                        b: rng.next() * 2.2 - 1.1,
-                        beta: rng.next() * 1.8 - 0.9,
-                    }
-                });
-                let got = resid_jac4(&k, &lanes);
-                let plain = resid_jac4(&k.scalar(), &lanes);
-                for (l, (g, q)) in lanes.iter().zip(got.iter().zip(&plain)) {
-                    let want = c.resid_jac(l.fam, eye, l.p, l.dv, l.b, l.beta);
-                    let bits = |o: &LaneOut| {
-                        o.map(|(r, j)| [r[0], r[1], j[0][0], j[0][1], j[1][0], j[1][1]].map(f64::to_bits))
-                    };
-                    assert_eq!(bits(g), bits(&want), "{l:?}");
-                    assert_eq!(bits(q), bits(&want), "{l:?}");
-                    // The step from it, in lanes and alone.
-                    let tol = rng.next().powi(8) * 4.0;
-                    let st = newton4(&k, &[*l; LANES], [tol; LANES]);
-                    let alone = step(want, l.b, l.beta, tol);
-                    let sbits = |s: Step| match s {
-                        Step::Next(b, beta) => Some((b.to_bits(), beta.to_bits())),
-                        Step::Root => Some((0, 1)),
-                        Step::Fail => None,
-                    };
-                    assert!(
-                        st.iter().all(|&s| sbits(s) == sbits(alone)),
-                        "{l:?} {st:?} {alone:?}"
-                    );
-                    steps[match alone {
-                        Step::Fail => 0,
-                        Step::Root => 1,
-                        Step::Next(..) => 2,
-                    }] += 1;
-                    if want.is_some() {
-                        some += 1;
-                    } else {
-                        none += 1;
-                    }
-                }
-            }
-            assert!(some > 1000 && none > 1000, "{some} {none}");
-            assert!(steps.iter().all(|&n| n > 100), "{steps:?}");
+    const FAMS: [Family; 4] = [Family::Through4, Family::Tir2, Family::Wall2, Family::Hollow2];
+
+    /// Every level this CPU has, widest first (the scalar level always).
+    fn levels() -> Vec<SimdLevel> {
+        [SimdLevel::Avx512, SimdLevel::Avx2, SimdLevel::Scalar]
+            .into_iter()
+            .filter(|&l| SimdLevel::detect() >= l)
+            .collect()
+    }
+
+    /// A random lane: every family, with targets and points in and out of
+    /// their domains, so that about half the evaluations are `None`.
+    fn random_lane(rng: &mut Lcg, r_in: f64) -> LaneIn {
+        let fam = FAMS[(rng.next() * 4.0) as usize % 4];
+        let p = if fam == Family::Hollow2 {
+            DVec2::new(rng.next() - 0.5, rng.next() - 0.5) * r_in
+        } else {
+            DVec2::new(rng.next() * 12.0 - 6.0, rng.next() * 12.0 - 6.0)
+        };
+        LaneIn {
+            fam,
+            p,
+            dv: rng.next() * 6.0 - 3.0,
+            b: rng.next() * 2.2 - 1.1,
+            beta: rng.next() * 1.8 - 0.9,
         }
     }
 
-    /// `newton_rows` (the rows loaded as vectors, the next point stored
-    /// back) is `step` of each row bit for bit, padding included, and
-    /// leaves a row that does not step where it was.
+    /// The edges of the domains: b on the radii, at ±0 and at the eye's
+    /// distance, β at 0, at the step's bound and beyond 1, NaNs, and a
+    /// target on the axis; every family for each.
+    fn edge_lanes(r_in: f64, rho: f64) -> Vec<LaneIn> {
+        let bs = [
+            0.0,
+            -0.0,
+            r_in,
+            -r_in,
+            1.0,
+            -1.0,
+            rho,
+            f64::MIN_POSITIVE,
+            r_in * (1.0 - f64::EPSILON),
+            1.0 - f64::EPSILON,
+            f64::NAN,
+            f64::INFINITY,
+        ];
+        let betas = [0.0, -0.0, 0.999_999, -0.999_999, 0.5, 1.0, 1.2, f64::NAN];
+        let ps = [DVec2::ZERO, DVec2::new(r_in * 0.5, 0.1), DVec2::new(3.0, -2.0)];
+        let mut out = Vec::new();
+        for &fam in &FAMS {
+            for &b in &bs {
+                for &beta in &betas {
+                    for &p in &ps {
+                        out.push(LaneIn {
+                            fam,
+                            p,
+                            dv: 0.7,
+                            b,
+                            beta,
+                        });
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// `lanes` as padded rows, with their tolerances.
+    fn rows_of(lanes: &[LaneIn], tol: impl Fn(usize) -> f64) -> Rows {
+        let mut rows = Rows::default();
+        for (i, l) in lanes.iter().enumerate() {
+            rows.push(l, tol(i));
+        }
+        rows.pad(lanes.len());
+        assert_eq!(rows.b.len() % PAD, 0);
+        rows
+    }
+
+    /// The bits of `x`, but one for every NaN: Rust leaves a NaN result's
+    /// sign and payload unspecified (x86 propagates the first operand's
+    /// NaN, and LLVM may swap the operands of a commutative operation), so
+    /// only NaN-ness is the function's answer; every other bit, the sign
+    /// of a zero included, must agree.
+    fn canon(x: f64) -> u64 {
+        if x.is_nan() {
+            f64::NAN.to_bits()
+        } else {
+            x.to_bits()
+        }
+    }
+
+    fn bits(o: &LaneOut) -> Option<[u64; 6]> {
+        o.map(|(r, j)| [r[0], r[1], j[0][0], j[0][1], j[1][0], j[1][1]].map(canon))
+    }
+
+    fn step_bits(s: Step) -> Option<(u64, u64)> {
+        match s {
+            Step::Next(b, beta) => Some((canon(b), canon(beta))),
+            Step::Root => Some((0, 1)),
+            Step::Fail => None,
+        }
+    }
+
+    /// The lanes whose evaluation at `k`'s level differs from the scalar
+    /// `resid_jac` in any bit (or in being `None`).
+    fn mismatches(k: &Consts, c: &HollowCylinder, eye: DVec2, lanes: &[LaneIn]) -> usize {
+        let rows = rows_of(lanes, |_| 0.0);
+        let got = resid_jac_rows(k, &rows);
+        assert_eq!(got.len(), rows.b.len());
+        lanes
+            .iter()
+            .zip(&got)
+            .filter(|(l, g)| bits(g) != bits(&c.resid_jac(l.fam, eye, l.p, l.dv, l.b, l.beta)))
+            .count()
+    }
+
+    /// This CPU's levels are pulp's tokens: AVX-512 where it has AVX-512
+    /// F/BW/CD/DQ/VL, AVX2 where it has AVX2 and FMA, and a cap is obeyed.
     #[test]
-    fn rows_equal_the_scalar_step() {
+    fn the_level_follows_the_cpu_and_the_cap() {
+        let c = HollowCylinder::try_new(glam::DVec3::ZERO, glam::DVec3::Y, 1.0, 0.8, 1.5).unwrap();
+        let e = DVec2::new(0.3, 4.0);
+        #[cfg(target_arch = "x86_64")]
+        let (v3, v4) = {
+            use std::arch::is_x86_feature_detected as has;
+            let v3 = has!("avx2") && has!("fma") && has!("bmi1") && has!("bmi2") && has!("lzcnt");
+            let v4 = v3
+                && has!("avx512f")
+                && has!("avx512bw")
+                && has!("avx512cd")
+                && has!("avx512dq")
+                && has!("avx512vl");
+            (v3, v4)
+        };
+        #[cfg(not(target_arch = "x86_64"))]
+        let (v3, v4) = (false, false);
+        let best = if v4 {
+            SimdLevel::Avx512
+        } else if v3 {
+            SimdLevel::Avx2
+        } else {
+            SimdLevel::Scalar
+        };
+        assert_eq!(SimdLevel::detect(), best);
+        assert_eq!(Consts::new(&c, e).level(), best);
+        for cap in [SimdLevel::Avx512, SimdLevel::Avx2, SimdLevel::Scalar] {
+            let k = Consts::with_level(&c, e, cap);
+            assert_eq!(k.level(), cap.min(best), "{cap:?}");
+            assert_eq!(k.lanes(), cap.min(best).lanes());
+        }
+        println!("this CPU: {best:?}, levels tested {:?}", levels());
+    }
+
+    /// Every lane at every level this CPU has is the scalar `resid_jac`,
+    /// bit for bit, for every family, in and out of its domain (the `None`s
+    /// too) and on its edges, with the families mixed across the lanes.
+    #[test]
+    fn every_level_equals_the_scalar_resid_jac() {
+        let mut rng = Lcg(7);
+        for (r_in, eye) in [(0.8, DVec2::new(0.3, 4.0)), (0.5, DVec2::new(-2.5, -1.5))] {
+            let c = HollowCylinder::try_new(glam::DVec3::ZERO, glam::DVec3::Y, 1.0, r_in, 1.5).unwrap();
+            let mut lanes: Vec<LaneIn> = (0..20_000).map(|_| random_lane(&mut rng, r_in)).collect();
+            let some = lanes
+                .iter()
+                .filter(|l| c.resid_jac(l.fam, eye, l.p, l.dv, l.b, l.beta).is_some())
+                .count();
+            assert!(some > 2000 && lanes.len() - some > 2000, "{some}");
+            let edges = edge_lanes(r_in, eye.length());
+            let edge_some = edges
+                .iter()
+                .filter(|l| c.resid_jac(l.fam, eye, l.p, l.dv, l.b, l.beta).is_some())
+                .count();
+            assert!(edge_some > 20 && edges.len() - edge_some > 20, "{edge_some}");
+            lanes.extend(edges);
+            // An odd count: the last evaluation is padded.
+            lanes.push(random_lane(&mut rng, r_in));
+            for level in levels() {
+                let k = Consts::with_level(&c, eye, level);
+                assert_eq!(k.level(), level);
+                assert_eq!(mismatches(&k, &c, eye, &lanes), 0, "{level:?}");
+            }
+        }
+    }
+
+    /// The bit-for-bit comparison has the power to see a change of the
+    /// operations: with one product-difference of the residual fused into
+    /// a multiply-add (one rounding less), many lanes at every vector
+    /// level differ from the scalar function.
+    #[test]
+    fn a_fused_multiply_add_is_caught() {
+        let mut rng = Lcg(11);
+        let eye = DVec2::new(0.3, 4.0);
+        let c = HollowCylinder::try_new(glam::DVec3::ZERO, glam::DVec3::Y, 1.0, 0.8, 1.5).unwrap();
+        let lanes: Vec<LaneIn> = (0..4000).map(|_| random_lane(&mut rng, 0.8)).collect();
+        for level in levels() {
+            let mut k = Consts::with_level(&c, eye, level);
+            assert_eq!(mismatches(&k, &c, eye, &lanes), 0, "{level:?}");
+            k.fused = true;
+            let bad = mismatches(&k, &c, eye, &lanes);
+            println!("{level:?}: {bad} of {} lanes differ when fused", lanes.len());
+            if level == SimdLevel::Scalar {
+                // The scalar level is the scalar function itself.
+                assert_eq!(bad, 0);
+            } else {
+                assert!(bad > 100, "{level:?}: {bad}");
+            }
+        }
+    }
+
+    /// `newton_rows` at every level (the rows loaded as vectors, the next
+    /// point stored back) is `step` of each row bit for bit, padding
+    /// included, edges too, and leaves a row that does not step where it
+    /// was.
+    #[test]
+    fn every_level_steps_as_the_scalar_step() {
         let mut rng = Lcg(13);
         let c = HollowCylinder::try_new(glam::DVec3::ZERO, glam::DVec3::Y, 1.0, 0.5, 1.5).unwrap();
         let eye = DVec2::new(0.3, 4.0);
-        let k = Consts::new(&c, eye);
-        let fams = [Family::Through4, Family::Tir2, Family::Wall2, Family::Hollow2];
         let mut seen = [0; 3];
-        for n in [1usize, 3, 4, 7, 64, 101] {
-            let mut rows = Rows::default();
-            let mut lanes = Vec::new();
-            for _ in 0..n {
-                let fam = fams[(rng.next() * 4.0) as usize % 4];
-                let p = if fam == Family::Hollow2 {
-                    DVec2::new(rng.next() - 0.5, rng.next() - 0.5) * 0.5
-                } else {
-                    DVec2::new(rng.next() * 12.0 - 6.0, rng.next() * 12.0 - 6.0)
-                };
-                let l = LaneIn {
-                    fam,
-                    p,
-                    dv: rng.next() * 6.0 - 3.0,
-                    b: rng.next() * 2.2 - 1.1,
-                    beta: rng.next() * 1.8 - 0.9,
-                };
-                // Some tolerances above any residual (roots), most tiny.
-                let tol = if rng.next() < 0.2 {
-                    1e3
-                } else {
-                    rng.next().powi(8) * 4.0
-                };
-                rows.push(&l, tol);
-                lanes.push((l, tol));
-            }
-            rows.pad(n);
-            assert_eq!(rows.b.len() % LANES, 0);
-            // The scalar path (no AVX2) gives the same rows.
-            let mut plain = rows.clone();
-            let mut plain_status = vec![NEXT; rows.b.len()];
-            newton_rows(&k.scalar(), &mut plain, &mut plain_status);
-            let mut status = vec![NEXT; rows.b.len()];
-            newton_rows(&k, &mut rows, &mut status);
-            assert_eq!(status, plain_status);
-            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-            assert_eq!(
-                (bits(&rows.b), bits(&rows.beta)),
-                (bits(&plain.b), bits(&plain.beta))
-            );
-            for (i, (l, tol)) in lanes.iter().enumerate() {
-                let want = step(c.resid_jac(l.fam, eye, l.p, l.dv, l.b, l.beta), l.b, l.beta, *tol);
-                let got = match status[i] {
-                    FAIL => Step::Fail,
-                    ROOT => Step::Root,
-                    _ => Step::Next(rows.b[i], rows.beta[i]),
-                };
-                let bits = |s: Step| match s {
-                    Step::Next(b, beta) => Some((b.to_bits(), beta.to_bits())),
-                    Step::Root => Some((0, 1)),
-                    Step::Fail => None,
-                };
-                assert_eq!(bits(got), bits(want), "{l:?}");
-                if status[i] != NEXT {
-                    assert_eq!(
-                        (rows.b[i].to_bits(), rows.beta[i].to_bits()),
-                        (l.b.to_bits(), l.beta.to_bits())
-                    );
+        let mut sizes: Vec<usize> = vec![1, 3, 4, 7, 8, 9, 64, 101, 5000];
+        let edges = edge_lanes(0.5, eye.length());
+        sizes.push(edges.len());
+        for (si, &n) in sizes.iter().enumerate() {
+            let lanes: Vec<LaneIn> = if si == sizes.len() - 1 {
+                edges.clone()
+            } else {
+                (0..n).map(|_| random_lane(&mut rng, 0.5)).collect()
+            };
+            // Some tolerances above any residual (roots), most tiny.
+            let tols: Vec<f64> = (0..n)
+                .map(|_| {
+                    if rng.next() < 0.2 {
+                        1e3
+                    } else {
+                        rng.next().powi(8) * 4.0
+                    }
+                })
+                .collect();
+            let want: Vec<Step> = lanes
+                .iter()
+                .zip(&tols)
+                .map(|(l, &tol)| step(c.resid_jac(l.fam, eye, l.p, l.dv, l.b, l.beta), l.b, l.beta, tol))
+                .collect();
+            for level in levels() {
+                let k = Consts::with_level(&c, eye, level);
+                let mut rows = rows_of(&lanes, |i| tols[i]);
+                let mut status = vec![NEXT; rows.b.len()];
+                newton_rows(&k, &mut rows, &mut status);
+                for (i, (l, w)) in lanes.iter().zip(&want).enumerate() {
+                    let got = match status[i] {
+                        FAIL => Step::Fail,
+                        ROOT => Step::Root,
+                        _ => Step::Next(rows.b[i], rows.beta[i]),
+                    };
+                    assert_eq!(step_bits(got), step_bits(*w), "{level:?} {l:?}");
+                    if status[i] != NEXT {
+                        assert_eq!(
+                            (canon(rows.b[i]), canon(rows.beta[i])),
+                            (canon(l.b), canon(l.beta))
+                        );
+                    }
+                    seen[status[i] as usize] += 1;
                 }
-                seen[status[i] as usize] += 1;
             }
         }
-        assert!(seen.iter().all(|&n| n > 5), "{seen:?}");
+        assert!(seen.iter().all(|&n| n > 100), "{seen:?}");
     }
 }

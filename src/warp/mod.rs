@@ -11,6 +11,7 @@ pub mod points;
 pub mod tube;
 
 pub use glass::{CopyKey, ExactPath, RayClass, Segment, WarpGlass};
+pub use lanes::SimdLevel;
 pub use plate::{Plate, PlateImage, PlateStatus};
 pub use tube::{CylImage, CylStatus, CylinderWarper, Family, HollowCylinder};
 

@@ -18,9 +18,9 @@ impl HollowCylinder {
     /// family edges (a cos θ → 0): the fast solver uses it away from them
     /// only. Checked against finite differences in the tests.
     ///
-    /// The fast solver evaluates it four at a time (`lanes::resid_jac4`,
-    /// tested equal to this one bit for bit) where the CPU has AVX2, and
-    /// lane by lane with this one elsewhere.
+    /// The fast solver evaluates it eight (AVX-512) or four (AVX2) at a
+    /// time (`lanes::newton_rows`, every level tested equal to this one bit
+    /// for bit), and row by row with this one elsewhere.
     ///
     /// The target is in the hollow for hollow2 and outside it for the other
     /// families, as the fast solver's polishes are.

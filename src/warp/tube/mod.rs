@@ -19,7 +19,7 @@
 //! form Jacobian), `newton` (the damped Newton), `scan` (brackets from
 //! sampled residuals), `robust` (`HollowCylinder::images`: one target, no
 //! tables); the fast solver for many targets: `table`, `plan` (the
-//! inverse table), `polish` (Newton four lanes at a time), `warper`
+//! inverse table), `polish` (Newton in vector lanes), `warper`
 //! (`CylinderWarper`).
 mod family;
 mod geometry;

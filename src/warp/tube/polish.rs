@@ -1,6 +1,7 @@
 //! The fast solver's polish: Newton in (b, β) from the tables' first
 //! guesses with the closed-form Jacobian, the running polishes of a batch
-//! of targets evaluated four at a time (`lanes`).
+//! of targets evaluated in the lanes of a vector, four or eight at a time
+//! (`lanes`).
 use super::family::Family;
 use super::geometry::Target;
 use crate::warp::lanes::{newton_rows, Consts, LaneIn, Rows, NEXT, ROOT};
@@ -8,12 +9,12 @@ use glam::DVec2;
 
 /// Newton in (b, β) with the closed-form Jacobian from the table's first
 /// guess, one step at a time (`step`, given the evaluation at the current
-/// point), so that the polishes of a batch run four at a time: one
+/// point), so that the polishes of a batch run in vector lanes: one
 /// evaluation per step instead of three. Fails (the caller then runs the
 /// damped finite-difference Newton, which also handles the family edges)
 /// unless the residual falls to 1e-13·dist within `POLISH_STEPS` steps at
 /// a `b` near the bracket (so that it is this bracket's root, not a
-/// neighbour's). In four lanes the Jacobian comes with every evaluation,
+/// neighbour's). In lanes the Jacobian comes with every evaluation,
 /// so every step is a full Newton step.
 pub(crate) struct Polish {
     pub(crate) fam: Family,
@@ -107,10 +108,10 @@ pub(crate) struct PolishScratch {
 /// Newton steps a polish may take.
 const POLISH_STEPS: usize = 6;
 
-/// Every running polish of the batch steps once per pass, four at a
-/// time (`lanes::newton_rows`: one closed-form evaluation and one
+/// Every running polish of the batch steps once per pass, `lanes.lanes()`
+/// at a time (`lanes::newton_rows`: one closed-form evaluation and one
 /// Newton step per polish; the lanes overlap the dependent chains of
-/// square roots and divisions of up to four polishes, of any targets
+/// square roots and divisions of up to eight polishes, of any targets
 /// and families). Each polish takes the same steps as alone. The
 /// running polishes are rows of a struct of arrays (`lanes::Rows`),
 /// compacted after each pass; a polish's own state is written only

@@ -19,7 +19,7 @@ use super::plan::{Plans, PLAN_MIN_TARGETS};
 use super::polish::{polish_all, Job, Polish, PolishScratch};
 use super::scan::Candidate;
 use super::table::{Tables, BIN, FAMILIES};
-use crate::warp::lanes::Consts;
+use crate::warp::lanes::{Consts, SimdLevel};
 use glam::{DVec2, DVec3};
 
 /// Tables for one eye and one tube.
@@ -34,7 +34,7 @@ pub struct CylinderWarper {
     /// The inverse table: scan plans for the cells of target space the
     /// targets of `for_targets` fall in (none for `new`).
     pub(crate) plans: Option<Plans>,
-    /// The tube and the eye for the four-lane evaluations.
+    /// The tube and the eye for the vector evaluations, and their level.
     lanes: Consts,
     /// The eye's terms of an image's direction (`collect`).
     terms: EyeTerms,
@@ -122,6 +122,18 @@ impl CylinderWarper {
         })
     }
 
+    /// Evaluates the Newton polishes at most at level `max` from now on
+    /// (the widest the CPU has is the default): the bench and the tests
+    /// compare the levels, whose images are the same bits.
+    pub fn set_simd_level(&mut self, max: SimdLevel) {
+        self.lanes = Consts::with_level(&self.cyl, self.eye.e, max);
+    }
+
+    /// The level the Newton polishes are evaluated at.
+    pub fn simd_level(&self) -> SimdLevel {
+        self.lanes.level()
+    }
+
     /// Where a target falls: how the solvers see it, and its β bin
     /// (`None` outside the tabulated range). The solver and the inverse
     /// table use this one function, so that a target always meets the plan
@@ -182,15 +194,16 @@ impl CylinderWarper {
 
     /// The images of every target of `targets`, handed to `each` with the
     /// target's index in order (`Err` as `images_into`). Targets are solved
-    /// `BATCH` at a time: their Newton polishes are evaluated four at once
-    /// (`lanes`), so this is the renderer's call; `images_into` is a batch
-    /// of one.
+    /// `BATCH_PER_LANE` per vector lane at a time: their Newton polishes
+    /// are evaluated four or eight at once (`lanes`), so this is the
+    /// renderer's call; `images_into` is a batch of one.
     pub fn images_batch<F>(&self, targets: &[DVec3], parity: bool, mut each: F)
     where
         F: FnMut(usize, Result<&[CylImage], CylStatus>),
     {
         let mut sc = SCRATCH.with(|c| c.take());
-        for (ci, chunk) in targets.chunks(BATCH).enumerate() {
+        let batch = BATCH_PER_LANE * self.lanes.lanes().max(4);
+        for (ci, chunk) in targets.chunks(batch).enumerate() {
             sc.jobs.clear();
             sc.ctx.clear();
             if sc.outs.len() < chunk.len() {
@@ -215,7 +228,7 @@ impl CylinderWarper {
                         Ok(())
                     }
                 };
-                each(ci * BATCH + i, res.map(|()| &out[..]));
+                each(ci * batch + i, res.map(|()| &out[..]));
             }
         }
         SCRATCH.with(|c| c.replace(sc));
@@ -334,9 +347,11 @@ impl CylinderWarper {
     }
 }
 
-/// Targets per batch of `images_batch` (~2 polishes each: eight groups of
-/// four lanes per pass).
-const BATCH: usize = 16;
+/// Targets per batch of `images_batch` per lane of an evaluation (at least
+/// four lanes' worth: the scalar level gains nothing from smaller batches).
+/// ~2 polishes each: eight evaluations per pass at first, fewer as the
+/// polishes converge.
+const BATCH_PER_LANE: usize = 4;
 
 /// A target after `prepare`.
 #[derive(Clone, Copy)]
@@ -419,6 +434,52 @@ mod tests {
                     "{t}: {r:?} not in {fast:?}"
                 );
             }
+        }
+    }
+
+    /// The renderer's call gives the same images, bit for bit, at every
+    /// SIMD level this CPU has (the batch size follows the level's lanes,
+    /// and AVX-512 runs a last group of four rows in AVX2's lanes), for
+    /// targets outside the tube and in the hollow, with and without parity.
+    #[test]
+    fn every_simd_level_gives_the_same_images() {
+        let eye = DVec3::new(0.3, 0.2, 4.0);
+        let c = HollowCylinder::try_new(DVec3::ZERO, DVec3::Y, 1.0, 0.6, 1.5).unwrap();
+        let mut rng = Lcg(5);
+        let pts: Vec<DVec3> = (0..3000)
+            .map(|i| {
+                if i % 5 == 0 {
+                    // In the hollow.
+                    let (r, a) = (0.55 * rng.next().sqrt(), rng.next() * std::f64::consts::TAU);
+                    DVec3::new(r * a.cos(), rng.next() * 2.0 - 1.0, r * a.sin())
+                } else {
+                    DVec3::new(
+                        rng.next() * 8.0 - 4.0,
+                        rng.next() * 3.0 - 1.5,
+                        -1.2 - 2.0 * rng.next(),
+                    )
+                }
+            })
+            .collect();
+        let mut w = CylinderWarper::for_targets(c, eye, &pts).unwrap();
+        assert_eq!(w.simd_level(), SimdLevel::detect());
+        let run = |w: &CylinderWarper, parity: bool| {
+            let mut out = Vec::new();
+            for ch in pts.chunks(97) {
+                w.images_batch(ch, parity, |_, r| out.push(format!("{r:?}")));
+            }
+            out
+        };
+        let (want, want_parity) = (run(&w, false), run(&w, true));
+        let images = want.iter().filter(|s| s.contains("CylImage")).count();
+        assert!(images > 2000, "{images}");
+        for level in [SimdLevel::Avx512, SimdLevel::Avx2, SimdLevel::Scalar] {
+            w.set_simd_level(level);
+            assert_eq!(w.simd_level(), level.min(SimdLevel::detect()));
+            // `{:?}` of an f64 is its shortest round trip: equal strings are
+            // equal bits (a NaN aside).
+            assert!(run(&w, false) == want, "{level:?}");
+            assert!(run(&w, true) == want_parity, "{level:?}");
         }
     }
 
