@@ -46,6 +46,16 @@ pub struct Counters {
     pub medium_segments: u64,
     /// Field evaluations (n and ∇n at one point) for curved rays.
     pub field_evals: u64,
+    /// Lanes of the path tracer's nearest-hit packets sent to Embree (packets
+    /// × their width): `packet_lanes / packet_slots` is the share of the
+    /// vector lanes that carried a ray.
+    pub packet_slots: u64,
+    /// Rays those packets carried.
+    pub packet_lanes: u64,
+    /// Lanes of the path tracer's shadow packets (packets × width).
+    pub shadow_packet_slots: u64,
+    /// Shadow rays those packets carried.
+    pub shadow_packet_lanes: u64,
 }
 
 impl Counters {
@@ -75,6 +85,10 @@ impl AddAssign for Counters {
             grin_failures,
             medium_segments,
             field_evals,
+            packet_slots,
+            packet_lanes,
+            shadow_packet_slots,
+            shadow_packet_lanes,
         } = o;
         self.samples += samples;
         self.queries += queries;
@@ -92,6 +106,10 @@ impl AddAssign for Counters {
         self.grin_failures += grin_failures;
         self.medium_segments += medium_segments;
         self.field_evals += field_evals;
+        self.packet_slots += packet_slots;
+        self.packet_lanes += packet_lanes;
+        self.shadow_packet_slots += shadow_packet_slots;
+        self.shadow_packet_lanes += shadow_packet_lanes;
     }
 }
 

@@ -269,7 +269,7 @@ pub fn sum_stats<'a>(
     stats: impl Iterator<Item = Option<&'a serde_json::Value>>,
     parts: usize,
 ) -> serde_json::Value {
-    const SUMMED: [&str; 19] = [
+    const SUMMED: [&str; 23] = [
         "wall_s",
         "cpu_s",
         "samples",
@@ -288,6 +288,10 @@ pub fn sum_stats<'a>(
         "grin_failures",
         "medium_segments",
         "field_evals",
+        "packet_slots",
+        "packet_lanes",
+        "shadow_packet_slots",
+        "shadow_packet_lanes",
         "load_s",
     ];
     let mut ints = std::collections::BTreeMap::<&str, u64>::new();
@@ -324,6 +328,8 @@ pub fn sum_stats<'a>(
         "samples_per_s": samples / wall.max(1e-9),
         "rays_per_s": rays / wall.max(1e-9),
         "false_hits_per_ray": get("false_hits") / queries.max(1.0),
+        "packet_lane_share": get("packet_lanes") / get("packet_slots").max(1.0),
+        "shadow_packet_lane_share": get("shadow_packet_lanes") / get("shadow_packet_slots").max(1.0),
         "provenance": crate::provenance::json(),
     });
     if let serde_json::Value::Object(d) = derived {

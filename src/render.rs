@@ -165,6 +165,8 @@ impl RenderStats {
             "chords_per_medium_segment": per(c.chords, c.medium_segments),
             "evals_per_chord": per(c.field_evals, c.chords),
             "evals_per_medium_segment": per(c.field_evals, c.medium_segments),
+            "packet_lane_share": per(c.packet_lanes, c.packet_slots),
+            "shadow_packet_lane_share": per(c.shadow_packet_lanes, c.shadow_packet_slots),
             "provenance": crate::provenance::json(),
         });
         if let (Some(o), serde_json::Value::Object(d)) = (j.as_object_mut(), derived) {
@@ -529,6 +531,7 @@ impl TileJob<'_> {
                 }
             }
         }
+        stats += lane_packets.take_occupancy();
         // Embree errors and panics in analytic shapes (which made queries miss)
         // surface here instead of as a silently wrong tile.
         scene.embree.check()?;

@@ -527,3 +527,57 @@ fn packet_lanes_trace_the_same_paths_as_single_rays() {
         );
     }
 }
+
+/// The packet counters say how full the path tracer's packets went out:
+/// without solids every segment is a lane of a packet (so the lanes equal
+/// the segments, and a miscount would show), with nested solids some go
+/// one by one instead, and a gradient-index scene sends no packet at all.
+/// Eight-wide packets: the slots are a multiple of eight, at least the lanes.
+#[test]
+fn packet_counters_count_the_lanes_sent() {
+    let counters = |name: &str| {
+        let s = load_scene(
+            Path::new(&format!("scenes/{name}.toml")),
+            &BuildOptions::default(),
+        )
+        .unwrap();
+        let set = RenderSettings::from_scene(&s)
+            .with_resolution(32, 24)
+            .unwrap()
+            .with_spp(4);
+        let opts = RenderOptions {
+            threads: Some(2),
+            want_aovs: false,
+            ..Default::default()
+        };
+        render(&s, &set, &opts).unwrap().stats.counters
+    };
+    for name in [
+        "three_spheres",
+        "glass_of_water",
+        "glass_of_water_nested",
+        "mirage_road",
+    ] {
+        let c = counters(name);
+        assert!(
+            c.packet_slots % 8 == 0 && c.shadow_packet_slots % 8 == 0,
+            "{name}: {c:?}"
+        );
+        assert!(c.packet_lanes <= c.packet_slots && c.shadow_packet_lanes <= c.shadow_packet_slots);
+        assert!(c.shadow_packet_lanes <= c.shadow_rays, "{name}: {c:?}");
+        match name {
+            "three_spheres" | "glass_of_water" => {
+                assert_eq!(c.packet_lanes, c.segments, "{name}: every segment in a packet");
+                assert!(c.shadow_packet_lanes > 0, "{name}: shadow rays in packets");
+            }
+            "glass_of_water_nested" => {
+                assert!(c.packet_lanes > 0 && c.packet_lanes < c.segments, "{name}: {c:?}");
+            }
+            _ => assert_eq!(
+                c.packet_slots + c.shadow_packet_slots,
+                0,
+                "{name}: a medium, no packets"
+            ),
+        }
+    }
+}

@@ -644,11 +644,20 @@ fn known_segment(tr: Tracer<'_>, ray: &Ray, hit: Option<crate::ray::Hit>, st: &m
 
 /// The two Embree packets [`path_lanes`] fills (nearest-hit segments and
 /// shadow rays), made once per thread's batch of calls: zeroing a packet
-/// per call shows in a render's profile.
+/// per call shows in a render's profile. With how full they went out.
 #[derive(Default)]
 pub struct LanePackets<P> {
     near: P,
     shadow: P,
+    occupancy: Counters,
+}
+
+impl<P> LanePackets<P> {
+    /// The packets' slots and the rays they carried since the last call
+    /// (the `packet_*` fields of [`Counters`]; the others are zero).
+    pub fn take_occupancy(&mut self) -> Counters {
+        std::mem::take(&mut self.occupancy)
+    }
 }
 
 /// Up to `N` paths of the path tracer traced side by side (renders use 8):
@@ -682,7 +691,11 @@ pub fn path_lanes<const N: usize, P: RayPacket<N>>(
         *slot = Some(PathState::new(o, d, list.clone()));
     }
     let mut out = [V3::ZERO; N];
-    let LanePackets { near, shadow } = packets;
+    let LanePackets {
+        near,
+        shadow,
+        occupancy,
+    } = packets;
     while paths.iter().any(Option::is_some) {
         near.clear();
         let mut plain: [Option<bool>; N] = [None; N];
@@ -699,6 +712,10 @@ pub fn path_lanes<const N: usize, P: RayPacket<N>>(
         // parallel), not only for the camera rays: it paid on refractive
         // scenes. Shadow rays go without: they are slower in it (docs/peers.md).
         let coherent = paths.iter().flatten().all(|p| p.only_specular);
+        // (A packet without a lane is not sent: `RayPacket::intersect`.)
+        let lanes = plain.iter().flatten().count() as u64;
+        occupancy.packet_slots += if lanes > 0 { N as u64 } else { 0 };
+        occupancy.packet_lanes += lanes;
         intersect_packet(scene, near, coherent);
         shadow.clear();
         // Which lanes the packet answered (the others are cast one by one
@@ -749,6 +766,8 @@ pub fn path_lanes<const N: usize, P: RayPacket<N>>(
             ended[i] = !go;
         }
         if pending.iter().any(Option::is_some) {
+            occupancy.shadow_packet_slots += N as u64;
+            occupancy.shadow_packet_lanes += pending.iter().flatten().count() as u64;
             occlude_packet(scene, shadow);
         }
         // In each path's order: its shadow ray before its next segment.
