@@ -191,29 +191,27 @@ impl<'a, const N: usize, F: FnMut(&Primitive, &LaneRoots<N>)> pulp::WithSimd for
                     reals[k] = simd.select_f64s(misses, zero, one);
                     continue;
                 };
-                let (dx, dy, dz) = (d[0][k], d[1][k], d[2][k]);
-                let (a, b, c) = match quadric {
-                    Quadric::Sphere { center, radius } => {
-                        let cx = sub(o[0][k], splat(center.x));
-                        let cy = sub(o[1][k], splat(center.y));
-                        let cz = sub(o[2][k], splat(center.z));
-                        let a = dot(dx, dy, dz, dx, dy, dz);
-                        let b = dot(cx, cy, cz, dx, dy, dz);
-                        let len = simd.sqrt_f64s(dot(cx, cy, cz, cx, cy, cz));
-                        let r = splat(radius);
-                        (a, b, mul(sub(len, r), add(len, r)))
-                    }
-                    Quadric::WallY { base, radius } => {
-                        // The parts across the y axis: (x, 0, z).
-                        let px = sub(o[0][k], splat(base.x));
-                        let pz = sub(o[2][k], splat(base.z));
-                        let a = dot(dx, zero, dz, dx, zero, dz);
-                        let b = dot(px, zero, pz, dx, zero, dz);
-                        let len = simd.sqrt_f64s(dot(px, zero, pz, px, zero, pz));
-                        let r = splat(radius);
-                        (a, b, mul(sub(len, r), add(len, r)))
-                    }
+                // The quadric's offset from the origin and the direction: a
+                // sphere's whole, a wall's parts across the y axis (x, 0, z).
+                let (off, dir, radius) = match quadric {
+                    Quadric::Sphere { center, radius } => (
+                        [0, 1, 2].map(|a| sub(o[a][k], splat(center[a]))),
+                        [d[0][k], d[1][k], d[2][k]],
+                        radius,
+                    ),
+                    Quadric::WallY { base, radius } => (
+                        [sub(o[0][k], splat(base.x)), zero, sub(o[2][k], splat(base.z))],
+                        [d[0][k], zero, d[2][k]],
+                        radius,
+                    ),
                 };
+                let [cx, cy, cz] = off;
+                let [dx, dy, dz] = dir;
+                let a = dot(dx, dy, dz, dx, dy, dz);
+                let b = dot(cx, cy, cz, dx, dy, dz);
+                let len = simd.sqrt_f64s(dot(cx, cy, cz, cx, cy, cz));
+                let r = splat(radius);
+                let c = mul(sub(len, r), add(len, r));
                 let disc = sub(mul(b, b), mul(a, c));
                 // !(disc < 0 || a == 0): a NaN discriminant counts as real, as in the scalar code.
                 let not_real = simd.or_m64s(simd.less_than_f64s(disc, zero), simd.equal_f64s(a, zero));
