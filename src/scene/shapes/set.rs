@@ -171,9 +171,9 @@ impl<'a, const N: usize, F: FnMut(&Primitive, &LaneRoots<N>)> pulp::WithSimd for
             let (reals, _) = S::as_mut_simd_f64s(&mut out.real[..n]);
             let mut any = false;
             for k in 0..o[0].len() {
-                // The slab test. A NaN (a direction parallel to a face, from
-                // the face's plane) lets the lane through: every comparison
-                // below is negated.
+                // The slab test. A ray parallel to a face and lying in its
+                // plane (0·∞, NaN) may come out either way: the padded box
+                // holds the shape strictly inside, so that ray misses it.
                 let (mut near, mut far) = (t_lo[k], t_hi[k]);
                 for a in 0..3 {
                     let ta = mul(sub(splat(lo[a]), o[a][k]), inv[a][k]);
