@@ -251,3 +251,52 @@ fn grin_fan_writes_svg_and_json_and_refuses_bad_flags() {
         assert!(!d.join("bad.svg").exists());
     }
 }
+
+/// `--analytic-shapes embree` (Embree's callbacks) and the default (the
+/// analytic set) give the same image bit for bit; another seed does not
+/// (the comparison can fail). A value it does not know is a clear error.
+#[test]
+fn analytic_shapes_flag_keeps_the_image() {
+    let d = tmpdir("analytic");
+    let render = |name: &str, extra: &[&str]| {
+        let exr = d.join(name);
+        let out = snell()
+            .args(["render", "scenes/cylinder_refraction.toml", "-o"])
+            .arg(&exr)
+            .args([
+                "--width",
+                "32",
+                "--height",
+                "24",
+                "--spp",
+                "2",
+                "--threads",
+                "2",
+                "--quiet",
+            ])
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let (_, _, px) = snell::image_io::read_exr_rgb(&exr).unwrap();
+        px.iter()
+            .flat_map(|p| p.to_array().map(f32::to_bits))
+            .collect::<Vec<u32>>()
+    };
+    let set = render("set.exr", &[]);
+    let embree = render("embree.exr", &["--analytic-shapes", "embree"]);
+    assert_eq!(set, embree);
+    assert_ne!(set, render("seed.exr", &["--seed", "1"]));
+    let out = snell()
+        .args([
+            "render",
+            "scenes/cylinder_refraction.toml",
+            "--analytic-shapes",
+            "f32",
+        ])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("analytic-shapes"));
+    let _ = std::fs::remove_dir_all(&d);
+}
