@@ -1,0 +1,210 @@
+//! One path segment: the first true hit along a ray, straight, or as a
+//! chain of chords through a gradient-index medium (straight outside its
+//! bounds at no extra cost).
+use super::{RayQuery, Tracer};
+use crate::counters::Counters;
+use crate::dielectric::{self, InteriorList};
+use crate::error::Result;
+use crate::ray::Ray;
+use crate::scene::RenderScene;
+use glam::Vec3A as V3;
+
+/// One path segment: the first true hit (if any) and the straight chord it
+/// lies on, the direction the ray arrives with and the distance travelled.
+/// The solid surfaces coincident with the hit travel beside it (a
+/// [`dielectric::Coincident`] from [`cast`], or [`NO_COINCIDENT`] for a
+/// plain query): a segment is built per path and per bounce, and carrying
+/// the 112-byte record in it would cost a copy of it per segment.
+pub(super) struct Segment {
+    /// The first true hit.
+    pub hit: Option<crate::ray::Hit>,
+    /// The straight ray (a chord inside a medium) the hit was found on.
+    pub chord: Ray,
+    /// Unit direction at the end (the tangent of the curved path at the hit,
+    /// or the direction the ray leaves to infinity with).
+    pub dir: V3,
+    /// Path length to the hit (sum of chords).
+    pub length: f32,
+    /// The curved-ray integrator failed (e.g. the paper's Euler at a turning
+    /// point): the path ends black.
+    pub failed: bool,
+    /// The ray reached the medium's bounds before its hit (or escape), so it
+    /// may have curved: no straight next-event connection can produce it.
+    pub entered_medium: bool,
+}
+
+/// The coincident surfaces of a plain query's hit (none).
+pub(super) static NO_COINCIDENT: dielectric::Coincident = dielectric::Coincident::NONE;
+
+impl Segment {
+    /// The curved-ray integrator failed after `travelled` along the path
+    /// that started as `ray`: no hit, the path ends black.
+    pub(super) fn failed(ray: &Ray, travelled: f64, entered_medium: bool) -> Segment {
+        Segment {
+            hit: None,
+            chord: *ray,
+            dir: ray.dir,
+            length: travelled as f32,
+            failed: true,
+            entered_medium,
+        }
+    }
+
+    /// A straight segment (no medium) along `ray` ending at `hit`.
+    #[inline]
+    pub(super) fn straight(ray: &Ray, hit: Option<crate::ray::Hit>) -> Segment {
+        Segment {
+            // From where the ray starts (tnear: a ray continued on its line).
+            length: hit.map(|h| h.t - ray.tnear).unwrap_or(f32::INFINITY),
+            hit,
+            chord: *ray,
+            dir: ray.dir,
+            failed: false,
+            entered_medium: false,
+        }
+    }
+}
+
+/// Chords one curved segment may take before the path is ended (and counted
+/// as an integrator failure).
+pub const MAX_CHORDS_PER_SEGMENT: u32 = 200_000;
+
+/// Does the straight segment from `p` along unit `wi` for `dist` meet the
+/// gradient-index medium's bounds? Next-event estimation is only used for
+/// connections that do not (light travels straight outside the bounds); a
+/// connection that does would need the curved path between two points.
+pub(super) fn meets_medium(scene: &RenderScene, p: V3, wi: V3, dist: f32) -> bool {
+    scene.medium.as_ref().is_some_and(|m| {
+        m.bounds()
+            .clip(p.as_dvec3(), wi.as_dvec3())
+            .is_some_and(|(t0, t1)| t1 > 0.0 && t0 < dist as f64)
+    })
+}
+
+/// Cast `ray`, through the gradient-index medium as chords when the scene has
+/// one (straight outside its bounds at no extra cost), else straight.
+pub(super) fn cast(
+    tr: Tracer<'_>,
+    ray: &Ray,
+    list: &mut InteriorList,
+    st: &mut Counters,
+) -> Result<(Segment, dielectric::Coincident)> {
+    let scene = tr.scene;
+    let Some(med) = &scene.medium else {
+        tr.observe(|| RayQuery::Nearest(*ray));
+        return Ok(match dielectric::trace(scene, tr.strategy, ray, list, st)? {
+            Some(th) => (Segment::straight(ray, Some(th.hit)), th.coincident),
+            None => (Segment::straight(ray, None), dielectric::Coincident::NONE),
+        });
+    };
+    let mut curved = med.start_ray(ray.org.as_dvec3(), ray.dir.as_dvec3());
+    let out = cast_curved(tr, med, &mut curved, ray, list, st);
+    st.field_evals += curved.evaluations();
+    if curved.entered() {
+        st.medium_segments += 1;
+    }
+    out
+}
+
+/// [`cast`] through the medium: the chords of `curved` until one hits or
+/// escapes.
+fn cast_curved(
+    tr: Tracer<'_>,
+    med: &crate::media::Medium,
+    curved: &mut crate::media::CurvedRay,
+    ray: &Ray,
+    list: &mut InteriorList,
+    st: &mut Counters,
+) -> Result<(Segment, dielectric::Coincident)> {
+    let scene = tr.scene;
+    let mut travelled = 0.0f64;
+    // The first chord is inside the medium when the ray starts in its bounds;
+    // every later chord is (the first one ends at the entry).
+    let starts_inside = med
+        .bounds()
+        .clip(ray.org.as_dvec3(), ray.dir.as_dvec3())
+        .is_some_and(|(t0, t1)| t0 <= 0.0 && t1 > med.tolerance());
+    // A budget of chords per segment (the load-time checks bound the chord
+    // count across the box; this also covers rays trapped in a duct).
+    for k in 0..MAX_CHORDS_PER_SEGMENT {
+        let entered_medium = k > 0 || starts_inside;
+        let chord = curved.next_chord(med);
+        travelled += chord.skipped;
+        if chord.length == 0.0 && curved.failure().is_none() {
+            // A zero-length chord is the ray leaving the bounds exactly where it
+            // stands (at the box face): not a failure, nothing to cast.
+            continue;
+        }
+        if curved.failure().is_some() || chord.length.is_nan() || chord.length < 0.0 {
+            return Ok((
+                Segment::failed(ray, travelled, entered_medium),
+                dielectric::Coincident::NONE,
+            ));
+        }
+        let mut r = Ray::new(chord.origin.as_vec3a(), chord.dir.as_vec3a());
+        if chord.length.is_finite() {
+            r.tfar = chord.length as f32;
+        }
+        st.chords += 1;
+        // A chord that meets no geometry's box needs no query.
+        let th = if med.chord_may_hit(&chord) {
+            tr.observe(|| RayQuery::Nearest(r));
+            dielectric::trace(scene, tr.strategy, &r, list, st)?
+        } else {
+            None
+        };
+        if let Some(th) = th {
+            let p = r.org + r.dir * th.hit.t;
+            let (_, tangent) = curved.refine_hit(
+                med,
+                &chord,
+                th.hit.t as f64,
+                p.as_dvec3(),
+                (th.hit.ng.normalize_or(V3::Y)).as_dvec3(),
+            );
+            return Ok((
+                Segment {
+                    hit: Some(th.hit),
+                    chord: r,
+                    dir: (tangent.normalize()).as_vec3a(),
+                    length: (travelled + th.hit.t as f64) as f32,
+                    failed: false,
+                    entered_medium,
+                },
+                th.coincident,
+            ));
+        }
+        if !chord.length.is_finite() {
+            return Ok((
+                Segment {
+                    hit: None,
+                    chord: r,
+                    dir: r.dir,
+                    length: f32::INFINITY,
+                    failed: false,
+                    entered_medium,
+                },
+                dielectric::Coincident::NONE,
+            ));
+        }
+        travelled += chord.length;
+    }
+    Ok((
+        Segment::failed(ray, travelled, true),
+        dielectric::Coincident::NONE,
+    ))
+}
+
+/// The segment of `ray` whose plain query answered `hit`, counted and
+/// observed as `cast` would have.
+#[inline]
+pub(super) fn known_segment(
+    tr: Tracer<'_>,
+    ray: &Ray,
+    hit: Option<crate::ray::Hit>,
+    st: &mut Counters,
+) -> Segment {
+    tr.observe(|| RayQuery::Nearest(*ray));
+    st.queries += 1;
+    Segment::straight(ray, hit)
+}

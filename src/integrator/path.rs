@@ -1,0 +1,247 @@
+//! The path tracer: a path's state between segments and the step that
+//! shades one segment (emission, scattering, the next-event connection, the
+//! next ray, Russian roulette), shared by single rays and [`super::lanes`].
+use super::cast::{cast, Segment};
+use super::light::{light_candidate, shadow_ray};
+use super::scatter::{Bsdf, Lobe};
+use super::Tracer;
+use crate::counters::Counters;
+use crate::dielectric::{self, InteriorList};
+use crate::error::Result;
+use crate::ray::{front_facing, offset_origin, spawn_transmitted, Ray};
+use crate::sampling::{power_heuristic, Rng};
+use crate::scene::SurfacePoint;
+use glam::Vec3A as V3;
+
+/// A path tracer's path between two segments: the loop state of [`path`]
+/// and of [`path_lanes`](super::path_lanes), which both advance it with [`PathState::advance`].
+pub(super) struct PathState {
+    pub(super) l: V3,
+    pub(super) beta: V3,
+    pub(super) eta_scale: f32,
+    /// The next segment's ray.
+    pub(super) ray: Ray,
+    pub(super) specular: bool,
+    pub(super) prev_p: V3,
+    pub(super) prev_pdf: f32,
+    /// Segment index of `ray`.
+    pub(super) depth: u32,
+    pub(super) list: InteriorList,
+    /// No diffuse bounce yet: the camera ray and its mirror and dielectric
+    /// continuations, which a pixel's samples follow side by side nearly in
+    /// parallel (Embree's coherent packets, `path_lanes`).
+    pub(super) only_specular: bool,
+}
+
+/// A next-event connection waiting for its shadow ray: `contrib` is added to
+/// the path's radiance if `ray` is unoccluded.
+pub(super) struct PendingShadow {
+    pub(super) ray: Ray,
+    pub(super) contrib: V3,
+}
+
+impl PathState {
+    pub(super) fn new(org: V3, dir: V3, list: InteriorList) -> Self {
+        PathState {
+            l: V3::ZERO,
+            beta: V3::ONE,
+            eta_scale: 1.0,
+            ray: Ray::new(org, dir),
+            specular: true,
+            prev_p: org,
+            prev_pdf: 0.0,
+            depth: 1,
+            list,
+            only_specular: true,
+        }
+    }
+
+    /// Shade the segment `seg` just cast along `self.ray` (`sigma`: the
+    /// medium's absorption before the cast): emission, the next-event
+    /// connection (returned as a shadow ray to resolve before the next
+    /// segment, in order), the next ray and Russian roulette. `false`: the
+    /// path has ended. `surface`: the hit's surface point when the caller
+    /// has already reconstructed it (`path_lanes`), else it is made here.
+    /// (Forced inline: one call per segment, in the lane loop and in `path`.)
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    pub(super) fn advance(
+        &mut self,
+        tr: Tracer<'_>,
+        sigma: Option<V3>,
+        seg: &Segment,
+        coincident: &dielectric::Coincident,
+        surface: Option<&SurfacePoint>,
+        rng: &mut Rng,
+        st: &mut Counters,
+    ) -> (Option<PendingShadow>, bool) {
+        let scene = tr.scene;
+        let mut shadow = None;
+        if seg.failed {
+            st.grin_failures += 1;
+            return (None, false);
+        }
+        let Some(hit) = &seg.hit else {
+            if sigma.is_none() {
+                self.l += self.beta * scene.environment.eval(seg.dir);
+            }
+            return (None, false);
+        };
+        if let Some(s) = sigma {
+            self.beta *= (-s * seg.length).exp();
+        }
+        let sp = match surface {
+            Some(sp) => *sp,
+            None => scene.surface_point(&seg.chord, hit),
+        };
+        // Shade with the direction the (possibly curved) ray arrives with.
+        self.ray.dir = seg.dir;
+        let rec = &scene.geoms[hit.geom_id as usize];
+        let front = front_facing(sp.ng, self.ray.dir);
+
+        if let Some(em) = &rec.emission {
+            if front {
+                let le = em.eval(sp.p, sp.uv);
+                let w = match rec.light {
+                    // A path through the medium cannot come from NEE (which
+                    // only connects straight segments that avoid it): weight 1.
+                    Some(li) if !self.specular && !seg.entered_medium => {
+                        let lp = scene.light_pdf(li, self.prev_p, sp.p, self.ray.dir);
+                        power_heuristic(self.prev_pdf, lp)
+                    }
+                    _ => 1.0,
+                };
+                self.l += self.beta * le * w;
+            }
+        }
+        if self.depth >= scene.max_depth {
+            return (None, false);
+        }
+        let bsdf = Bsdf::at(
+            tr,
+            &rec.material,
+            &sp,
+            self.ray.dir,
+            coincident,
+            &mut self.list,
+            st,
+        );
+        match bsdf {
+            Bsdf::Black => return (None, false),
+            Bsdf::Diffuse(lambert) => {
+                // Next-event estimation.
+                if let Some((ls, cos)) = light_candidate(scene, sp.p, lambert.n, lambert.ng, rng) {
+                    let w = if ls.delta {
+                        1.0
+                    } else {
+                        power_heuristic(ls.pdf, lambert.pdf(ls.wi))
+                    };
+                    let contrib = self.beta * lambert.f() * ls.li * (cos * w / ls.pdf);
+                    match shadow_ray(tr, sp.p, lambert.ng, ls.wi, ls.dist, st) {
+                        None => self.l += contrib,
+                        Some(ray) => shadow = Some(PendingShadow { ray, contrib }),
+                    }
+                }
+                // A black reflectance (cylinder_refraction's emitting plane)
+                // ends the path below (zero throughput): its direction is
+                // not sampled. Only where nothing else reads it: a finite
+                // throughput (so that it becomes exactly 0) and no solids
+                // for the child ray to settle (which would count them).
+                if lambert.albedo == V3::ZERO && self.beta.is_finite() && coincident.near.is_empty() {
+                    return (shadow, false);
+                }
+                let Some(wi) = lambert.sample(rng) else {
+                    return (shadow, false);
+                };
+                self.beta *= lambert.albedo;
+                self.prev_pdf = lambert.pdf(wi);
+                self.specular = false;
+                self.only_specular = false;
+                self.prev_p = sp.p;
+                self.ray = Ray::new(offset_origin(sp.p, lambert.ng), wi);
+                tr.settle(coincident, &self.ray, &mut self.list, st);
+            }
+            Bsdf::Mirror(mirror) => {
+                self.beta *= mirror.reflectance;
+                self.specular = true;
+                self.prev_p = sp.p;
+                self.ray = Ray::new(offset_origin(sp.p, mirror.side), mirror.wi);
+                tr.settle(coincident, &self.ray, &mut self.list, st);
+            }
+            Bsdf::Dielectric(iface) => {
+                match iface.sample(rng) {
+                    Lobe::Reflect(wi) => {
+                        self.ray = Ray::new(offset_origin(sp.p, iface.side), wi);
+                        tr.settle(coincident, &self.ray, &mut self.list, st);
+                    }
+                    Lobe::Transmit(wi) => {
+                        let k2 = iface.radiance_scale();
+                        self.beta *= k2;
+                        self.eta_scale /= k2;
+                        let (n1, n2) = (iface.boundary.n1, iface.boundary.n2);
+                        // Straight segments keep their line through index-matched boundaries.
+                        let line = (n1 == n2 && !seg.entered_medium && dielectric::keeps_line(scene))
+                            .then_some((&seg.chord, hit.t));
+                        let next = spawn_transmitted(sp.p, -iface.side, self.ray.dir, wi, (n1, n2), line);
+                        iface.boundary.transmit(&mut self.list);
+                        tr.settle(coincident, &next, &mut self.list, st);
+                        self.ray = next;
+                    }
+                }
+                self.specular = true;
+                self.prev_p = sp.p;
+            }
+        }
+        self.depth += 1;
+        // A path with zero throughput (a black reflectance: cylinder_refraction's
+        // emitting plane) can add nothing more, and would still cost rays.
+        // Same image: every later term would be multiplied by 0.
+        if self.beta.max_element() <= 0.0 {
+            return (shadow, false);
+        }
+        if self.depth > scene.rr_depth {
+            let q = (self.beta.max_element() * self.eta_scale).min(0.95);
+            if rng.uniform() >= q {
+                return (shadow, false);
+            }
+            self.beta /= q;
+        }
+        (shadow, true)
+    }
+
+    /// The path's radiance (0, counted, when it is not finite).
+    pub(super) fn radiance(&self, st: &mut Counters) -> V3 {
+        if self.l.is_finite() {
+            self.l
+        } else {
+            st.nan += 1;
+            V3::ZERO
+        }
+    }
+}
+
+pub(super) fn path(
+    tr: Tracer<'_>,
+    org: V3,
+    dir: V3,
+    list: InteriorList,
+    rng: &mut Rng,
+    st: &mut Counters,
+) -> Result<V3> {
+    let mut p = PathState::new(org, dir, list);
+    loop {
+        st.segments += 1;
+        let sigma = tr.medium(&p.list);
+        let (seg, coincident) = cast(tr, &p.ray, &mut p.list, st)?;
+        let (shadow, go) = p.advance(tr, sigma, &seg, &coincident, None, rng, st);
+        if let Some(sh) = shadow {
+            if !tr.scene.embree.occluded(&sh.ray) {
+                p.l += sh.contrib;
+            }
+        }
+        if !go {
+            break;
+        }
+    }
+    Ok(p.radiance(st))
+}

@@ -1,0 +1,98 @@
+//! The Whitted preview: direct light at diffuse surfaces (one sample per
+//! light), perfect specular recursion for mirrors and both lobes of
+//! dielectrics, through the same scattering model as the path tracer.
+use super::cast::cast;
+use super::light::light_seen;
+use super::scatter::Bsdf;
+use super::Tracer;
+use crate::counters::Counters;
+use crate::dielectric::InteriorList;
+use crate::error::Result;
+use crate::ray::{front_facing, offset_origin, spawn_transmitted, Ray};
+use crate::sampling::Rng;
+use glam::Vec3A as V3;
+
+/// Whitted: direct light at diffuse surfaces (one sample per light), perfect
+/// specular recursion for mirrors and both branches of dielectrics.
+pub(super) fn whitted(
+    tr: Tracer<'_>,
+    org: V3,
+    dir: V3,
+    mut list: InteriorList,
+    rng: &mut Rng,
+    st: &mut Counters,
+    depth: u32,
+) -> Result<V3> {
+    let scene = tr.scene;
+    st.segments += 1;
+    let ray = Ray::new(org, dir);
+    let sigma = tr.medium(&list);
+    // The same (curved through a medium) cast as the path tracer.
+    let (seg, coincident) = cast(tr, &ray, &mut list, st)?;
+    if seg.failed {
+        st.grin_failures += 1;
+        return Ok(V3::ZERO);
+    }
+    let Some(hit) = seg.hit else {
+        return Ok(if sigma.is_some() {
+            V3::ZERO
+        } else {
+            scene.environment.eval(seg.dir)
+        });
+    };
+    let att = sigma.map(|s| (-s * seg.length).exp()).unwrap_or(V3::ONE);
+    let sp = scene.surface_point(&seg.chord, &hit);
+    let dir = seg.dir;
+    let rec = &scene.geoms[hit.geom_id as usize];
+    let front = front_facing(sp.ng, dir);
+    let mut l = V3::ZERO;
+    if let (Some(em), true) = (&rec.emission, front) {
+        l += em.eval(sp.p, sp.uv);
+    }
+    if depth >= scene.max_depth {
+        return Ok(att * l);
+    }
+    match Bsdf::at(tr, &rec.material, &sp, dir, &coincident, &mut list, st) {
+        Bsdf::Black => {}
+        Bsdf::Diffuse(lambert) => {
+            for _ in 0..scene.lights.len() {
+                if let Some((ls, cos)) = light_seen(tr, sp.p, lambert.n, lambert.ng, rng, st) {
+                    l += lambert.f() * ls.li * (cos / ls.pdf) / scene.lights.len() as f32;
+                }
+            }
+            // Ambient term from a constant environment (preview only).
+            if let crate::scene::Environment::Constant(c) = scene.environment {
+                l += lambert.albedo * c;
+            }
+        }
+        Bsdf::Mirror(mirror) => {
+            let org = offset_origin(sp.p, mirror.side);
+            tr.settle(&coincident, &Ray::new(org, mirror.wi), &mut list, st);
+            l += mirror.reflectance * whitted(tr, org, mirror.wi, list, rng, st, depth + 1)?;
+        }
+        Bsdf::Dielectric(iface) => {
+            // Both lobes, each weighted by its Fresnel share.
+            let fr = iface.fresnel as f32;
+            let wr = iface.reflected();
+            let org = offset_origin(sp.p, iface.side);
+            let mut rl = list.clone();
+            tr.settle(&coincident, &Ray::new(org, wr), &mut rl, st);
+            l += fr * whitted(tr, org, wr, rl, rng, st, depth + 1)?;
+            if let Some(t) = iface.refracted {
+                let (n1, n2) = (iface.boundary.n1, iface.boundary.n2);
+                let k = n1 / n2;
+                let mut nl = list;
+                iface.boundary.transmit(&mut nl);
+                let next = spawn_transmitted(sp.p, -iface.side, dir, t, (n1, n2), None);
+                tr.settle(&coincident, &next, &mut nl, st);
+                l += (1.0 - fr) * k * k * whitted(tr, next.org, next.dir, nl, rng, st, depth + 1)?;
+            }
+        }
+    }
+    let out = att * l;
+    if !out.is_finite() {
+        st.nan += 1;
+        return Ok(V3::ZERO);
+    }
+    Ok(out)
+}
