@@ -489,13 +489,15 @@ impl TileJob<'_> {
                         *ray = self.camera.ray(fx, fy, lens);
                     }
                     let mut sts = [Counters::default(); PATHS_PER_PACKET];
+                    // Each sample's own counts only where a layer reads them.
+                    let per_sample = if aov.is_some() { lanes } else { 1 };
                     let ls = if packets {
                         path_lanes::<PATHS_PER_PACKET, LanePacket>(
                             tracer,
                             &rays[..lanes],
                             &start_list,
                             &mut rngs,
-                            &mut sts,
+                            &mut sts[..per_sample],
                             &mut lane_packets,
                         )?
                     } else {
@@ -506,13 +508,16 @@ impl TileJob<'_> {
                         }
                         ls
                     };
+                    let counted = if packets { per_sample } else { lanes };
+                    for st in &sts[..counted] {
+                        stats += *st;
+                    }
                     for (&l, st) in ls.iter().zip(&sts).take(lanes) {
                         for (a, v) in acc.iter_mut().zip(l.to_array()) {
                             *a = a.wrapping_add(to_fixed(v));
                         }
                         sum += l;
                         sumsq += l * l;
-                        stats += *st;
                         if let Some(a) = &mut aov {
                             for (layer, kind) in a.layers.iter_mut().zip(Aov::ALL) {
                                 kind.add_sample(&mut layer[k], st, inv);

@@ -46,9 +46,9 @@ impl<P> LanePackets<P> {
 /// [`dielectric::trace`]; every batch of shadow rays is one packet. Each path
 /// gives the same radiance, bit for bit, as [`radiance`](super::radiance) with its own `rng`:
 /// the shading is `PathState::advance` in both, and each path's random
-/// numbers are its own. Only where [`path_lanes_apply`] holds; `cams`, `rngs`
-/// and `sts` have one entry per path (at most `N`, the width of the packet
-/// type `P`).
+/// numbers are its own. Only where [`path_lanes_apply`] holds; `cams` and
+/// `rngs` have one entry per path (at most `N`, the width of the packet
+/// type `P`), `sts` one per path (each path's own counts) or one for all.
 ///
 /// # Errors
 /// As [`radiance`](super::radiance).
@@ -61,9 +61,13 @@ pub fn path_lanes<const N: usize, P: RayPacket<N>>(
     packets: &mut LanePackets<P>,
 ) -> Result<[V3; N]> {
     let n = cams.len().min(N);
-    debug_assert!(path_lanes_apply(tr) && rngs.len() >= n && sts.len() >= n);
+    let per_lane = sts.len() > 1;
+    debug_assert!(path_lanes_apply(tr) && rngs.len() >= n && (sts.len() == 1 || sts.len() >= n));
     // Lane `i < n` indexes these without a bounds check.
-    let (rngs, sts) = (&mut rngs[..n], &mut sts[..n]);
+    let rngs = &mut rngs[..n];
+    let sts = &mut sts[..if per_lane { n } else { 1 }];
+    // The counters of lane `i`.
+    let lane = |i: usize| if per_lane { i } else { 0 };
     let scene = tr.scene;
     let mut paths: [Option<PathState>; N] = std::array::from_fn(|_| None);
     for (slot, &(o, d)) in paths.iter_mut().zip(cams) {
@@ -112,7 +116,7 @@ pub fn path_lanes<const N: usize, P: RayPacket<N>>(
                 // A touch at a mesh edge or a leaked entry: the packet's
                 // query was made (counted); `trace` redoes it and continues
                 // past.
-                sts[i].queries += 1;
+                sts[lane(i)].queries += 1;
                 continue;
             }
             if let Some(h) = &hit {
@@ -124,7 +128,7 @@ pub fn path_lanes<const N: usize, P: RayPacket<N>>(
         let mut ended = [false; N];
         for i in 0..n {
             let Some(p) = &mut paths[i] else { continue };
-            let st = &mut sts[i];
+            let st = &mut sts[lane(i)];
             st.segments += 1;
             let sigma = tr.medium(&p.list);
             // The segment is built in place and shaded right here (a
@@ -158,7 +162,7 @@ pub fn path_lanes<const N: usize, P: RayPacket<N>>(
                 }
             }
             if ended[i] {
-                out[i] = p.radiance(&mut sts[i]);
+                out[i] = p.radiance(&mut sts[lane(i)]);
                 paths[i] = None;
             }
         }
