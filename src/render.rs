@@ -263,6 +263,36 @@ pub struct RenderOptions {
     /// Told of every Embree query of the render's paths
     /// ([`RayRecorder`](crate::integrator::RayRecorder) keeps them).
     pub observer: Option<Arc<dyn RayObserver>>,
+    /// How many paths the path tracer traces side by side in one Embree
+    /// packet. The image does not depend on it.
+    pub packet_width: PacketWidth,
+}
+
+/// The width of the path tracer's packets ([`RenderOptions::packet_width`]):
+/// a pixel's samples go in groups of this many, one Embree packet query per
+/// segment of the group.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum PacketWidth {
+    /// Sixteen where Embree's 16-wide packets are native (a CPU with
+    /// AVX-512), else eight (a 16-wide query would be two 8-wide ones).
+    #[default]
+    Auto,
+    /// Eight paths per packet.
+    Eight,
+    /// Sixteen paths per packet.
+    Sixteen,
+}
+
+impl PacketWidth {
+    /// The width on `device`: 8 or 16.
+    pub fn lanes(self, device: &crate::embree::Device) -> usize {
+        match self {
+            PacketWidth::Eight => 8,
+            PacketWidth::Sixteen => 16,
+            PacketWidth::Auto if device.native_packet16() => 16,
+            PacketWidth::Auto => 8,
+        }
+    }
 }
 
 impl std::fmt::Debug for RenderOptions {
@@ -273,6 +303,7 @@ impl std::fmt::Debug for RenderOptions {
             .field("want_aovs", &self.want_aovs)
             .field("cancel", &self.cancel)
             .field("observer", &self.observer.as_ref().map(|_| "RayObserver"))
+            .field("packet_width", &self.packet_width)
             .finish()
     }
 }
@@ -380,14 +411,57 @@ impl Rendered {
     }
 }
 
-/// Paths traced side by side ([`path_lanes`]): a pixel's samples in groups of
-/// this many, and the Embree packet type they share. Eight, not sixteen: a
-/// group's packet runs until its longest path ends, so wider packets run
-/// half empty; nor are ended lanes refilled with other samples, as Embree's
-/// packets pay for the coherence of one pixel's rays at one depth, not for
-/// their fill (docs/peers.md).
-const PATHS_PER_PACKET: usize = 8;
-type LanePacket = crate::embree::Packet8;
+/// The most paths traced side by side ([`path_lanes`]): a pixel's samples go
+/// in groups of [`PacketWidth::lanes`] (8 or 16). Ended lanes are not
+/// refilled with other samples: Embree's packets pay for the coherence of
+/// one pixel's rays at one depth (docs/peers.md).
+const MAX_PATHS_PER_PACKET: usize = 16;
+
+/// A thread's packets for [`path_lanes`], of the render's width.
+enum Lanes {
+    Eight(Box<LanePackets<crate::embree::Packet8>>),
+    Sixteen(Box<LanePackets<crate::embree::Packet16>>),
+}
+
+impl Lanes {
+    fn of_width(lanes: usize) -> Lanes {
+        match lanes {
+            16 => Lanes::Sixteen(Box::default()),
+            _ => Lanes::Eight(Box::default()),
+        }
+    }
+
+    fn width(&self) -> usize {
+        match self {
+            Lanes::Eight(_) => 8,
+            Lanes::Sixteen(_) => 16,
+        }
+    }
+
+    /// [`path_lanes`] at this width.
+    fn trace(
+        &mut self,
+        tr: Tracer<'_>,
+        cams: &[(V3, V3)],
+        list: &InteriorList,
+        rngs: &mut [Rng],
+        sts: &mut [Counters],
+    ) -> Result<[V3; MAX_PATHS_PER_PACKET]> {
+        let mut out = [V3::ZERO; MAX_PATHS_PER_PACKET];
+        match self {
+            Lanes::Eight(p) => out[..8].copy_from_slice(&path_lanes::<8, _>(tr, cams, list, rngs, sts, p)?),
+            Lanes::Sixteen(p) => out = path_lanes::<16, _>(tr, cams, list, rngs, sts, p)?,
+        }
+        Ok(out)
+    }
+
+    fn take_occupancy(&mut self) -> Counters {
+        match self {
+            Lanes::Eight(p) => p.take_occupancy(),
+            Lanes::Sixteen(p) => p.take_occupancy(),
+        }
+    }
+}
 
 struct TileOut {
     x0: u32,
@@ -414,6 +488,8 @@ struct TileJob<'a> {
     base: Option<&'a Accum>,
     want_aovs: bool,
     observer: Option<&'a dyn RayObserver>,
+    /// Paths per packet (8 or 16).
+    packet_lanes: usize,
 }
 
 impl TileJob<'_> {
@@ -447,7 +523,8 @@ impl TileJob<'_> {
         };
         let start_list = InteriorList::from_solids(&scene.solids, &scene.camera_interior);
         let packets = path_lanes_apply(tracer);
-        let mut lane_packets = LanePackets::<LanePacket>::default();
+        let mut lane_packets = Lanes::of_width(self.packet_lanes);
+        let width = lane_packets.width();
         for j in 0..h {
             for i in 0..w {
                 let (x, y) = (x0 + i, y0 + j);
@@ -464,44 +541,43 @@ impl TileJob<'_> {
                 let mut sumsq = V3::ZERO;
                 let taken = self.count - held;
                 let inv = 1.0 / taken.max(1) as f32;
-                // The pixel's samples in groups of up to PATHS_PER_PACKET, traced
+                // The pixel's samples in groups of up to `width`, traced
                 // side by side (without a medium): their camera rays (jittered
                 // within one pixel, nearly parallel) go to Embree as one packet,
                 // and so do their later plain-query segments and shadow rays.
                 let mut s = self.start + held;
                 while s < self.start + self.count {
-                    let lanes = (self.start + self.count - s).min(PATHS_PER_PACKET as u32) as usize;
+                    let lanes = (self.start + self.count - s).min(width as u32) as usize;
                     // Lanes past `lanes` are never read: they hold a copy of the
                     // first generator instead of seeding one each.
                     let first = Rng::for_sample(self.settings.seed, pixel, s as u64);
-                    let mut rngs: [Rng; PATHS_PER_PACKET] = std::array::from_fn(|i| {
+                    let mut rngs: [Rng; MAX_PATHS_PER_PACKET] = std::array::from_fn(|i| {
                         if i == 0 || i >= lanes {
                             first.clone()
                         } else {
                             Rng::for_sample(self.settings.seed, pixel, s as u64 + i as u64)
                         }
                     });
-                    let mut rays = [(V3::ZERO, V3::ZERO); PATHS_PER_PACKET];
+                    let mut rays = [(V3::ZERO, V3::ZERO); MAX_PATHS_PER_PACKET];
                     for (rng, ray) in rngs.iter_mut().zip(&mut rays).take(lanes) {
                         let fx = x as f32 + rng.uniform();
                         let fy = y as f32 + rng.uniform();
                         let lens = (rng.uniform(), rng.uniform());
                         *ray = self.camera.ray(fx, fy, lens);
                     }
-                    let mut sts = [Counters::default(); PATHS_PER_PACKET];
+                    let mut sts = [Counters::default(); MAX_PATHS_PER_PACKET];
                     // Each sample's own counts only where a layer reads them.
                     let per_sample = if aov.is_some() { lanes } else { 1 };
                     let ls = if packets {
-                        path_lanes::<PATHS_PER_PACKET, LanePacket>(
+                        lane_packets.trace(
                             tracer,
                             &rays[..lanes],
                             &start_list,
                             &mut rngs,
                             &mut sts[..per_sample],
-                            &mut lane_packets,
                         )?
                     } else {
-                        let mut ls = [V3::ZERO; PATHS_PER_PACKET];
+                        let mut ls = [V3::ZERO; MAX_PATHS_PER_PACKET];
                         for i in 0..lanes {
                             let (o, d) = rays[i];
                             ls[i] = radiance(tracer, o, d, start_list.clone(), &mut rngs[i], &mut sts[i])?;
@@ -619,6 +695,12 @@ pub fn render_part(
         base: part.base.as_ref(),
         want_aovs: opts.want_aovs,
         observer: opts.observer.as_deref(),
+        packet_lanes: match opts.packet_width.lanes(scene.embree.device()) {
+            // Fewer samples per pixel than a packet holds: half of it would
+            // go out empty.
+            16 if opts.packet_width == PacketWidth::Auto && count < 16 => 8,
+            w => w,
+        },
     };
     let mut tiles = Vec::new();
     for y in (region.y0..region.y1).step_by(TILE as usize) {

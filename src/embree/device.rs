@@ -186,6 +186,15 @@ impl Device {
             .unwrap_or(false)
     }
 
+    /// Are 16-wide packet queries native on this CPU
+    /// (`RTC_DEVICE_PROPERTY_NATIVE_RAY16_SUPPORTED`: Embree has an AVX-512
+    /// kernel for them and the CPU runs it), rather than two 8-wide ones?
+    pub fn native_packet16(&self) -> bool {
+        self.property(sys::RTC_DEVICE_PROPERTY_NATIVE_RAY16_SUPPORTED)
+            .map(|v| v != 0)
+            .unwrap_or(false)
+    }
+
     /// Query a device property (`rtcGetDeviceProperty`; `prop` is an
     /// `RTCDeviceProperty` value), e.g. to provoke and test error reporting
     /// with an invalid property id.

@@ -110,6 +110,11 @@ pub struct RenderArgs {
     /// and no medium: the same hits, without Embree's callbacks) or `embree`.
     #[arg(long, value_enum, default_value = "auto")]
     pub analytic_shapes: AnalyticShapes,
+    /// Paths per Embree packet in the path tracer: `auto` (16 where Embree's
+    /// 16-wide packets are native, i.e. with AVX-512; else 8), `8` or `16`.
+    /// The image is the same at every width.
+    #[arg(long, value_enum, default_value = "auto")]
+    pub packet_width: PacketWidthArg,
     /// Diagnostic layers: false_hits,list_depth,tir,fallbacks (EXR channels, or PNGs beside a PNG).
     #[arg(long, value_delimiter = ',', value_parser = aov_parser())]
     pub aov: Vec<Aov>,
@@ -334,6 +339,26 @@ pub struct WarpRenderArgs {
     pub stats_json: Option<PathBuf>,
     #[arg(long)]
     pub quiet: bool,
+}
+
+/// `--packet-width` of `snell render`.
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum PacketWidthArg {
+    Auto,
+    #[value(name = "8")]
+    Eight,
+    #[value(name = "16")]
+    Sixteen,
+}
+
+impl From<PacketWidthArg> for snell::render::PacketWidth {
+    fn from(w: PacketWidthArg) -> Self {
+        match w {
+            PacketWidthArg::Auto => Self::Auto,
+            PacketWidthArg::Eight => Self::Eight,
+            PacketWidthArg::Sixteen => Self::Sixteen,
+        }
+    }
 }
 
 /// `--analytic-shapes` of `snell render`.

@@ -60,6 +60,7 @@ pub fn render(mut a: RenderArgs) -> Result<()> {
             want_aovs: !aov.is_empty(),
             cancel,
             observer: None,
+            packet_width: a.packet_width.into(),
         },
         &plan.spec,
     )?;
