@@ -455,7 +455,10 @@ impl PathState {
         }
         let Some(hit) = &seg.hit else {
             if sigma.is_none() {
-                self.l += self.beta * scene.environment.eval(seg.dir);
+                // The sun's disk is also sampled by NEE (`light_candidate`),
+                // which makes only straight paths from a diffuse vertex.
+                let nee_pdf = (!self.specular && !seg.entered_medium).then_some(self.prev_pdf);
+                self.l += self.beta * scene.escaped_radiance(seg.dir, nee_pdf);
             }
             return (None, false);
         };
@@ -864,9 +867,11 @@ fn whitted(
                 let n = if front { sp.ns } else { -sp.ns };
                 let ng = if front { sp.ng } else { -sp.ng };
                 let albedo = reflectance.eval(sp.p, sp.uv);
-                for _ in 0..scene.lights.len() {
+                // One sample per light, the sun's disk among them.
+                let lights = scene.nee_count();
+                for _ in 0..lights {
                     if let Some((ls, cos)) = light_seen(tr, sp.p, n, ng, rng, st) {
-                        l += albedo * FRAC_1_PI * ls.li * (cos / ls.pdf) / scene.lights.len() as f32;
+                        l += albedo * FRAC_1_PI * ls.li * (cos / ls.pdf) / lights as f32;
                     }
                 }
                 // Ambient term from a constant environment (preview only).
