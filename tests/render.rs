@@ -280,6 +280,24 @@ fn bad_scene_files_give_located_errors() {
         ("position = [0.0, 4.0, 0.0]", "position = [0.0, 1e300, 0.0]", "lights[0].position", "1e15"),
         ("[film]", "[integrator]\ntype = \"bdpt\"\n[film]", "integrator.type", "path"),
         ("[film]", "[camera2]\n[film]", "camera2", "unknown field"),
+        (
+            "[film]",
+            "[environment]\ntype = \"sky\"\nsun_direction = [0.0, 1.0, 0.0]\nsun_irradiance = [1.0, 1.0, 1.0]\nsun_size = 1.0\n[film]",
+            "environment",
+            "sun_size",
+        ),
+        (
+            "[film]",
+            "[environment]\ntype = \"sky\"\nsun_direction = [0.0, 1.0, 0.0]\nsun_irradiance = [1.0, 1.0, 1.0]\nsun_diameter = 0.0\n[film]",
+            "environment.sun_diameter",
+            "(0, 90]",
+        ),
+        (
+            "[film]",
+            "[environment]\ntype = \"sky\"\nsun_direction = [0.0, 0.0, 0.0]\nsun_irradiance = [1.0, 1.0, 1.0]\n[film]",
+            "environment.sun_direction",
+            "non-zero",
+        ),
     ];
     assert!(cases.len() >= 20);
     for (from, to, key, words) in cases {

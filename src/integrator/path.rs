@@ -83,7 +83,10 @@ impl PathState {
         }
         let Some(hit) = &seg.hit else {
             if sigma.is_none() {
-                self.l += self.beta * scene.environment.eval(seg.dir);
+                // The sun's disk is also sampled by NEE (`light_candidate`),
+                // which makes only straight paths from a diffuse vertex.
+                let nee_pdf = (!self.specular && !seg.entered_medium).then_some(self.prev_pdf);
+                self.l += self.beta * scene.escaped_radiance(seg.dir, nee_pdf);
             }
             return (None, false);
         };

@@ -55,9 +55,11 @@ pub(super) fn whitted(
     match Bsdf::at(tr, &rec.material, &sp, dir, &coincident, &mut list, st) {
         Bsdf::Black => {}
         Bsdf::Diffuse(lambert) => {
-            for _ in 0..scene.lights.len() {
+            // One sample per light, the sun's disk among them.
+            let lights = scene.nee_count();
+            for _ in 0..lights {
                 if let Some((ls, cos)) = light_seen(tr, sp.p, lambert.n, lambert.ng, rng, st) {
-                    l += lambert.f() * ls.li * (cos / ls.pdf) / scene.lights.len() as f32;
+                    l += lambert.f() * ls.li * (cos / ls.pdf) / lights as f32;
                 }
             }
             // Ambient term from a constant environment (preview only).

@@ -16,6 +16,7 @@ pub mod quadrature;
 pub mod state;
 pub mod stepper;
 pub mod stratified;
+pub mod sun_connect;
 
 use std::fmt;
 use std::str::FromStr;

@@ -294,6 +294,38 @@ pub enum EnvironmentDesc {
     Constant(ConstantEnv),
     /// `type = "map"`: a lat-long image.
     Map(MapEnv),
+    /// `type = "sky"`: a sun disk of finite size in an analytic sky; the
+    /// path tracer samples the disk by next-event estimation.
+    Sky(SkyEnv),
+}
+
+/// A sun in an analytic sky (`scene::sun`). The sky's radiance blends from
+/// `horizon` to `zenith` linearly in sin(elevation) (y up); below the
+/// horizon it is `ground`; the sun's disk replaces it where the disk is.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SkyEnv {
+    /// Direction towards the sun's centre (normalised; any length > 0).
+    pub sun_direction: Vec3,
+    /// The sun's full angular diameter in degrees, in (0, 90] (default 0.53).
+    #[serde(default = "default_sun_diameter")]
+    pub sun_diameter: f64,
+    /// Irradiance the sun gives (W/m² per channel, >= 0): the disk has the
+    /// uniform radiance irradiance / (2π(1 − cos(diameter/2))).
+    pub sun_irradiance: Vec3,
+    /// Sky radiance straight up (default black).
+    #[serde(default)]
+    pub zenith: Vec3,
+    /// Sky radiance at the horizon (default black).
+    #[serde(default)]
+    pub horizon: Vec3,
+    /// Radiance from below the horizon (default black).
+    #[serde(default)]
+    pub ground: Vec3,
+}
+
+fn default_sun_diameter() -> f64 {
+    crate::scene::sun::SUN_DIAMETER_DEG
 }
 
 /// A constant environment.

@@ -1,6 +1,6 @@
 //! Scenes: the typed TOML description, validation with file/key/line errors,
 //! and the built render scene (Embree geometry plus everything shading needs):
-//! `model` is the scene a render sees, `build` turns a description into it,
+//! `model` is the scene a render sees, `sun` the sky's sun disk and its sampling, `build` turns a description into it,
 //! `import` reads glTF and Mitsuba scenes into descriptions.
 pub mod build;
 pub mod desc;
@@ -9,6 +9,7 @@ pub mod meshgen;
 pub mod model;
 pub mod shapes;
 pub mod source;
+pub mod sun;
 pub mod texture;
 
 pub use build::{build_scene_text, load_scene, load_scene_source, load_scene_str, BuildOptions};

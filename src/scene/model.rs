@@ -158,6 +158,9 @@ pub enum Environment {
         /// Multiplier of the image's values.
         scale: f32,
     },
+    /// A sun of finite angular size in an analytic sky; the path tracer
+    /// samples its disk by next-event estimation.
+    Sky(super::sun::Sky),
 }
 
 impl Environment {
@@ -172,6 +175,16 @@ impl Environment {
                 let v = dir.y.clamp(-1.0, 1.0).acos() / std::f32::consts::PI;
                 image.lookup(u, v) * *scale
             }
+            Environment::Sky(sky) => sky.eval(dir),
+        }
+    }
+
+    /// The sky whose sun next-event estimation samples, if any.
+    #[inline]
+    pub fn sun_nee(&self) -> Option<&super::sun::Sky> {
+        match self {
+            Environment::Sky(sky) if sky.sun_nee() => Some(sky),
+            _ => None,
         }
     }
 }
@@ -522,7 +535,7 @@ impl RenderScene {
     /// of reaching light `li` from `from` in direction `wi` to the point `q`.
     pub fn light_pdf(&self, li: u32, from: V3, q: V3, wi: V3) -> f32 {
         let scene = self;
-        let n = scene.lights.len() as f32;
+        let n = scene.nee_count() as f32;
         match &scene.lights[li as usize] {
             Light::Rect { normal, area, .. } => {
                 let d2 = (q - from).length_squared();
@@ -546,12 +559,46 @@ impl RenderScene {
         }
     }
 
-    /// A light chosen uniformly and a point on it, seen from `p` (`None` when the sample cannot reach `p`).
+    /// How many choices next-event estimation has: the lights, and the
+    /// sun's disk when the environment has one it samples.
+    #[inline(always)]
+    pub fn nee_count(&self) -> usize {
+        self.lights.len() + usize::from(self.environment.sun_nee().is_some())
+    }
+
+    /// A next-event sample of the sun's disk, chosen among `n` (= `nf`).
+    #[inline(never)]
+    fn sample_sun(&self, rng: &mut Rng, n: usize, nf: f32) -> Option<LightSample> {
+        let sky = self.environment.sun_nee()?;
+        let (wi, pdf) = sky.sample_sun(rng);
+        Some(LightSample {
+            wi,
+            dist: f32::INFINITY,
+            li: sky.sun.radiance(),
+            pdf: per_light(pdf as f32, n, nf),
+            delta: false,
+        })
+    }
+
+    /// Radiance that a ray escaping along unit `dir` adds: the
+    /// environment's, with the sun's disk weighted against its next-event
+    /// estimation (`bsdf_pdf`: the density the ray's direction was sampled
+    /// with when next-event estimation could have made the same path,
+    /// `None` for a specular or curved one, which counts with weight 1).
+    #[inline]
+    pub fn escaped_radiance(&self, dir: V3, bsdf_pdf: Option<f32>) -> V3 {
+        match &self.environment {
+            Environment::Sky(sky) => sky.escaped(dir, bsdf_pdf, 1.0 / self.nee_count().max(1) as f32),
+            env => env.eval(dir),
+        }
+    }
+
+    /// A light chosen uniformly (the sun's disk among them) and a point on it, seen from `p` (`None` when the sample cannot reach `p`).
     /// (Forced inline: once per diffuse hit, into the lane loop.)
     #[inline(always)]
     pub fn sample_light(&self, p: V3, rng: &mut Rng) -> Option<LightSample> {
         let scene = self;
-        let n = scene.lights.len();
+        let n = scene.nee_count();
         if n == 0 {
             return None;
         }
@@ -563,9 +610,13 @@ impl RenderScene {
         } else {
             ((u0 * n as f32) as usize).min(n - 1)
         };
-        let (u1, u2) = (rng.uniform(), rng.uniform());
         let nf = n as f32;
-        match &scene.lights[idx] {
+        // The sun's disk is the last choice (after every light).
+        let Some(light) = scene.lights.get(idx) else {
+            return scene.sample_sun(rng, n, nf);
+        };
+        let (u1, u2) = (rng.uniform(), rng.uniform());
+        match light {
             Light::Point { position, intensity } => {
                 let d = *position - p;
                 let dist = d.length();

@@ -368,6 +368,23 @@ impl Builder<'_> {
                     scale: scale as f32,
                 }
             }
+            Some(EnvironmentDesc::Sky(k)) => {
+                let dir = self.unit("environment.sun_direction", k.sun_direction)?;
+                let diameter = k.sun_diameter;
+                if !(diameter.is_finite() && diameter > 0.0 && diameter <= 90.0) {
+                    return Err(self.err(
+                        "environment.sun_diameter",
+                        format!("expected an angular diameter in (0, 90] degrees, got {diameter}"),
+                    ));
+                }
+                let irradiance = self.color("environment.sun_irradiance", k.sun_irradiance)?;
+                Environment::Sky(crate::scene::sun::Sky {
+                    sun: crate::scene::sun::Sun::new(dir, diameter, irradiance),
+                    zenith: self.color("environment.zenith", k.zenith)?,
+                    horizon: self.color("environment.horizon", k.horizon)?,
+                    ground: self.color("environment.ground", k.ground)?,
+                })
+            }
         })
     }
 

@@ -55,6 +55,15 @@ pub fn to_toml(desc: &SceneDesc) -> Result<String> {
             let _ = writeln!(o, "file = {}", string(&m.file));
             let _ = writeln!(o, "scale = {}", num(m.scale));
         }
+        Some(EnvironmentDesc::Sky(k)) => {
+            let _ = writeln!(o, "\n[environment]\ntype = \"sky\"");
+            let _ = writeln!(o, "sun_direction = {}", vec3(k.sun_direction));
+            let _ = writeln!(o, "sun_diameter = {}", num(k.sun_diameter));
+            let _ = writeln!(o, "sun_irradiance = {}", vec3(k.sun_irradiance));
+            let _ = writeln!(o, "zenith = {}", vec3(k.zenith));
+            let _ = writeln!(o, "horizon = {}", vec3(k.horizon));
+            let _ = writeln!(o, "ground = {}", vec3(k.ground));
+        }
     }
     for l in &desc.lights {
         let _ = writeln!(o, "\n[[lights]]");
