@@ -841,6 +841,9 @@ impl NoProgressBar {
 }
 
 #[cfg(test)]
+mod sun_tests;
+
+#[cfg(test)]
 mod tests {
     use super::*;
     use crate::scene::{load_scene_str, BuildOptions};
