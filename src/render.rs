@@ -524,6 +524,8 @@ impl TileJob<'_> {
         let start_list = InteriorList::from_solids(&scene.solids, &scene.camera_interior);
         let packets = path_lanes_apply(tracer);
         let mut lane_packets = Lanes::of_width(self.packet_lanes);
+        // A group's counters (reset per group, as far as it uses them).
+        let mut sts = [Counters::default(); MAX_PATHS_PER_PACKET];
         let width = lane_packets.width();
         for j in 0..h {
             for i in 0..w {
@@ -565,9 +567,10 @@ impl TileJob<'_> {
                         let lens = (rng.uniform(), rng.uniform());
                         *ray = self.camera.ray(fx, fy, lens);
                     }
-                    let mut sts = [Counters::default(); MAX_PATHS_PER_PACKET];
                     // Each sample's own counts only where a layer reads them.
                     let per_sample = if aov.is_some() { lanes } else { 1 };
+                    let counted = if packets { per_sample } else { lanes };
+                    sts[..counted].fill(Counters::default());
                     let ls = if packets {
                         lane_packets.trace(
                             tracer,
@@ -584,7 +587,6 @@ impl TileJob<'_> {
                         }
                         ls
                     };
-                    let counted = if packets { per_sample } else { lanes };
                     for st in &sts[..counted] {
                         stats += *st;
                     }
