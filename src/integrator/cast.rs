@@ -195,6 +195,49 @@ fn cast_curved(
     ))
 }
 
+/// A shadow ray that curves: from `org` along unit `dir` through the
+/// medium, chord by chord as [`cast`] casts a segment, each chord that may
+/// meet geometry one occlusion query. The direction it leaves to infinity
+/// with when nothing is in its way; `None` when something is, or the
+/// integrator failed, or the chords ran out (a path would end there too).
+pub(super) fn curved_escape(
+    tr: Tracer<'_>,
+    med: &crate::media::Medium,
+    org: V3,
+    dir: V3,
+    st: &mut Counters,
+) -> Option<V3> {
+    let mut curved = med.start_ray(org.as_dvec3(), dir.as_dvec3());
+    let mut out = None;
+    for _ in 0..MAX_CHORDS_PER_SEGMENT {
+        let chord = curved.next_chord(med);
+        if curved.failure().is_some() || chord.length.is_nan() || chord.length < 0.0 {
+            break;
+        }
+        if chord.length == 0.0 {
+            continue;
+        }
+        st.chords += 1;
+        if med.chord_may_hit(&chord) {
+            let mut r = Ray::new(chord.origin.as_vec3a(), chord.dir.as_vec3a());
+            if chord.length.is_finite() {
+                r.tfar = chord.length as f32;
+            }
+            st.shadow_rays += 1;
+            tr.observe(|| RayQuery::Shadow(r));
+            if tr.scene.embree.occluded(&r) {
+                break;
+            }
+        }
+        if !chord.length.is_finite() {
+            out = Some(chord.dir.as_vec3a());
+            break;
+        }
+    }
+    st.field_evals += curved.evaluations();
+    out
+}
+
 /// The segment of `ray` whose plain query answered `hit`, counted and
 /// observed as `cast` would have.
 #[inline]

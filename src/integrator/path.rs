@@ -2,7 +2,7 @@
 //! shades one segment (emission, scattering, the next-event connection, the
 //! next ray, Russian roulette), shared by single rays and [`super::lanes`].
 use super::cast::{cast, Segment};
-use super::light::{light_candidate, shadow_ray};
+use super::light::{next_event, shadow_ray, sun_launch_jacobian, sun_through_medium, NextEvent};
 use super::scatter::{Bsdf, Lobe};
 use super::Tracer;
 use crate::counters::Counters;
@@ -24,6 +24,10 @@ pub(super) struct PathState {
     pub(super) specular: bool,
     pub(super) prev_p: V3,
     pub(super) prev_pdf: f32,
+    /// The direction the path left its last diffuse vertex (`prev_p`) with:
+    /// where it escapes after curving through the medium, the sun's
+    /// next-event density of that launch weighs it.
+    pub(super) prev_wi: V3,
     /// Segment index of `ray`.
     pub(super) depth: u32,
     pub(super) list: InteriorList,
@@ -50,6 +54,7 @@ impl PathState {
             specular: true,
             prev_p: org,
             prev_pdf: 0.0,
+            prev_wi: dir,
             depth: 1,
             list,
             only_specular: true,
@@ -83,10 +88,17 @@ impl PathState {
         }
         let Some(hit) = &seg.hit else {
             if sigma.is_none() {
-                // The sun's disk is also sampled by NEE (`light_candidate`),
-                // which makes only straight paths from a diffuse vertex.
-                let nee_pdf = (!self.specular && !seg.entered_medium).then_some(self.prev_pdf);
-                self.l += self.beta * scene.escaped_radiance(seg.dir, nee_pdf);
+                // The sun's disk is also sampled by NEE (`next_event`): along
+                // straight paths from a diffuse vertex, and along curved ones
+                // through a stratified medium (`sun_through_medium`), whose
+                // density of this launch `sun_launch_jacobian` gives.
+                let mis = match (self.specular, seg.entered_medium) {
+                    (true, _) => None,
+                    (false, false) => Some((self.prev_pdf, 1.0)),
+                    (false, true) => sun_launch_jacobian(scene, self.prev_p, self.prev_wi, seg.dir)
+                        .map(|j| (self.prev_pdf, j)),
+                };
+                self.l += self.beta * scene.escaped_radiance(seg.dir, mis);
             }
             return (None, false);
         };
@@ -133,17 +145,25 @@ impl PathState {
             Bsdf::Black => return (None, false),
             Bsdf::Diffuse(lambert) => {
                 // Next-event estimation.
-                if let Some((ls, cos)) = light_candidate(scene, sp.p, lambert.n, lambert.ng, rng) {
-                    let w = if ls.delta {
-                        1.0
-                    } else {
-                        power_heuristic(ls.pdf, lambert.pdf(ls.wi))
-                    };
-                    let contrib = self.beta * lambert.f() * ls.li * (cos * w / ls.pdf);
-                    match shadow_ray(tr, sp.p, lambert.ng, ls.wi, ls.dist, st) {
-                        None => self.l += contrib,
-                        Some(ray) => shadow = Some(PendingShadow { ray, contrib }),
+                match next_event(scene, sp.p, lambert.n, lambert.ng, rng) {
+                    Some(NextEvent::Straight(ls, cos)) => {
+                        let w = if ls.delta {
+                            1.0
+                        } else {
+                            power_heuristic(ls.pdf, lambert.pdf(ls.wi))
+                        };
+                        let contrib = self.beta * lambert.f() * ls.li * (cos * w / ls.pdf);
+                        match shadow_ray(tr, sp.p, lambert.ng, ls.wi, ls.dist, st) {
+                            None => self.l += contrib,
+                            Some(ray) => shadow = Some(PendingShadow { ray, contrib }),
+                        }
                     }
+                    // Its curved shadow ray is cast here (`path_lanes` never
+                    // runs with a medium).
+                    Some(NextEvent::SunThroughMedium(ls)) => {
+                        self.l += self.beta * sun_through_medium(tr, sp.p, &lambert, &ls, st);
+                    }
+                    None => {}
                 }
                 // A black reflectance (cylinder_refraction's emitting plane)
                 // ends the path below (zero throughput): its direction is
@@ -158,6 +178,7 @@ impl PathState {
                 };
                 self.beta *= lambert.albedo;
                 self.prev_pdf = lambert.pdf(wi);
+                self.prev_wi = wi;
                 self.specular = false;
                 self.only_specular = false;
                 self.prev_p = sp.p;

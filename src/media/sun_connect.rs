@@ -115,6 +115,56 @@ pub fn launch_for_exit(
     inside.then_some(SunLaunch { dir, jacobian, exit })
 }
 
+/// The converse of [`launch_for_exit`]: the exit direction of the ray
+/// launched from `p` along `launch` (unit), with that launch as
+/// [`launch_for_exit`] gives it for this exit, `None` where it gives none or
+/// another launch. So a launch has a next-event density exactly when
+/// [`launch_for_exit`] can produce it: only upward launches (the other
+/// branch, down then turned up, is never produced), none past a turn or
+/// through a side. By the invariant, cos θ_e = n₀ cos θ₀ / n_t with the
+/// azimuth kept, and n_t² sin²θ_e = (n_t − n₀)(n_t + n₀) + n₀² sin²θ₀.
+pub fn exit_for_launch(
+    field: &IndexField,
+    bounds: &Aabb,
+    p: DVec3,
+    launch: DVec3,
+    solve: LaunchSolve,
+) -> Option<(DVec3, SunLaunch)> {
+    let s = field.strata()?;
+    let d0 = launch.normalize();
+    let exit = match solve {
+        LaunchSolve::Straight => d0,
+        LaunchSolve::Invariant => {
+            let up = s.up;
+            let (axis, sign) = up_axis(up)?;
+            let hi = if sign > 0.0 {
+                bounds.max[axis] - s.base
+            } else {
+                -bounds.min[axis] - s.base
+            };
+            let h0 = p.dot(up) - s.base;
+            let mu0 = d0.dot(up);
+            if !(mu0 > 0.0 && h0 < hi) {
+                return None;
+            }
+            let n0 = field.n_h(h0).map(|v| v.0).or_else(|| Some(field.n(p)))?;
+            let n_t = field
+                .n_h(hi)
+                .map(|v| v.0)
+                .or_else(|| Some(field.n(p + up * (hi - h0))))?;
+            let s2 = (field.n_diff(hi, h0) * (n0 + n_t) + n0 * n0 * mu0 * mu0) / (n_t * n_t);
+            if s2 <= 0.0 {
+                return None;
+            }
+            let horiz = d0 - up * mu0;
+            (horiz * (n0 / n_t) + up * s2.sqrt()).normalize()
+        }
+    };
+    let l = launch_for_exit(field, bounds, p, exit, solve)?;
+    // The other launch for this exit (downward) differs by 2 sin θ₀.
+    ((l.dir - d0).length() < 1e-6).then_some((exit, l))
+}
+
 #[cfg(test)]
 mod tests {
     use super::super::stepper::{State, Stepper};
@@ -251,6 +301,40 @@ mod tests {
                 assert!((j - 1.0).abs() > 1e-5, "{name} {deg}°: J = {j}");
             }
         }
+    }
+
+    #[test]
+    fn exit_for_launch_inverts_launch_for_exit_and_refuses_what_it_cannot_produce() {
+        let p = DVec3::new(1.0, 0.3, -2.0);
+        let mut solved = 0;
+        for (name, f) in fields() {
+            for (deg, az) in [(2.0, 0.0), (10.0, 70.0), (45.0, -30.0), (80.0, 160.0)] {
+                let target = elevation_dir(deg, az);
+                let Some(l) = launch_for_exit(&f, &bounds(), p, target, LaunchSolve::Invariant) else {
+                    continue;
+                };
+                solved += 1;
+                let (e, back) = exit_for_launch(&f, &bounds(), p, l.dir, LaunchSolve::Invariant)
+                    .unwrap_or_else(|| panic!("{name} {deg}°: no exit for its own launch"));
+                assert!(
+                    (e - target).length() < 1e-12,
+                    "{name} {deg}°: exit {e} vs {target}"
+                );
+                assert!((back.jacobian / l.jacobian - 1.0).abs() < 1e-12);
+                // The exit by rk45 too.
+                assert!(shoot(&f, p, l.dir).cross(e).length() < 1e-9, "{name} {deg}°");
+                // The mirrored, downward launch is never produced.
+                let down = l.dir - DVec3::Y * (2.0 * l.dir.y);
+                assert!(exit_for_launch(&f, &bounds(), p, down, LaunchSolve::Invariant).is_none());
+            }
+        }
+        assert!(solved >= 10, "{solved} solved");
+        // Past a turn: the linear field falls with height (m < 0), so a 1°
+        // launch turns down after climbing 1.7 cm (n₀(1 − cos 1°)/|m|).
+        let lin = &fields()[0].1;
+        assert!(
+            exit_for_launch(lin, &bounds(), p, elevation_dir(1.0, 0.0), LaunchSolve::Invariant).is_none()
+        );
     }
 
     #[test]

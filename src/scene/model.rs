@@ -473,6 +473,15 @@ pub struct LightSample {
     pub delta: bool,
 }
 
+impl LightSample {
+    /// Is it a sample of the sun's disk? (The one light at infinity that is
+    /// not a delta: `wi` is then a direction in the disk.)
+    #[inline]
+    pub fn is_sun_disk(&self) -> bool {
+        self.dist == f32::INFINITY && !self.delta
+    }
+}
+
 /// `x / nf` (`nf` = `n` as f32, the number of lights): `x` itself for one
 /// light (exact: x / 1 = x), without the division's latency per sample.
 #[inline(always)]
@@ -582,13 +591,14 @@ impl RenderScene {
 
     /// Radiance that a ray escaping along unit `dir` adds: the
     /// environment's, with the sun's disk weighted against its next-event
-    /// estimation (`bsdf_pdf`: the density the ray's direction was sampled
-    /// with when next-event estimation could have made the same path,
-    /// `None` for a specular or curved one, which counts with weight 1).
+    /// estimation (`mis`: the density the ray left its diffuse vertex with
+    /// and the Jacobian from the disk's directions to that launch's, when
+    /// next-event estimation could have made the same path; `None` for a
+    /// specular path or one it cannot make, which counts with weight 1).
     #[inline]
-    pub fn escaped_radiance(&self, dir: V3, bsdf_pdf: Option<f32>) -> V3 {
+    pub fn escaped_radiance(&self, dir: V3, mis: Option<(f32, f32)>) -> V3 {
         match &self.environment {
-            Environment::Sky(sky) => sky.escaped(dir, bsdf_pdf, 1.0 / self.nee_count().max(1) as f32),
+            Environment::Sky(sky) => sky.escaped(dir, mis, 1.0 / self.nee_count().max(1) as f32),
             env => env.eval(dir),
         }
     }

@@ -15,6 +15,7 @@
 //! 1 − cos α = 2 sin²(α/2), sampled without forming cos θ first, and a
 //! direction is tested against it by |s × d|² (first order in the angle,
 //! insensitive to |d| ≠ 1), not by s·d ≥ cos α.
+use crate::media::sun_connect::LaunchSolve;
 use crate::sampling::{power_heuristic, Rng};
 use glam::{DVec3, Vec3A as V3};
 use std::f64::consts::PI;
@@ -39,6 +40,15 @@ pub(crate) enum SunSampling {
     /// escaping rays that land in the disk count with weight 1.
     #[cfg(test)]
     WrongUnweightedEscape,
+    /// Known wrong, for tests' power: as `Mis`, but next-event estimation
+    /// through a stratified medium launches along the exit direction itself
+    /// with Jacobian 1 (`LaunchSolve::Straight`, as if the medium did not
+    /// bend) while escaping rays keep the invariant's launch density. (The
+    /// straight solve on both sides would be right, only wasteful: its
+    /// density is the true one of the launches it makes, and the curved
+    /// shadow ray checks where they leave.)
+    #[cfg(test)]
+    WrongStraightLaunch,
 }
 
 /// A disk of uniform radiance at infinity.
@@ -96,6 +106,17 @@ impl Sun {
         let d = d.as_dvec3();
         let c = self.dir.dot(d);
         c > 0.0 && self.dir.cross(d).length_squared() <= self.sin2 * d.length_squared()
+    }
+
+    /// How a launch through a stratified medium is solved for an exit
+    /// direction in the disk.
+    #[inline]
+    pub(crate) fn launch_solve(&self) -> LaunchSolve {
+        match self.sampling {
+            #[cfg(test)]
+            SunSampling::WrongStraightLaunch => LaunchSolve::Straight,
+            _ => LaunchSolve::Invariant,
+        }
     }
 
     /// The cone's 1 − cos of its half-angle as sampled (`WrongWidePdf`:
@@ -185,20 +206,23 @@ impl Sky {
     }
 
     /// The radiance an escaping ray along `d` adds, weighted against the
-    /// sun's next-event estimation: `bsdf_pdf` is the solid-angle density
-    /// the ray was sampled with when next-event estimation could have made
-    /// the same path (`None`: a specular or curved path, weight 1), and
-    /// `choice` the probability that a next-event sample is the sun's.
+    /// sun's next-event estimation: `mis` is, when next-event estimation
+    /// could have made the same path, the solid-angle density the ray left
+    /// its diffuse vertex with and the Jacobian |dΩ_exit/dΩ_launch| from the
+    /// disk's directions to that launch's (1 for a straight path), `None`
+    /// otherwise (weight 1); `choice` is the probability that a next-event
+    /// sample is the sun's. Next-event estimation's density for the launch
+    /// is the disk's 1/Ω × `choice` × the Jacobian.
     #[inline]
-    pub fn escaped(&self, d: V3, bsdf_pdf: Option<f32>, choice: f32) -> V3 {
+    pub fn escaped(&self, d: V3, mis: Option<(f32, f32)>, choice: f32) -> V3 {
         if !self.sun.contains(d) {
             return self.sky(d);
         }
-        let w = match (bsdf_pdf, self.sun.sampling) {
+        let w = match (mis, self.sun.sampling) {
             (_, SunSampling::BsdfOnly) | (None, _) => 1.0,
             #[cfg(test)]
             (_, SunSampling::WrongUnweightedEscape) => 1.0,
-            (Some(p), _) => power_heuristic(p, (self.sun.pdf() as f32) * choice),
+            (Some((p, jacobian)), _) => power_heuristic(p, (self.sun.pdf() as f32) * choice * jacobian),
         };
         self.sun.radiance * w
     }
