@@ -235,6 +235,10 @@ pub enum IndexField {
 #[derive(Clone, Default)]
 pub struct WaveTable(Vec<(DVec3, f64)>, f64, Vec<[[f64; WAVE_LANES]; 4]>, pulp::Arch);
 
+/// The longest flight step in shortest turbulence wavelengths
+/// ([`IndexField::flight_step`]).
+pub(crate) const FLIGHT_WAVELENGTHS: f64 = 0.9;
+
 /// Waves evaluated side by side: eight f64 lanes are one AVX-512 register,
 /// two AVX2 ones.
 const WAVE_LANES: usize = 8;
@@ -971,11 +975,11 @@ impl IndexField {
         }
     }
 
-    /// The longest rk45 step of a flight, metres: 1.5 times the shortest
-    /// turbulence wavelength of a plume (longer steps sample the waves too
-    /// sparsely for rk45's error estimate to see them: heat_shimmer's block
-    /// means against a fine render are 1.06× the seed-to-seed noise at 1.5,
-    /// 1.09× at 1.9, 2.6× at 2.9), else the feature length.
+    /// The longest step of a flight, metres: 0.9 of the shortest turbulence
+    /// wavelength of a plume, else the feature length. Longer steps sample
+    /// the waves too sparsely for the step's error estimate to see them; a
+    /// flight's three evaluations per step (Bogacki–Shampine) then put about
+    /// 3.3 on a wavelength (flight_tests.rs measures the cap).
     pub fn flight_step(&self) -> f64 {
         match *self {
             IndexField::Plume {
@@ -993,7 +997,7 @@ impl IndexField {
                         .map(|i| wave(seed, i, wavelength).0.length())
                         .fold(0.0, f64::max)
                 };
-                1.5 * std::f64::consts::TAU / k_max
+                FLIGHT_WAVELENGTHS * std::f64::consts::TAU / k_max
             }
             _ => self.feature_length(),
         }

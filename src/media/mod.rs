@@ -30,7 +30,7 @@ pub use footprint::Footprint;
 pub use grin_trace::grin_trace_json;
 use invariant_cast::{InvariantCast, InvariantSetup, Step};
 pub use obstacles::Obstacles;
-use stepper::{State, Stepper};
+use stepper::{Pair, State, Stepper};
 
 /// A user-facing error: the key (e.g. `medium.tolerance`) and what was expected.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -85,12 +85,10 @@ pub enum Method {
 /// rk45 render at a tenth of its metre tolerance (docs/grin.md).
 pub const DEFAULT_PIXEL_TOLERANCE: f64 = 0.1;
 
-/// The fraction of a pixel each rk45 step of a flight may err by (in
-/// position at its distance from the eye, and in direction) when the scene
-/// does not say (`medium.pixel_tolerance`).
-/// Steps are mostly capped by the field's `flight_step`, which is what
-/// holds the error: at 1 px heat_shimmer's block means are 1.09× the
-/// seed-to-seed noise of a fine render, uncapped at 0.1 px 1.36×.
+/// The fraction of a pixel each step of a flight may err by (in position at
+/// its distance from the eye, and in direction) when the scene does not say
+/// (`medium.pixel_tolerance`). Steps are mostly capped by the field's
+/// `flight_step`, which is what holds the error (docs/grin.md, "Flights").
 pub const DEFAULT_FLIGHT_PIXEL_TOLERANCE: f64 = 1.0;
 
 /// Below this a chord tolerance means nothing to Embree's f32 chords (a
@@ -237,6 +235,8 @@ pub struct Medium {
     straight_scale: f64,
     /// The longest step of a flight, metres.
     flight_step: f64,
+    /// The Runge–Kutta pair flights step with.
+    flight_pair: Pair,
 }
 
 /// The largest index a medium may reach (real media are below ~4).
@@ -362,6 +362,7 @@ impl Medium {
             n_floor: n_min,
             straight_scale: 1.0,
             flight_step,
+            flight_pair: Pair::BogackiShampine32,
         })
     }
 
@@ -408,6 +409,15 @@ impl Medium {
             let known = (!self.obstacles.is_unknown()).then(|| self.obstacles.boxes());
             self.invariant = InvariantSetup::new(&self.field, &self.bounds, known);
         }
+        self
+    }
+
+    /// Flights stepped by `pair` with steps of at most `step` metres (tests
+    /// compare pairs and caps).
+    #[cfg(test)]
+    pub(crate) fn with_flight(mut self, pair: Pair, step: f64) -> Medium {
+        self.flight_pair = pair;
+        self.flight_step = step;
         self
     }
 
@@ -804,7 +814,7 @@ impl CurvedRay {
     }
 
     /// Integrates without chords while no geometry can be met (see
-    /// [`Medium::flies`]): rk45 steps, each shorter than the distance to the
+    /// [`Medium::flies`]): Bogacki–Shampine steps, each shorter than the distance to the
     /// nearest obstacle box (an arc is no further from its start than its
     /// length), held to [`Medium::flight_tolerances`]. Ok(true) when the ray
     /// has left the bounds (its arc length inside added to `skipped`),
@@ -858,7 +868,8 @@ impl CurvedRay {
                 return Ok(false);
             }
             let mut h_next = self.h_next;
-            let (next, h) = stepper.rk45_step_image(&st, &mut h_next, max_h, tol_pos, tol_ang)?;
+            let (next, h) =
+                stepper.step_image(medium.flight_pair, &st, &mut h_next, max_h, tol_pos, tol_ang)?;
             self.h_next = h_next;
             if b.contains(next.r) {
                 self.st = next;

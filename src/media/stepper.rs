@@ -36,6 +36,9 @@ fn deriv_state(field: &IndexField, r: DVec3, v: DVec3, s: f64, evals: &mut u64) 
     Ok(State { r, t, v, n, g, s })
 }
 
+/// Bogacki–Shampine's 3rd-order weights (stages at 0, 1/2, 3/4 of the step).
+pub(crate) const BS23_B: [f64; 3] = [2.0 / 9.0, 1.0 / 3.0, 4.0 / 9.0];
+
 // Dormand–Prince 5(4) tableau.
 const C: [f64; 7] = [0.0, 1.0 / 5.0, 3.0 / 10.0, 4.0 / 5.0, 8.0 / 9.0, 1.0, 1.0];
 const A: [[f64; 6]; 7] = [
@@ -77,6 +80,32 @@ const E: [f64; 7] = [
     22.0 / 525.0,
     -1.0 / 40.0,
 ];
+
+/// An embedded Runge–Kutta pair: a solution and an error estimate from the
+/// same stages.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Pair {
+    /// Dormand–Prince 5(4): 6 new evaluations per step, at fractions 0.2,
+    /// 0.3, 0.8, 0.89 and 1 of it.
+    DormandPrince54,
+    /// Bogacki–Shampine 3(2): 3 new evaluations per step, at 0.5, 0.75 and 1.
+    /// Where steps are capped by a field's feature length rather than by the
+    /// tolerance (a plume's waves), what sets the error is how densely the
+    /// stages sample the field, not the order: 3 evaluations per 0.9
+    /// wavelengths leave a third of the error of 6 per 1.5 (flight_tests.rs).
+    BogackiShampine32,
+}
+
+impl Pair {
+    /// The exponent of the step-size controller: 1/(order of the error
+    /// estimate + 1), a quarter for Bogacki–Shampine (see `step_image`).
+    fn exponent(self) -> f64 {
+        match self {
+            Pair::DormandPrince54 => 0.2,
+            Pair::BogackiShampine32 => 0.25,
+        }
+    }
+}
 
 impl<'a> Stepper<'a> {
     /// A stepper with its counters at 0.
@@ -146,25 +175,71 @@ impl<'a> Stepper<'a> {
         Ok((end, er.length(), ev.length()))
     }
 
-    /// One accepted rk45 step of at most `max_h` held to image tolerances: the
-    /// position error to `tol_pos` metres and the direction error to `tol_ang` radians, each scaled by
-    /// `h / span` (a share of the path of length `span` the errors add up
-    /// over). Same step-size control as [`Stepper::rk45_step`].
+    /// One Bogacki–Shampine 3(2) step of length h: the 3rd-order state
+    /// (FSAL: the end's n, ∇n are the next step's first stage, so 3 new
+    /// evaluations) and the error estimate in two parts as
+    /// [`Stepper::dp45_parts`].
+    ///
+    /// # Errors
+    ///
+    /// As [`Stepper::dp45`].
+    pub fn bs23_parts(&mut self, st: &State, h: f64) -> Result<(State, f64, f64), String> {
+        self.bs23_weighted(st, h, BS23_B)
+    }
+
+    /// [`Stepper::bs23_parts`] with the solution's weights `b` (tests give
+    /// a wrong set to show what the order check catches).
+    pub(crate) fn bs23_weighted(
+        &mut self,
+        st: &State,
+        h: f64,
+        b: [f64; 3],
+    ) -> Result<(State, f64, f64), String> {
+        let (k1r, k1v) = (st.v / st.n, st.g);
+        let stage = |s: &mut Self, r: DVec3, v: DVec3| -> Result<(DVec3, DVec3), String> {
+            let (n, g) = s.field.eval(r);
+            s.evals += 1;
+            check_n(n, r)?;
+            Ok((v / n, g))
+        };
+        let (k2r, k2v) = stage(self, st.r + k1r * (0.5 * h), st.v + k1v * (0.5 * h))?;
+        let (k3r, k3v) = stage(self, st.r + k2r * (0.75 * h), st.v + k2v * (0.75 * h))?;
+        let r = st.r + (k1r * b[0] + k2r * b[1] + k3r * b[2]) * h;
+        let v = st.v + (k1v * b[0] + k2v * b[1] + k3v * b[2]) * h;
+        let end = deriv_state(self.field, r, v, st.s + h, &mut self.evals)?;
+        let (k4r, k4v) = (v / end.n, end.g);
+        // b − b* of the embedded 2nd-order pair (b* = 7/24, 1/4, 1/3, 1/8).
+        const E3: [f64; 4] = [-5.0 / 72.0, 1.0 / 12.0, 1.0 / 9.0, -1.0 / 8.0];
+        let er = (k1r * E3[0] + k2r * E3[1] + k3r * E3[2] + k4r * E3[3]) * h;
+        let ev = (k1v * E3[0] + k2v * E3[1] + k3v * E3[2] + k4v * E3[3]) * h;
+        Ok((end, er.length(), ev.length()))
+    }
+
+    /// One accepted step of `pair` of at most `max_h` held to image
+    /// tolerances: the position error to `tol_pos` metres and the direction
+    /// error to `tol_ang` radians. Same step-size control as
+    /// [`Stepper::rk45_step`], with the pair's exponent.
     ///
     /// # Errors
     ///
     /// As [`Stepper::rk45_step`].
-    pub fn rk45_step_image(
+    pub fn step_image(
         &mut self,
+        pair: Pair,
         st: &State,
         h_next: &mut f64,
         max_h: f64,
         tol_pos: f64,
         tol_ang: f64,
     ) -> Result<(State, f64), String> {
+        let e = pair.exponent();
         loop {
             let h = h_next.min(max_h);
-            let (next, er, ev) = match self.dp45_parts(st, h) {
+            let parts = match pair {
+                Pair::DormandPrince54 => self.dp45_parts(st, h),
+                Pair::BogackiShampine32 => self.bs23_parts(st, h),
+            };
+            let (next, er, ev) = match parts {
                 Ok(x) => x,
                 Err(e) if h > 1e-9 * (1.0 + st.s.abs()) => {
                     self.rejected += 1;
@@ -179,7 +254,14 @@ impl<'a> Stepper<'a> {
                 let grow = if ratio == 0.0 {
                     5.0
                 } else {
-                    (0.9 * ratio.powf(-0.2)).clamp(0.2, 5.0)
+                    let shrink = match pair {
+                        Pair::DormandPrince54 => ratio.powf(-0.2),
+                        // A quarter power (two hardware square roots; a
+                        // software cube root cost 7 % of a plume render),
+                        // a little cautious for a 3rd-order pair.
+                        Pair::BogackiShampine32 => ratio.sqrt().sqrt().recip(),
+                    };
+                    (0.9 * shrink).clamp(0.2, 5.0)
                 };
                 *h_next = if h >= *h_next || !h_next.is_finite() {
                     h * grow
@@ -189,10 +271,10 @@ impl<'a> Stepper<'a> {
                 return Ok((next, h));
             }
             self.rejected += 1;
-            *h_next = h * (0.9 * ratio.powf(-0.25)).clamp(0.1, 0.9);
+            *h_next = h * (0.9 * ratio.powf(-1.25 * e)).clamp(0.1, 0.9);
             if h_next.is_nan() || *h_next <= 1e-13 * (1.0 + st.s.abs()) {
                 return Err(format!(
-                    "rk45: step size underflow at arc length {:e} m (tolerances {tol_pos:e} m, {tol_ang:e} rad)",
+                    "{pair:?}: step size underflow at arc length {:e} m (tolerances {tol_pos:e} m, {tol_ang:e} rad)",
                     st.s
                 ));
             }

@@ -111,6 +111,44 @@ fn rk4_is_fourth_order() {
     }
 }
 
+/// Bogacki–Shampine's step against the linear field's closed form: the
+/// local error of the solution falls 16× per halving (3rd order) and the
+/// error estimate about 8× (its 2nd-order partner), and the estimate
+/// bounds the solution's error. Equal weights (consistent, but 1st order)
+/// fall 4×.
+#[test]
+fn bogacki_shampine_is_third_order_and_equal_weights_are_not() {
+    use super::stepper::BS23_B;
+    let f = linear(1.0, 0.1);
+    let mut ev = 0;
+    let st = State::new(&f, DVec3::new(0.0, 1.0, 0.0), dir(-20.0), &mut ev).unwrap();
+    let step = |h: f64, b: [f64; 3]| {
+        let (end, er, _) = Stepper::new(&f, Method::Rk45, 1.0, 1.0)
+            .bs23_weighted(&st, h, b)
+            .unwrap();
+        let exact = exact::advance(&f, &st, h).unwrap();
+        ((end.r - exact.r).length(), er)
+    };
+    let halvings = |b: [f64; 3]| {
+        let (e1, s1) = step(0.8, b);
+        let (e2, s2) = step(0.4, b);
+        (e1 / e2, s1 / s2, e1, s1)
+    };
+    let (ratio, est_ratio, err, est) = halvings(BS23_B);
+    assert!(
+        (12.0..20.0).contains(&ratio),
+        "solution error fell {ratio}× per halving"
+    );
+    assert!(
+        (6.0..10.0).contains(&est_ratio),
+        "error estimate fell {est_ratio}× per halving"
+    );
+    assert!(err < est, "error {err:e} above its estimate {est:e}");
+    let (wrong, _, _, _) = halvings([1.0 / 3.0; 3]);
+    eprintln!("per halving: solution {ratio:.1}×, estimate {est_ratio:.1}×, equal weights {wrong:.1}×");
+    assert!(!(12.0..20.0).contains(&wrong), "equal weights fell {wrong}×");
+}
+
 #[test]
 fn constant_field_is_a_straight_line_exactly() {
     let f = IndexField::Constant { n: 1.33 };
