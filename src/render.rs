@@ -5,7 +5,9 @@ use crate::camera::Camera;
 use crate::counters::Counters;
 use crate::dielectric::{InteriorList, NestedStrategy};
 use crate::error::{Error, Result};
-use crate::integrator::{path_lanes, path_lanes_apply, radiance, LanePackets, RayObserver, Tracer};
+use crate::integrator::{path_lanes, path_lanes_apply, radiance_after, LanePackets, RayObserver, Tracer};
+use crate::media::CurvedRay;
+use crate::ray::Ray;
 use crate::sampling::Rng;
 use crate::scene::RenderScene;
 use glam::Vec3A as V3;
@@ -266,6 +268,21 @@ pub struct RenderOptions {
     /// How many paths the path tracer traces side by side in one Embree
     /// packet. The image does not depend on it.
     pub packet_width: PacketWidth,
+    /// How camera rays fly through a 3-D gradient-index field (the path
+    /// tracer's). The image does not depend on it.
+    pub flights: Flights,
+}
+
+/// How the path tracer's camera rays cross a 3-D gradient-index field where
+/// no geometry is near ([`RenderOptions::flights`]; `media::fly_camera_rays`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum Flights {
+    /// A tile row's camera rays together, their field evaluations eight per
+    /// vector operation.
+    #[default]
+    SideBySide,
+    /// Each ray alone when its path gets there.
+    OneByOne,
 }
 
 /// The width of the path tracer's packets ([`RenderOptions::packet_width`]):
@@ -304,6 +321,7 @@ impl std::fmt::Debug for RenderOptions {
             .field("cancel", &self.cancel)
             .field("observer", &self.observer.as_ref().map(|_| "RayObserver"))
             .field("packet_width", &self.packet_width)
+            .field("flights", &self.flights)
             .finish()
     }
 }
@@ -490,6 +508,9 @@ struct TileJob<'a> {
     observer: Option<&'a dyn RayObserver>,
     /// Paths per packet (8 or 16).
     packet_lanes: usize,
+    /// Fly each tile row's camera rays side by side (the path tracer through
+    /// a medium with flights).
+    fly_rows: bool,
 }
 
 impl TileJob<'_> {
@@ -502,6 +523,48 @@ impl TileJob<'_> {
             }
             None => ([0; 3], 0),
         }
+    }
+
+    /// The camera ray of sample `s` of pixel (x, y) and its generator, as it
+    /// is after drawing the ray (the path goes on with it).
+    fn camera_ray(&self, x: u32, y: u32, pixel: u64, s: u32) -> (Rng, (V3, V3)) {
+        let mut rng = Rng::for_sample(self.settings.seed, pixel, s as u64);
+        let ray = self.camera_ray_from(x, y, &mut rng);
+        (rng, ray)
+    }
+
+    /// A camera ray through pixel (x, y) from the next four numbers of `rng`.
+    fn camera_ray_from(&self, x: u32, y: u32, rng: &mut Rng) -> (V3, V3) {
+        let fx = x as f32 + rng.uniform();
+        let fy = y as f32 + rng.uniform();
+        let lens = (rng.uniform(), rng.uniform());
+        self.camera.ray(fx, fy, lens)
+    }
+
+    /// The curved rays of the camera rays of w × h pixels from (x0, y0) (the
+    /// samples not yet held, in the order the tile traces them),
+    /// flown side by side through the medium
+    /// ([`crate::media::fly_camera_rays`]).
+    fn flown_rays(
+        &self,
+        med: &crate::media::Medium,
+        (x0, y0): (u32, u32),
+        (w, h): (u32, u32),
+    ) -> Vec<CurvedRay> {
+        let mut rays = Vec::new();
+        for y in y0..y0 + h {
+            for x in x0..x0 + w {
+                let held = self.base_at(x, y).1;
+                let pixel = y as u64 * self.settings.width as u64 + x as u64;
+                for s in self.start + held..self.start + self.count {
+                    let (o, d) = self.camera_ray(x, y, pixel, s).1;
+                    let ray = Ray::new(o, d);
+                    rays.push(med.start_ray(ray.org.as_dvec3(), ray.dir.as_dvec3()));
+                }
+            }
+        }
+        crate::media::fly_camera_rays(med, &mut rays);
+        rays
     }
 
     /// Render the tile at (x0, y0), or (`skip`) only carry over the samples already held.
@@ -528,6 +591,13 @@ impl TileJob<'_> {
         let mut sts = [Counters::default(); MAX_PATHS_PER_PACKET];
         let width = lane_packets.width();
         for j in 0..h {
+            // A row at a time: a whole tile's flights at once stay in flight
+            // longer than the caches hold them.
+            let mut flown = match (&scene.medium, self.fly_rows && !skip) {
+                (Some(med), true) => self.flown_rays(med, (x0, y0 + j), (w, 1)),
+                _ => Vec::new(),
+            };
+            let mut next_flown = flown.iter_mut();
             for i in 0..w {
                 let (x, y) = (x0 + i, y0 + j);
                 let k = (j * w + i) as usize;
@@ -562,10 +632,7 @@ impl TileJob<'_> {
                     });
                     let mut rays = [(V3::ZERO, V3::ZERO); MAX_PATHS_PER_PACKET];
                     for (rng, ray) in rngs.iter_mut().zip(&mut rays).take(lanes) {
-                        let fx = x as f32 + rng.uniform();
-                        let fy = y as f32 + rng.uniform();
-                        let lens = (rng.uniform(), rng.uniform());
-                        *ray = self.camera.ray(fx, fy, lens);
+                        *ray = self.camera_ray_from(x, y, rng);
                     }
                     // Each sample's own counts only where a layer reads them.
                     let per_sample = if aov.is_some() { lanes } else { 1 };
@@ -583,7 +650,16 @@ impl TileJob<'_> {
                         let mut ls = [V3::ZERO; MAX_PATHS_PER_PACKET];
                         for i in 0..lanes {
                             let (o, d) = rays[i];
-                            ls[i] = radiance(tracer, o, d, start_list.clone(), &mut rngs[i], &mut sts[i])?;
+                            let first = next_flown.next();
+                            ls[i] = radiance_after(
+                                tracer,
+                                o,
+                                d,
+                                start_list.clone(),
+                                &mut rngs[i],
+                                &mut sts[i],
+                                first,
+                            )?;
                         }
                         ls
                     };
@@ -703,6 +779,9 @@ pub fn render_part(
             16 if opts.packet_width == PacketWidth::Auto && count < 16 => 8,
             w => w,
         },
+        fly_rows: opts.flights == Flights::SideBySide
+            && scene.integrator == crate::scene::IntegratorKind::Path
+            && scene.medium.as_ref().is_some_and(|m| m.flies()),
     };
     let mut tiles = Vec::new();
     for y in (region.y0..region.y1).step_by(TILE as usize) {

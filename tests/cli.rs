@@ -351,3 +351,48 @@ fn packet_width_keeps_the_image() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("packet-width"));
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// `--flights side-by-side` (the default: a tile row's camera rays flown
+/// through the plume together) and `one-by-one` render the same image bit
+/// for bit, on a film whose last tile is part-width, at an odd spp; another
+/// seed changes it; an unknown value is refused.
+#[test]
+fn flights_side_by_side_keep_the_image() {
+    let d = tmpdir("flights");
+    let render = |name: &str, extra: &[&str]| {
+        let exr = d.join(name);
+        let out = snell()
+            .args(["render", "scenes/heat_shimmer.toml", "-o"])
+            .arg(&exr)
+            .args([
+                "--width",
+                "40",
+                "--height",
+                "30",
+                "--spp",
+                "3",
+                "--threads",
+                "2",
+                "--quiet",
+            ])
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let (_, _, px) = snell::image_io::read_exr_rgb(&exr).unwrap();
+        px.iter()
+            .flat_map(|p| p.to_array().map(f32::to_bits))
+            .collect::<Vec<u32>>()
+    };
+    let together = render("side.exr", &["--flights", "side-by-side"]);
+    assert_eq!(together, render("alone.exr", &["--flights", "one-by-one"]));
+    assert_eq!(together, render("default.exr", &[]));
+    assert_ne!(together, render("seed.exr", &["--seed", "1"]));
+    let out = snell()
+        .args(["render", "scenes/heat_shimmer.toml", "--flights", "sideways"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("flights"));
+    let _ = std::fs::remove_dir_all(&d);
+}

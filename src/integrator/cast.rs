@@ -82,12 +82,14 @@ pub(super) fn meets_medium(scene: &RenderScene, p: V3, wi: V3, dist: f32) -> boo
 }
 
 /// Cast `ray`, through the gradient-index medium as chords when the scene has
-/// one (straight outside its bounds at no extra cost), else straight.
+/// one (straight outside its bounds at no extra cost), else straight;
+/// `curved`: the ray's curved ray made beforehand (its flight perhaps flown).
 pub(super) fn cast(
     tr: Tracer<'_>,
     ray: &Ray,
     list: &mut InteriorList,
     st: &mut Counters,
+    curved: Option<&mut crate::media::CurvedRay>,
 ) -> Result<(Segment, dielectric::Coincident)> {
     let scene = tr.scene;
     let Some(med) = &scene.medium else {
@@ -97,8 +99,15 @@ pub(super) fn cast(
             None => (Segment::straight(ray, None), dielectric::Coincident::NONE),
         });
     };
-    let mut curved = med.start_ray(ray.org.as_dvec3(), ray.dir.as_dvec3());
-    let out = cast_curved(tr, med, &mut curved, ray, list, st);
+    let mut own;
+    let curved = match curved {
+        Some(c) => c,
+        None => {
+            own = med.start_ray(ray.org.as_dvec3(), ray.dir.as_dvec3());
+            &mut own
+        }
+    };
+    let out = cast_curved(tr, med, curved, ray, list, st);
     st.field_evals += curved.evaluations();
     if curved.entered() {
         st.medium_segments += 1;

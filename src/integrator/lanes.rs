@@ -138,7 +138,7 @@ pub fn path_lanes<const N: usize, P: RayPacket<N>>(
                 seg = known_segment(tr, &p.ray, near.hit(i), st);
                 coincident = &NO_COINCIDENT;
             } else {
-                (seg, cast_coincident) = cast(tr, &p.ray, &mut p.list, st)?;
+                (seg, cast_coincident) = cast(tr, &p.ray, &mut p.list, st, None)?;
                 coincident = &cast_coincident;
             }
             let (sh, go) = p.advance(tr, sigma, &seg, coincident, sps[i].as_ref(), &mut rngs[i], st);

@@ -15,6 +15,7 @@
 use crate::counters::Counters;
 use crate::dielectric::{self, InteriorList, NestedStrategy};
 use crate::error::Result;
+use crate::media::CurvedRay;
 use crate::ray::Ray;
 use crate::sampling::Rng;
 use crate::scene::IntegratorKind;
@@ -113,8 +114,23 @@ pub fn radiance(
     rng: &mut Rng,
     st: &mut Counters,
 ) -> Result<V3> {
+    radiance_after(tr, org, dir, list, rng, st, None)
+}
+
+/// [`radiance`], the camera ray's first segment cast as `first` (the curved
+/// ray of `org`, `dir`, its flight through the medium perhaps flown already:
+/// `media::fly_camera_rays`).
+pub fn radiance_after(
+    tr: Tracer<'_>,
+    org: V3,
+    dir: V3,
+    list: InteriorList,
+    rng: &mut Rng,
+    st: &mut Counters,
+    first: Option<&mut CurvedRay>,
+) -> Result<V3> {
     match tr.scene.integrator {
-        IntegratorKind::Path => path::path(tr, org, dir, list, rng, st),
+        IntegratorKind::Path => path::path(tr, org, dir, list, rng, st, first),
         IntegratorKind::Whitted => whitted::whitted(tr, org, dir, list, rng, st, 1),
     }
 }

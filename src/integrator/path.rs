@@ -8,6 +8,7 @@ use super::Tracer;
 use crate::counters::Counters;
 use crate::dielectric::{self, InteriorList};
 use crate::error::Result;
+use crate::media::CurvedRay;
 use crate::ray::{front_facing, offset_origin, spawn_transmitted, Ray};
 use crate::sampling::{power_heuristic, Rng};
 use crate::scene::SurfacePoint;
@@ -251,12 +252,13 @@ pub(super) fn path(
     list: InteriorList,
     rng: &mut Rng,
     st: &mut Counters,
+    mut first: Option<&mut CurvedRay>,
 ) -> Result<V3> {
     let mut p = PathState::new(org, dir, list);
     loop {
         st.segments += 1;
         let sigma = tr.medium(&p.list);
-        let (seg, coincident) = cast(tr, &p.ray, &mut p.list, st)?;
+        let (seg, coincident) = cast(tr, &p.ray, &mut p.list, st, first.take())?;
         let (shadow, go) = p.advance(tr, sigma, &seg, &coincident, None, rng, st);
         if let Some(sh) = shadow {
             if !tr.scene.embree.occluded(&sh.ray) {

@@ -28,7 +28,7 @@ pub(super) fn whitted(
     let ray = Ray::new(org, dir);
     let sigma = tr.medium(&list);
     // The same (curved through a medium) cast as the path tracer.
-    let (seg, coincident) = cast(tr, &ray, &mut list, st)?;
+    let (seg, coincident) = cast(tr, &ray, &mut list, st, None)?;
     if seg.failed {
         st.grin_failures += 1;
         return Ok(V3::ZERO);

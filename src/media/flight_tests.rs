@@ -129,7 +129,7 @@ fn flights_agree_with_the_chord_tracer_and_a_bound_too_small_does_not() {
     assert!(median > 0.05, "{median}");
     let base = flying(1.0);
     let long = base.field().flight_step() * 1.5 / crate::media::field::FLIGHT_WAVELENGTHS;
-    let (sparse, sparse_evals) = errors(&base.with_flight(Pair::BogackiShampine32, long));
+    let (sparse, sparse_evals) = errors(&base.with_flight_step(long));
     let (median, p90, worst) = quantiles(&sparse);
     eprintln!("steps of 1.5 wavelengths: median {median:.3} px, 90 % {p90:.3}, worst {worst:.3}; {sparse_evals:.1} evaluations per ray");
     assert!(median > 0.05 && p90 > 0.25, "{median} {p90}");
@@ -173,4 +173,57 @@ fn hits_after_a_flight_are_refined_on_the_arc() {
         chord.skipped
     );
     assert!(miss < 1e-3, "{miss}");
+}
+
+/// The chords of `ray` until it leaves for good (at most 10,000), and its
+/// evaluations.
+fn chords_of(m: &Medium, ray: &mut CurvedRay) -> (Vec<Chord>, u64) {
+    let mut v = Vec::new();
+    for _ in 0..10_000 {
+        let c = ray.next_chord(m);
+        v.push(c);
+        if c.length.is_infinite() || ray.failure().is_some() {
+            break;
+        }
+    }
+    (v, ray.evaluations())
+}
+
+/// heat_shimmer's camera rays flown side by side (eight field evaluations
+/// per vector operation) then cast take the chords, bit for bit, and the
+/// evaluations of each ray alone, with a box inside the bounds that some
+/// rays stop flying near. Power: the flight flown beforehand is what a ray
+/// takes (moved a millimetre, the ray follows it), and one flown for
+/// another start is refused.
+#[test]
+fn rays_flown_side_by_side_cast_as_rays_alone() {
+    let boxed = flying(1.0).with_obstacles([Aabb::new(DVec3::new(0.3, 0.9, 0.2), DVec3::new(0.5, 1.1, 0.4))]);
+    for m in [flying(1.0), boxed] {
+        let dirs = rays();
+        let mut side: Vec<CurvedRay> = dirs.iter().map(|&d| m.start_ray(EYE, d)).collect();
+        fly_camera_rays(&m, &mut side);
+        let flown = side.iter().filter(|r| r.flown.is_some()).count();
+        assert!(flown * 10 > dirs.len() * 9, "{flown} of {} flown", dirs.len());
+        for (r, &d) in side.iter_mut().zip(&dirs) {
+            let together = chords_of(&m, r);
+            assert!(r.flown.is_none());
+            assert_eq!(together, chords_of(&m, &mut m.start_ray(EYE, d)), "along {d}");
+        }
+    }
+    let m = flying(1.0);
+    let (d0, d1) = (
+        DVec3::new(0.02, 0.01, -1.0).normalize(),
+        DVec3::new(-0.03, 0.02, -1.0).normalize(),
+    );
+    let alone = chords_of(&m, &mut m.start_ray(EYE, d0));
+    let mut pair = [m.start_ray(EYE, d0), m.start_ray(EYE, d1)];
+    fly_camera_rays(&m, &mut pair);
+    let [mut a, mut b] = pair;
+    let mut moved = a.clone();
+    if let Some(f) = moved.flown.as_mut() {
+        f.flight.st.r.y += 1e-3;
+    }
+    assert_ne!(chords_of(&m, &mut moved).0, alone.0);
+    std::mem::swap(&mut a.flown, &mut b.flown);
+    assert_eq!(chords_of(&m, &mut a), alone);
 }

@@ -6,6 +6,7 @@
 pub mod atmosphere;
 pub mod exact;
 pub mod field;
+mod flight;
 pub mod footprint;
 pub mod grin_trace;
 pub mod invariant_cast;
@@ -26,11 +27,12 @@ use serde::{Deserialize, Serialize};
 
 pub use atmosphere::Atmosphere;
 pub use field::{Aabb, FeatureScale, IndexField, Strata};
+use flight::{Flight, FlightAsk};
 pub use footprint::Footprint;
 pub use grin_trace::grin_trace_json;
 use invariant_cast::{InvariantCast, InvariantSetup, Step};
 pub use obstacles::Obstacles;
-use stepper::{Pair, State, Stepper};
+use stepper::{State, Stepper};
 
 /// A user-facing error: the key (e.g. `medium.tolerance`) and what was expected.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -235,8 +237,6 @@ pub struct Medium {
     straight_scale: f64,
     /// The longest step of a flight, metres.
     flight_step: f64,
-    /// The Runge–Kutta pair flights step with.
-    flight_pair: Pair,
 }
 
 /// The largest index a medium may reach (real media are below ~4).
@@ -362,7 +362,6 @@ impl Medium {
             n_floor: n_min,
             straight_scale: 1.0,
             flight_step,
-            flight_pair: Pair::BogackiShampine32,
         })
     }
 
@@ -412,11 +411,9 @@ impl Medium {
         self
     }
 
-    /// Flights stepped by `pair` with steps of at most `step` metres (tests
-    /// compare pairs and caps).
+    /// Flights with steps of at most `step` metres (tests compare caps).
     #[cfg(test)]
-    pub(crate) fn with_flight(mut self, pair: Pair, step: f64) -> Medium {
-        self.flight_pair = pair;
+    pub(crate) fn with_flight_step(mut self, step: f64) -> Medium {
         self.flight_step = step;
         self
     }
@@ -558,6 +555,7 @@ impl Medium {
             chords: 0,
             entered: false,
             inv: None,
+            flown: None,
         }
     }
 }
@@ -570,6 +568,15 @@ enum Mode {
     Inside,
     /// The method failed (message in `failure`): chords of length 0 from here on.
     Failed,
+}
+
+/// A flight flown before its ray got there: the start it was flown from
+/// (state, suggested step), the flight at its end, and how it ended.
+#[derive(Debug, Clone)]
+struct Flown {
+    start: (State, f64),
+    flight: Flight,
+    end: FlightAsk,
 }
 
 /// A straight piece of a curved ray, to cast through Embree.
@@ -605,6 +612,8 @@ pub struct CurvedRay {
     entered: bool,
     /// Method `invariant` while inside the bounds.
     inv: Option<InvariantCast>,
+    /// A flight flown beforehand ([`fly_camera_rays`]).
+    flown: Option<Box<Flown>>,
 }
 
 /// Distance from q to the segment a–b.
@@ -814,89 +823,61 @@ impl CurvedRay {
     }
 
     /// Integrates without chords while no geometry can be met (see
-    /// [`Medium::flies`]): Bogacki–Shampine steps, each shorter than the distance to the
-    /// nearest obstacle box (an arc is no further from its start than its
-    /// length), held to [`Medium::flight_tolerances`]. Ok(true) when the ray
+    /// [`Medium::flies`] and flight.rs), or takes the flight flown for this
+    /// very start beforehand ([`fly_camera_rays`]). Ok(true) when the ray
     /// has left the bounds (its arc length inside added to `skipped`),
     /// Ok(false) when geometry is too close for a step worth taking: the
     /// caller casts chords from there.
     fn fly(&mut self, medium: &Medium, skipped: &mut f64) -> Result<bool, String> {
-        let mut stepper = medium.stepper();
-        let out = self.fly_steps(medium, &mut stepper, skipped);
-        self.evals += stepper.evals;
-        out
+        self.last_curved = false;
+        let (flight, end) = match self.flown.take() {
+            Some(f) if f.start == (self.st, self.h_next) => (f.flight, f.end),
+            _ => {
+                let mut f = Flight::new(self.st, self.h_next, medium);
+                let end = f.run(medium);
+                (f, end)
+            }
+        };
+        self.st = flight.st;
+        self.h_next = flight.h_next;
+        *skipped += flight.skipped;
+        self.evals += flight.evals;
+        match end {
+            FlightAsk::Left => {
+                self.mode = Mode::Outside;
+                Ok(true)
+            }
+            FlightAsk::Near => Ok(false),
+            FlightAsk::Failed(e) => Err(e),
+            FlightAsk::Eval(_) => Err("flight: ended while asking for the field".into()),
+        }
     }
 
-    fn fly_steps(
-        &mut self,
-        medium: &Medium,
-        stepper: &mut Stepper<'_>,
-        skipped: &mut f64,
-    ) -> Result<bool, String> {
-        let b = medium.bounds;
-        // Straight from p over ℓ: with the curvature at most κ = max|∇n|/n
-        // along the way the direction is off by at most κℓ and the position
-        // by κℓ²/2; negligible at half the tolerances.
-        let straight = |p: DVec3, t: DVec3, l: f64, tol_pos: f64, tol_ang: f64| {
-            let k = medium.straight_scale * medium.field.grad_bound_on_segment(p, p + t * l) / medium.n_floor;
-            k * l <= 0.5 * tol_ang && 0.5 * k * l * l <= 0.5 * tol_pos
-        };
-        self.last_curved = false;
-        if !self.h_next.is_finite() {
-            self.h_next = medium.flight_step.min(b.diagonal());
+    /// The flight this ray, not yet cast, would start where it enters the
+    /// bounds: what [`CurvedRay::next_chord`] does on its way to
+    /// [`CurvedRay::fly`] (None when it would not fly from its entry).
+    fn flight_at_entry(&self, medium: &Medium) -> Option<Flight> {
+        if self.mode != Mode::Outside || self.entered || !medium.flies() {
+            return None;
         }
-        let mut cap = f64::INFINITY;
-        let mut first = true;
-        for _ in 0..1_000_000 {
-            let st = self.st;
-            let (tol_pos, tol_ang) = medium.flight_tolerances(st.r);
-            let gap = b.clip(st.r, st.t).map_or(0.0, |(_, t1)| t1.max(0.0));
-            // The bound is worth its exponentials where a ray starts (it may
-            // miss the plume altogether) and within a few steps of the exit.
-            let check = first || gap <= 2.0 * medium.flight_step;
-            first = false;
-            if check && straight(st.r, st.t, gap, tol_pos, tol_ang) {
-                self.st.r += st.t * gap;
-                self.st.s += gap;
-                *skipped += gap;
-                self.mode = Mode::Outside;
-                return Ok(true);
+        let st = self.entry_state(medium, &mut 0)?.ok()?;
+        Some(Flight::new(st, self.h_next, medium))
+    }
+
+    /// Where this ray (outside the bounds) enters them and its state there,
+    /// as `next_chord` finds them: None when it misses them.
+    fn entry_state(&self, medium: &Medium, evals: &mut u64) -> Option<Result<State, String>> {
+        let (r, t) = (self.st.r, self.st.t);
+        match medium.bounds.clip(r, t) {
+            Some((t0, t1)) if t1 > medium.tolerance => {
+                let p = r + t * t0.max(0.0);
+                Some(State::new(&medium.field, p, t, evals).map(|mut s| {
+                    s.s = self.st.s;
+                    s
+                }))
             }
-            let clear = medium.obstacles.distance(st.r, &b);
-            let max_h = gap.min(0.99 * clear).min(cap).min(medium.flight_step);
-            if clear < 0.5 * gap.min(self.h_next) {
-                return Ok(false);
-            }
-            let mut h_next = self.h_next;
-            let (next, h) =
-                stepper.step_image(medium.flight_pair, &st, &mut h_next, max_h, tol_pos, tol_ang)?;
-            self.h_next = h_next;
-            if b.contains(next.r) {
-                self.st = next;
-                *skipped += h;
-                cap = f64::INFINITY;
-                continue;
-            }
-            // The arc crossed a face before the tangent line did: back along
-            // the end tangent to the face when that stretch is short enough
-            // to be straight, else the step again, shorter.
-            match b.clip(next.r, next.t) {
-                Some((_, t1)) if t1 <= 0.0 && straight(next.r, -next.t, -t1, tol_pos, tol_ang) => {
-                    self.st = next;
-                    self.st.r += next.t * t1;
-                    self.st.s += t1;
-                    *skipped += h + t1;
-                    self.mode = Mode::Outside;
-                    return Ok(true);
-                }
-                Some((_, t1)) if t1 <= 0.0 && h + t1 > 0.0 => cap = (h + t1).max(0.1 * h),
-                _ => cap = 0.5 * h,
-            }
+            _ => None,
         }
-        Err(format!(
-            "flight: more than 1e6 steps without leaving the bounds, at {:?}",
-            self.st.r
-        ))
     }
 
     fn exit_straight(&mut self, medium: &Medium, dir: DVec3) -> Chord {
@@ -1102,6 +1083,39 @@ impl CurvedRay {
             sig = next;
         }
         best
+    }
+}
+
+/// Flies the flights `rays` (fresh from [`Medium::start_ray`], none cast
+/// yet) would start where they enter the bounds, side by side (flight.rs):
+/// each ray then takes its flight when it gets there instead of flying
+/// alone, with the same result bit for bit. Worth it for many nearly
+/// parallel rays (a tile's camera rays); rays that would not fly are left
+/// alone.
+pub fn fly_camera_rays(medium: &Medium, rays: &mut [CurvedRay]) {
+    let mut who = Vec::new();
+    let mut flights = Vec::new();
+    for (i, r) in rays.iter().enumerate() {
+        if let Some(f) = r.flight_at_entry(medium) {
+            who.push(i);
+            flights.push(f);
+        }
+    }
+    if flights.is_empty() {
+        return;
+    }
+    let starts: Vec<(State, f64)> = who
+        .iter()
+        .zip(&flights)
+        .map(|(&i, f)| (f.st, rays[i].h_next))
+        .collect();
+    let ends = flight::fly_side_by_side(medium, &mut flights);
+    for (((&i, f), end), start) in who.iter().zip(flights).zip(ends).zip(starts) {
+        rays[i].flown = Some(Box::new(Flown {
+            start,
+            flight: f,
+            end,
+        }));
     }
 }
 

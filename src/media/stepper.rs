@@ -39,6 +39,103 @@ fn deriv_state(field: &IndexField, r: DVec3, v: DVec3, s: f64, evals: &mut u64) 
 /// Bogacki–Shampine's 3rd-order weights (stages at 0, 1/2, 3/4 of the step).
 pub(crate) const BS23_B: [f64; 3] = [2.0 / 9.0, 1.0 / 3.0, 4.0 / 9.0];
 
+/// A Bogacki–Shampine 3(2) step in progress, fed the field one point at a
+/// time: three new evaluations per step, at 1/2, 3/4 and the end (FSAL: n,
+/// ∇n at the end are the next step's first stage). A resumable step lets a
+/// flight's rays share vectorised evaluations (flight.rs) with the same
+/// arithmetic as one ray alone.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Bs23Step {
+    h: f64,
+    b: [f64; 3],
+    /// (dr/ds, dv/ds) at the stages met so far.
+    k: [(DVec3, DVec3); 3],
+    /// The stage the next evaluation is for (1, 2: interior; 3: the end).
+    stage: usize,
+    /// The point and v of that stage.
+    r: DVec3,
+    v: DVec3,
+}
+
+/// What a [`Bs23Step`] needs next.
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum Bs23Next {
+    /// n and ∇n at this point.
+    Eval(DVec3),
+    /// The 3rd-order end state and the error estimate: position (metres)
+    /// and |δv|.
+    Done { end: State, er: f64, ev: f64 },
+}
+
+impl Bs23Step {
+    /// A step of length h from `st`, and the first point to evaluate.
+    pub(crate) fn begin(st: &State, h: f64, b: [f64; 3]) -> (Bs23Step, DVec3) {
+        let k1 = (st.v * (1.0 / st.n), st.g);
+        let r = st.r + k1.0 * (0.5 * h);
+        let v = st.v + k1.1 * (0.5 * h);
+        let step = Bs23Step {
+            h,
+            b,
+            k: [k1, (DVec3::ZERO, DVec3::ZERO), (DVec3::ZERO, DVec3::ZERO)],
+            stage: 1,
+            r,
+            v,
+        };
+        (step, r)
+    }
+
+    /// n and ∇n at the point asked for (`st` the step's start).
+    ///
+    /// # Errors
+    ///
+    /// A message when n is not finite or not > 0 there.
+    pub(crate) fn feed(&mut self, st: &State, n: f64, g: DVec3) -> Result<Bs23Next, String> {
+        check_n(n, self.r)?;
+        let (h, b) = (self.h, self.b);
+        // dr/ds = v/n: one division for the three components.
+        let inv_n = 1.0 / n;
+        match self.stage {
+            1 => {
+                self.k[1] = (self.v * inv_n, g);
+                self.r = st.r + self.k[1].0 * (0.75 * h);
+                self.v = st.v + self.k[1].1 * (0.75 * h);
+                self.stage = 2;
+                Ok(Bs23Next::Eval(self.r))
+            }
+            2 => {
+                self.k[2] = (self.v * inv_n, g);
+                let [k1, k2, k3] = self.k;
+                self.r = st.r + (k1.0 * b[0] + k2.0 * b[1] + k3.0 * b[2]) * h;
+                self.v = st.v + (k1.1 * b[0] + k2.1 * b[1] + k3.1 * b[2]) * h;
+                self.stage = 3;
+                Ok(Bs23Next::Eval(self.r))
+            }
+            _ => {
+                let (r, v) = (self.r, self.v);
+                let end = State {
+                    r,
+                    t: v.normalize(),
+                    v,
+                    n,
+                    g,
+                    s: st.s + h,
+                };
+                let k4 = (v * inv_n, g);
+                let [k1, k2, k3] = self.k;
+                // b − b* of the embedded 2nd-order pair (b* = 7/24, 1/4, 1/3, 1/8).
+                const E3: [f64; 4] = [-5.0 / 72.0, 1.0 / 12.0, 1.0 / 9.0, -1.0 / 8.0];
+                let er = (k1.0 * E3[0] + k2.0 * E3[1] + k3.0 * E3[2] + k4.0 * E3[3]) * h;
+                let ev = (k1.1 * E3[0] + k2.1 * E3[1] + k3.1 * E3[2] + k4.1 * E3[3]) * h;
+                Ok(Bs23Next::Done {
+                    end,
+                    er: er.length(),
+                    ev: ev.length(),
+                })
+            }
+        }
+    }
+}
+
 // Dormand–Prince 5(4) tableau.
 const C: [f64; 7] = [0.0, 1.0 / 5.0, 3.0 / 10.0, 4.0 / 5.0, 8.0 / 9.0, 1.0, 1.0];
 const A: [[f64; 6]; 7] = [
@@ -80,32 +177,6 @@ const E: [f64; 7] = [
     22.0 / 525.0,
     -1.0 / 40.0,
 ];
-
-/// An embedded Runge–Kutta pair: a solution and an error estimate from the
-/// same stages.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Pair {
-    /// Dormand–Prince 5(4): 6 new evaluations per step, at fractions 0.2,
-    /// 0.3, 0.8, 0.89 and 1 of it.
-    DormandPrince54,
-    /// Bogacki–Shampine 3(2): 3 new evaluations per step, at 0.5, 0.75 and 1.
-    /// Where steps are capped by a field's feature length rather than by the
-    /// tolerance (a plume's waves), what sets the error is how densely the
-    /// stages sample the field, not the order: 3 evaluations per 0.9
-    /// wavelengths leave a third of the error of 6 per 1.5 (flight_tests.rs).
-    BogackiShampine32,
-}
-
-impl Pair {
-    /// The exponent of the step-size controller: 1/(order of the error
-    /// estimate + 1), a quarter for Bogacki–Shampine (see `step_image`).
-    fn exponent(self) -> f64 {
-        match self {
-            Pair::DormandPrince54 => 0.2,
-            Pair::BogackiShampine32 => 0.25,
-        }
-    }
-}
 
 impl<'a> Stepper<'a> {
     /// A stepper with its counters at 0.
@@ -175,108 +246,28 @@ impl<'a> Stepper<'a> {
         Ok((end, er.length(), ev.length()))
     }
 
-    /// One Bogacki–Shampine 3(2) step of length h: the 3rd-order state
-    /// (FSAL: the end's n, ∇n are the next step's first stage, so 3 new
-    /// evaluations) and the error estimate in two parts as
-    /// [`Stepper::dp45_parts`].
+    /// One Bogacki–Shampine 3(2) step of length h with the solution's
+    /// weights `b` ([`BS23_B`]; tests give a wrong set): the end state and
+    /// the error estimate in two parts as [`Stepper::dp45_parts`], through
+    /// [`Bs23Step`] as a flight takes it.
     ///
     /// # Errors
     ///
     /// As [`Stepper::dp45`].
-    pub fn bs23_parts(&mut self, st: &State, h: f64) -> Result<(State, f64, f64), String> {
-        self.bs23_weighted(st, h, BS23_B)
-    }
-
-    /// [`Stepper::bs23_parts`] with the solution's weights `b` (tests give
-    /// a wrong set to show what the order check catches).
+    #[cfg(test)]
     pub(crate) fn bs23_weighted(
         &mut self,
         st: &State,
         h: f64,
         b: [f64; 3],
     ) -> Result<(State, f64, f64), String> {
-        let (k1r, k1v) = (st.v / st.n, st.g);
-        let stage = |s: &mut Self, r: DVec3, v: DVec3| -> Result<(DVec3, DVec3), String> {
-            let (n, g) = s.field.eval(r);
-            s.evals += 1;
-            check_n(n, r)?;
-            Ok((v / n, g))
-        };
-        let (k2r, k2v) = stage(self, st.r + k1r * (0.5 * h), st.v + k1v * (0.5 * h))?;
-        let (k3r, k3v) = stage(self, st.r + k2r * (0.75 * h), st.v + k2v * (0.75 * h))?;
-        let r = st.r + (k1r * b[0] + k2r * b[1] + k3r * b[2]) * h;
-        let v = st.v + (k1v * b[0] + k2v * b[1] + k3v * b[2]) * h;
-        let end = deriv_state(self.field, r, v, st.s + h, &mut self.evals)?;
-        let (k4r, k4v) = (v / end.n, end.g);
-        // b − b* of the embedded 2nd-order pair (b* = 7/24, 1/4, 1/3, 1/8).
-        const E3: [f64; 4] = [-5.0 / 72.0, 1.0 / 12.0, 1.0 / 9.0, -1.0 / 8.0];
-        let er = (k1r * E3[0] + k2r * E3[1] + k3r * E3[2] + k4r * E3[3]) * h;
-        let ev = (k1v * E3[0] + k2v * E3[1] + k3v * E3[2] + k4v * E3[3]) * h;
-        Ok((end, er.length(), ev.length()))
-    }
-
-    /// One accepted step of `pair` of at most `max_h` held to image
-    /// tolerances: the position error to `tol_pos` metres and the direction
-    /// error to `tol_ang` radians. Same step-size control as
-    /// [`Stepper::rk45_step`], with the pair's exponent.
-    ///
-    /// # Errors
-    ///
-    /// As [`Stepper::rk45_step`].
-    pub fn step_image(
-        &mut self,
-        pair: Pair,
-        st: &State,
-        h_next: &mut f64,
-        max_h: f64,
-        tol_pos: f64,
-        tol_ang: f64,
-    ) -> Result<(State, f64), String> {
-        let e = pair.exponent();
+        let (mut step, mut p) = Bs23Step::begin(st, h, b);
         loop {
-            let h = h_next.min(max_h);
-            let parts = match pair {
-                Pair::DormandPrince54 => self.dp45_parts(st, h),
-                Pair::BogackiShampine32 => self.bs23_parts(st, h),
-            };
-            let (next, er, ev) = match parts {
-                Ok(x) => x,
-                Err(e) if h > 1e-9 * (1.0 + st.s.abs()) => {
-                    self.rejected += 1;
-                    *h_next = h * 0.25;
-                    let _ = e;
-                    continue;
-                }
-                Err(e) => return Err(e),
-            };
-            let ratio = (er / tol_pos).max(ev / (next.n * tol_ang));
-            if ratio <= 1.0 {
-                let grow = if ratio == 0.0 {
-                    5.0
-                } else {
-                    let shrink = match pair {
-                        Pair::DormandPrince54 => ratio.powf(-0.2),
-                        // A quarter power (two hardware square roots; a
-                        // software cube root cost 7 % of a plume render),
-                        // a little cautious for a 3rd-order pair.
-                        Pair::BogackiShampine32 => ratio.sqrt().sqrt().recip(),
-                    };
-                    (0.9 * shrink).clamp(0.2, 5.0)
-                };
-                *h_next = if h >= *h_next || !h_next.is_finite() {
-                    h * grow
-                } else {
-                    h_next.max(h * grow)
-                };
-                return Ok((next, h));
-            }
-            self.rejected += 1;
-            *h_next = h * (0.9 * ratio.powf(-1.25 * e)).clamp(0.1, 0.9);
-            if h_next.is_nan() || *h_next <= 1e-13 * (1.0 + st.s.abs()) {
-                return Err(format!(
-                    "{pair:?}: step size underflow at arc length {:e} m (tolerances {tol_pos:e} m, {tol_ang:e} rad)",
-                    st.s
-                ));
+            let (n, g) = self.field.eval(p);
+            self.evals += 1;
+            match step.feed(st, n, g)? {
+                Bs23Next::Eval(q) => p = q,
+                Bs23Next::Done { end, er, ev } => return Ok((end, er, ev)),
             }
         }
     }

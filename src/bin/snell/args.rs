@@ -115,6 +115,12 @@ pub struct RenderArgs {
     /// The image is the same at every width.
     #[arg(long, value_enum, default_value = "auto")]
     pub packet_width: PacketWidthArg,
+    /// How the path tracer's camera rays fly through a 3-D gradient-index
+    /// field (a plume) where no geometry is near: `side-by-side` (a tile
+    /// row's rays together, their field evaluations eight per vector
+    /// operation) or `one-by-one`. The image is the same either way.
+    #[arg(long, value_enum, default_value = "side-by-side")]
+    pub flights: FlightsArg,
     /// Diagnostic layers: false_hits,list_depth,tir,fallbacks (EXR channels, or PNGs beside a PNG).
     #[arg(long, value_delimiter = ',', value_parser = aov_parser())]
     pub aov: Vec<Aov>,
@@ -349,6 +355,22 @@ pub enum PacketWidthArg {
     Eight,
     #[value(name = "16")]
     Sixteen,
+}
+
+/// `--flights` of `snell render`.
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum FlightsArg {
+    SideBySide,
+    OneByOne,
+}
+
+impl From<FlightsArg> for snell::render::Flights {
+    fn from(f: FlightsArg) -> Self {
+        match f {
+            FlightsArg::SideBySide => Self::SideBySide,
+            FlightsArg::OneByOne => Self::OneByOne,
+        }
+    }
 }
 
 impl From<PacketWidthArg> for snell::render::PacketWidth {

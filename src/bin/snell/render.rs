@@ -61,6 +61,7 @@ pub fn render(mut a: RenderArgs) -> Result<()> {
             cancel,
             observer: None,
             packet_width: a.packet_width.into(),
+            flights: a.flights.into(),
         },
         &plan.spec,
     )?;
