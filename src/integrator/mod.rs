@@ -99,7 +99,10 @@ impl<'a> Tracer<'a> {
         dielectric::settle_child(self.scene, coincident, child, list, st);
     }
 
-    /// Absorption of the medium a ray inside `list` travels through.
+    /// Absorption of the medium a ray inside `list` travels through. Inline:
+    /// the packet integrator asks per lane per bounce, and whether the
+    /// compiler inlines it on its own varies with unrelated changes.
+    #[inline]
     fn medium(self, list: &InteriorList) -> Option<V3> {
         dielectric::medium_of(dielectric::Nesting::of(self.scene), list)
     }

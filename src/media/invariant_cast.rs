@@ -16,6 +16,11 @@ use glam::DVec3;
 use super::field::{Aabb, IndexField};
 use super::stratified::{Options, Point, StratifiedRay};
 
+/// How far (metres) the start must be from a height limit for a ray moving
+/// away from it to skip the search for its crossing: far beyond the rounding
+/// of heights near the start, so the search could not have found one either.
+const LEVEL_MARGIN: f64 = 1e-6;
+
 /// What the cast does next.
 #[derive(Debug, Clone, Copy)]
 pub enum Step {
@@ -144,21 +149,25 @@ pub struct InvariantCast {
 }
 
 impl InvariantCast {
-    /// The cast of the ray from `p` (inside the medium's box) with unit
-    /// direction `t`.
+    /// Starts in `slot` the cast of the ray from `p` (inside the medium's
+    /// box) with unit direction `t`. Written into the caller's slot rather
+    /// than returned: the cast is large, one starts per path segment, and a
+    /// returned value was copied on its way there.
     ///
     /// # Errors
     ///
-    /// A message when n at `p` is not finite and > 0.
-    pub fn start(
+    /// A message when n at `p` is not finite and > 0 (`slot` is then left
+    /// as it was).
+    pub fn start_in(
+        slot: &mut Option<InvariantCast>,
         field: &IndexField,
         setup: &InvariantSetup,
         p: DVec3,
         t: DVec3,
-    ) -> Result<InvariantCast, String> {
+    ) -> Result<(), String> {
         let (h_lo, h_hi) = setup.limits.h;
-        let mut ray = StratifiedRay::new(field, h_lo, h_hi, p, t, Options::default())?;
-        let here = ray.point(field, 0.0);
+        let ray = StratifiedRay::new(field, h_lo, h_hi, p, t, Options::default())?;
+        let here = ray.start_point();
         let r0 = ray.origin();
         let v = ray.horizontal() * ray.invariant();
         let h_origin = setup.horizontal.map(|j| r0[j]);
@@ -181,7 +190,7 @@ impl InvariantCast {
             // within τ ≤ range/n.
             tau_side = 2.0 * (h_hi - h_lo) / setup.n_min + 1.0;
         }
-        Ok(InvariantCast {
+        *slot = Some(InvariantCast {
             tau: 0.0,
             here,
             tau_side,
@@ -194,7 +203,8 @@ impl InvariantCast {
             level_scale: ray.level_scale(),
             last: (here, here),
             ray,
-        })
+        });
+        Ok(())
     }
 
     /// Index evaluations so far.
@@ -224,6 +234,17 @@ impl InvariantCast {
                 0.0
             };
             if from >= t {
+                continue;
+            }
+            // From the start, an arc that moves away from the level (it starts
+            // clearly on the inner side and does not turn before t) cannot
+            // reach it: no search (rays leaving upward would otherwise look
+            // for the bottom each time).
+            if from == 0.0
+                && level * outward > LEVEL_MARGIN
+                && self.p_start * outward < 0.0
+                && self.ray.next_turn(field, 0.0) >= t
+            {
                 continue;
             }
             if let Some(x) = self.ray.first_height_point(field, level, u, from, t) {
@@ -263,9 +284,17 @@ impl InvariantCast {
                         ta = f64::INFINITY;
                     }
                 } else {
+                    // Plain comparisons rather than f64::min/max: with a
+                    // finite, non-zero `inv` no operand is NaN, and this runs
+                    // per box per chord.
                     let (t1, t2) = ((b.lo[i] - o) * inv, (b.hi[i] - o) * inv);
-                    ta = ta.max(t1.min(t2));
-                    tb = tb.min(t1.max(t2));
+                    let (near, far) = if t1 < t2 { (t1, t2) } else { (t2, t1) };
+                    if near > ta {
+                        ta = near;
+                    }
+                    if far < tb {
+                        tb = far;
+                    }
                 }
             }
             if ta > tb {

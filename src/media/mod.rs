@@ -713,9 +713,9 @@ impl CurvedRay {
                         if let Some(setup) = &medium.invariant {
                             // The invariant cast keeps its own state; here only
                             // position and direction.
-                            match InvariantCast::start(&medium.field, setup, p, t) {
-                                Ok(c) => self.inv = Some(c),
-                                Err(e) => return self.fail(e),
+                            if let Err(e) = InvariantCast::start_in(&mut self.inv, &medium.field, setup, p, t)
+                            {
+                                return self.fail(e);
                             }
                             self.st.r = p;
                         } else {

@@ -106,6 +106,10 @@ struct Closed {
     /// For an exponential profile with κ² > 0: u = αE + β + γ/E, E = e^{κτ}
     /// (see `exp_modes`).
     modes: Option<(f64, f64, f64)>,
+    /// With modes: the τ of their one turning point (∞ without one), once
+    /// asked for. A cast asks for the next turn at every chord and crossing,
+    /// and each answer would cost a logarithm.
+    mode_turn: Option<f64>,
 }
 
 /// u = αe^{κτ} + β + γe^{−κτ} for an exponential profile with
@@ -416,6 +420,42 @@ impl StratifiedRay {
         let b = n0 * c0;
         let p0 = n0 * w0;
         let g0 = n0 * w0 * w0 / (1.0 + c0);
+        if let Some(kind) = closed {
+            let (q1, q2, k2, modes) = match kind {
+                ClosedKind::Linear { m } => (p0, n0 * m, m * m, None),
+                ClosedKind::Exp { a, d0, hs } => {
+                    let c = (d0 + g0) * (a + b);
+                    (
+                        p0 / hs,
+                        (p0 * p0 + n0 * d0) / (hs * hs),
+                        c / (hs * hs),
+                        (c > 0.0).then(|| exp_modes(a, d0, n0, b, p0, c)),
+                    )
+                }
+            };
+            // Built in the return value itself: a cast starts one ray per
+            // path segment, and a local moved out would be a copy each time.
+            return Ok(StratifiedRay {
+                r0: r,
+                up,
+                e,
+                h0,
+                n0,
+                b,
+                p0,
+                g0,
+                evals: std::cell::Cell::new(1),
+                u_scale,
+                form: Form::Closed(Closed {
+                    kind,
+                    q1,
+                    q2,
+                    k2,
+                    modes,
+                    mode_turn: None,
+                }),
+            });
+        }
         let mut ray = StratifiedRay {
             r0: r,
             up,
@@ -435,38 +475,12 @@ impl StratifiedRay {
                 done: false,
             }),
         };
-        ray.form = match closed {
-            Some(kind) => {
-                let (q1, q2, k2, modes) = match kind {
-                    ClosedKind::Linear { m } => (p0, n0 * m, m * m, None),
-                    ClosedKind::Exp { a, d0, hs } => {
-                        let c = (d0 + g0) * (a + b);
-                        (
-                            p0 / hs,
-                            (p0 * p0 + n0 * d0) / (hs * hs),
-                            c / (hs * hs),
-                            (c > 0.0).then(|| exp_modes(a, d0, n0, b, p0, c)),
-                        )
-                    }
-                };
-                Form::Closed(Closed {
-                    kind,
-                    q1,
-                    q2,
-                    k2,
-                    modes,
-                })
-            }
-            None => {
-                let first = ray.first_leg(field);
-                let Form::Quad(q) = &mut ray.form else {
-                    unreachable!("set above")
-                };
-                q.done = first.straight || (!first.turn_b);
-                q.legs.push(first);
-                ray.form
-            }
+        let first = ray.first_leg(field);
+        let Form::Quad(q) = &mut ray.form else {
+            unreachable!("set above")
         };
+        q.done = first.straight || (!first.turn_b);
+        q.legs.push(first);
         Ok(ray)
     }
 
@@ -720,6 +734,17 @@ impl StratifiedRay {
         self.point_and_arc(field, tau, false).0
     }
 
+    /// The point at τ = 0 (what [`StratifiedRay::point`] gives there,
+    /// without needing the ray mutable).
+    pub fn start_point(&self) -> Point {
+        Point {
+            tau: 0.0,
+            dh: 0.0,
+            p: self.p0,
+            n: self.n0,
+        }
+    }
+
     /// The arc length from the start to τ.
     pub fn arc_length(&mut self, field: &IndexField, tau: f64) -> f64 {
         self.point_and_arc(field, tau, true).1
@@ -727,13 +752,7 @@ impl StratifiedRay {
 
     fn point_and_arc(&mut self, field: &IndexField, tau: f64, want_s: bool) -> (Point, f64) {
         if tau == 0.0 {
-            let start = Point {
-                tau,
-                dh: 0.0,
-                p: self.p0,
-                n: self.n0,
-            };
-            return (start, 0.0);
+            return (self.start_point(), 0.0);
         }
         match &self.form {
             Form::Closed(c) => {
@@ -921,8 +940,18 @@ impl StratifiedRay {
 
     /// The next turning point strictly after τ (p changes sign there), or ∞.
     pub fn next_turn(&mut self, field: &IndexField, tau: f64) -> f64 {
-        match &self.form {
-            Form::Closed(c) => closed_next_turn(c, tau),
+        match &mut self.form {
+            Form::Closed(c) => {
+                if let Some((alpha, _, gamma)) = c.modes {
+                    if tau >= 0.0 && gamma / alpha <= 1.0 {
+                        // ln(γ/α) ≤ 0: the turn is at τ ≤ 0 (behind), if any.
+                        return f64::INFINITY;
+                    }
+                    let t = *c.mode_turn.get_or_insert_with(|| modes_turn(alpha, gamma, c.k2));
+                    return if t > tau { t } else { f64::INFINITY };
+                }
+                closed_next_turn(c, tau)
+            }
             Form::Quad(_) => loop {
                 let Form::Quad(q) = &self.form else { unreachable!() };
                 for leg in &q.legs {
@@ -1218,19 +1247,21 @@ fn closed_level_ill_conditioned(c: &Closed, level: f64) -> bool {
     }
 }
 
-/// Where q' = q₁ Ch + q₂ Sh vanishes after τ.
-fn closed_next_turn(c: &Closed, tau: f64) -> f64 {
-    if let Some((alpha, _, gamma)) = c.modes {
-        // u' = κ(αE − γ/E) = 0 at E² = γ/α (accurate where tanh κτ = ratio
-        // near 1 would round the turn away).
-        let r = gamma / alpha;
-        let t = if r > 0.0 {
-            r.ln() / (2.0 * c.k2.sqrt())
-        } else {
-            f64::INFINITY
-        };
-        return if t > tau { t } else { f64::INFINITY };
+/// The τ where u = αE + β + γ/E turns (∞ if it does not): u' = κ(αE − γ/E)
+/// = 0 at E² = γ/α (accurate where tanh κτ = ratio near 1 would round the
+/// turn away).
+fn modes_turn(alpha: f64, gamma: f64, k2: f64) -> f64 {
+    let r = gamma / alpha;
+    if r > 0.0 {
+        r.ln() / (2.0 * k2.sqrt())
+    } else {
+        f64::INFINITY
     }
+}
+
+/// Where q' = q₁ Ch + q₂ Sh vanishes after τ (a form without modes; see
+/// [`modes_turn`] for those).
+fn closed_next_turn(c: &Closed, tau: f64) -> f64 {
     let (q1, q2, k2) = (c.q1, c.q2, c.k2);
     if q2 == 0.0 {
         return f64::INFINITY;
