@@ -1,10 +1,27 @@
 //! The `snell` binary end to end: version/provenance, render with AOVs and
 //! stats, clear errors for bad input and unwritable outputs.
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 
 fn snell() -> Command {
     Command::new(env!("CARGO_BIN_EXE_snell"))
+}
+
+/// Renders `scene` to `exr` at `film` (e.g. `--width`, `--spp` and their
+/// values) with `extra`, quietly on two threads, and returns its pixels'
+/// bits (an image test's exact comparison).
+fn rendered_bits(scene: &str, exr: &Path, film: &[&str], extra: &[&str]) -> Vec<u32> {
+    let out = snell()
+        .args(["render", scene, "-o"])
+        .arg(exr)
+        .args(film)
+        .args(["--threads", "2", "--quiet"])
+        .args(extra)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let (_, _, px) = snell::image_io::read_exr_rgb(exr).unwrap();
+    px.iter().flat_map(|p| p.to_array().map(f32::to_bits)).collect()
 }
 
 fn tmpdir(name: &str) -> PathBuf {
@@ -258,30 +275,9 @@ fn grin_fan_writes_svg_and_json_and_refuses_bad_flags() {
 #[test]
 fn analytic_shapes_flag_keeps_the_image() {
     let d = tmpdir("analytic");
+    const FILM: [&str; 6] = ["--width", "32", "--height", "24", "--spp", "2"];
     let render = |name: &str, extra: &[&str]| {
-        let exr = d.join(name);
-        let out = snell()
-            .args(["render", "scenes/cylinder_refraction.toml", "-o"])
-            .arg(&exr)
-            .args([
-                "--width",
-                "32",
-                "--height",
-                "24",
-                "--spp",
-                "2",
-                "--threads",
-                "2",
-                "--quiet",
-            ])
-            .args(extra)
-            .output()
-            .unwrap();
-        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-        let (_, _, px) = snell::image_io::read_exr_rgb(&exr).unwrap();
-        px.iter()
-            .flat_map(|p| p.to_array().map(f32::to_bits))
-            .collect::<Vec<u32>>()
+        rendered_bits("scenes/cylinder_refraction.toml", &d.join(name), &FILM, extra)
     };
     let set = render("set.exr", &[]);
     let embree = render("embree.exr", &["--analytic-shapes", "embree"]);
@@ -308,31 +304,8 @@ fn analytic_shapes_flag_keeps_the_image() {
 #[test]
 fn packet_width_keeps_the_image() {
     let d = tmpdir("packet_width");
-    let render = |scene: &str, name: &str, extra: &[&str]| {
-        let exr = d.join(name);
-        let out = snell()
-            .args(["render", scene, "-o"])
-            .arg(&exr)
-            .args([
-                "--width",
-                "32",
-                "--height",
-                "24",
-                "--spp",
-                "20",
-                "--threads",
-                "2",
-                "--quiet",
-            ])
-            .args(extra)
-            .output()
-            .unwrap();
-        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-        let (_, _, px) = snell::image_io::read_exr_rgb(&exr).unwrap();
-        px.iter()
-            .flat_map(|p| p.to_array().map(f32::to_bits))
-            .collect::<Vec<u32>>()
-    };
+    const FILM: [&str; 6] = ["--width", "32", "--height", "24", "--spp", "20"];
+    let render = |scene: &str, name: &str, extra: &[&str]| rendered_bits(scene, &d.join(name), &FILM, extra);
     for scene in ["scenes/glass_of_water_nested.toml", "scenes/three_spheres.toml"] {
         let eight = render(scene, "8.exr", &["--packet-width", "8"]);
         let sixteen = render(scene, "16.exr", &["--packet-width", "16"]);
@@ -359,31 +332,9 @@ fn packet_width_keeps_the_image() {
 #[test]
 fn flights_side_by_side_keep_the_image() {
     let d = tmpdir("flights");
-    let render = |name: &str, extra: &[&str]| {
-        let exr = d.join(name);
-        let out = snell()
-            .args(["render", "scenes/heat_shimmer.toml", "-o"])
-            .arg(&exr)
-            .args([
-                "--width",
-                "40",
-                "--height",
-                "30",
-                "--spp",
-                "3",
-                "--threads",
-                "2",
-                "--quiet",
-            ])
-            .args(extra)
-            .output()
-            .unwrap();
-        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-        let (_, _, px) = snell::image_io::read_exr_rgb(&exr).unwrap();
-        px.iter()
-            .flat_map(|p| p.to_array().map(f32::to_bits))
-            .collect::<Vec<u32>>()
-    };
+    const FILM: [&str; 6] = ["--width", "40", "--height", "30", "--spp", "3"];
+    let render =
+        |name: &str, extra: &[&str]| rendered_bits("scenes/heat_shimmer.toml", &d.join(name), &FILM, extra);
     let together = render("side.exr", &["--flights", "side-by-side"]);
     assert_eq!(together, render("alone.exr", &["--flights", "one-by-one"]));
     assert_eq!(together, render("default.exr", &[]));
