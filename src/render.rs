@@ -10,7 +10,7 @@ use crate::media::CurvedRay;
 use crate::ray::Ray;
 use crate::sampling::Rng;
 use crate::scene::RenderScene;
-use glam::Vec3A as V3;
+use glam::{DVec3, Vec3A as V3};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Arc;
@@ -597,6 +597,12 @@ impl TileJob<'_> {
                 (Some(med), true) => self.flown_rays(med, (x0, y0 + j), (w, 1)),
                 _ => Vec::new(),
             };
+            // Without flights, each camera ray's curved ray is started in
+            // this one's storage (see `Medium::restart_ray`).
+            let mut camera_curved = match (&scene.medium, flown.is_empty()) {
+                (Some(med), true) => Some(med.start_ray(DVec3::ZERO, DVec3::X)),
+                _ => None,
+            };
             let mut next_flown = flown.iter_mut();
             for i in 0..w {
                 let (x, y) = (x0 + i, y0 + j);
@@ -650,7 +656,15 @@ impl TileJob<'_> {
                         let mut ls = [V3::ZERO; MAX_PATHS_PER_PACKET];
                         for i in 0..lanes {
                             let (o, d) = rays[i];
-                            let first = next_flown.next();
+                            let first = match (next_flown.next(), &mut camera_curved, &scene.medium) {
+                                (Some(f), _, _) => Some(f),
+                                (None, Some(c), Some(med)) => {
+                                    let ray = Ray::new(o, d);
+                                    med.restart_ray(c, ray.org.as_dvec3(), ray.dir.as_dvec3());
+                                    Some(c)
+                                }
+                                _ => None,
+                            };
                             ls[i] = radiance_after(
                                 tracer,
                                 o,

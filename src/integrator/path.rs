@@ -252,13 +252,22 @@ pub(super) fn path(
     list: InteriorList,
     rng: &mut Rng,
     st: &mut Counters,
-    mut first: Option<&mut CurvedRay>,
+    first: Option<&mut CurvedRay>,
 ) -> Result<V3> {
     let mut p = PathState::new(org, dir, list);
+    // Through a medium every segment is a curved ray, each started in the
+    // storage of the last (a fresh one would be a copy of several hundred
+    // bytes per segment).
+    let mut spare = None;
+    let mut curved = match (first, &tr.scene.medium) {
+        (Some(c), _) => Some(c),
+        (None, Some(m)) => Some(spare.insert(m.start_ray(org.as_dvec3(), dir.as_dvec3()))),
+        (None, None) => None,
+    };
     loop {
         st.segments += 1;
         let sigma = tr.medium(&p.list);
-        let (seg, coincident) = cast(tr, &p.ray, &mut p.list, st, first.take())?;
+        let (seg, coincident) = cast(tr, &p.ray, &mut p.list, st, curved.as_deref_mut())?;
         let (shadow, go) = p.advance(tr, sigma, &seg, &coincident, None, rng, st);
         if let Some(sh) = shadow {
             if !tr.scene.embree.occluded(&sh.ray) {
@@ -267,6 +276,9 @@ pub(super) fn path(
         }
         if !go {
             break;
+        }
+        if let (Some(c), Some(m)) = (curved.as_deref_mut(), &tr.scene.medium) {
+            m.restart_ray(c, p.ray.org.as_dvec3(), p.ray.dir.as_dvec3());
         }
     }
     Ok(p.radiance(st))

@@ -274,7 +274,15 @@ impl InvariantCast {
     /// inside a box, with the point there when it is known.
     fn first_contact(&mut self, field: &IndexField, boxes: &[FrameBox], bound: f64) -> (f64, Option<Point>) {
         let mut best = (bound, None);
+        // Without a turn before `bound` the height only moves one way from
+        // here: a box wholly behind that way (below a rising arc, above a
+        // falling one) cannot be met, whatever its horizontal extent.
+        let monotone = self.ray.next_turn(field, self.tau) >= bound;
+        let (rising, falling) = (monotone && self.here.p >= 0.0, monotone && self.here.p <= 0.0);
         for b in boxes {
+            if (rising && b.h.1 - self.h0 < self.here.dh) || (falling && b.h.0 - self.h0 > self.here.dh) {
+                continue;
+            }
             let (mut ta, mut tb) = (self.tau, best.0);
             for i in 0..2 {
                 let (o, inv) = (self.h_origin[i], self.h_inv_rate[i]);
@@ -419,8 +427,9 @@ impl InvariantCast {
     }
 
     /// Where the arc of the last chord crosses the plane through `hit` with
-    /// normal `ng`, and the unit tangent there (safeguarded Newton on τ;
-    /// None when the chord's arc does not cross it).
+    /// normal `ng`, and the unit tangent there (safeguarded Newton on τ from
+    /// the root of the chord's cubic Hermite model; None when the chord's arc
+    /// does not cross it).
     pub fn refine(&mut self, field: &IndexField, hit: DVec3, ng: DVec3) -> Option<(DVec3, DVec3)> {
         let (pa, pb) = self.last;
         let (a, b) = (pa.tau, pb.tau);
@@ -430,8 +439,13 @@ impl InvariantCast {
             return None;
         }
         let (mut lo, mut hi, mut flo) = (a, b, fa);
-        let mut t = a + (b - a) * (fa / (fa - fb)).clamp(0.0, 1.0);
+        // The chord's ends give g and g' = v·n there: the cubic through them
+        // is within the chord tolerance's square of the arc, so Newton starts
+        // next to the root (the secant alone left it ~tolerance away).
+        let (da, db) = (self.ray.velocity(&pa).dot(ng), self.ray.velocity(&pb).dot(ng));
+        let mut t = a + (b - a) * hermite_root(fa, fb, da * (b - a), db * (b - a));
         let mut best = pa;
+        let mut shift = 0.0;
         for _ in 0..8 {
             let p = self.ray.point(field, t);
             best = p;
@@ -450,11 +464,38 @@ impl InvariantCast {
             if !(next > lo && next < hi) {
                 next = 0.5 * (lo + hi);
             }
-            if (next - t).abs() <= 1e-12 * (1.0 + t.abs()) {
+            if (next - t).abs() <= 1e-7 * (1.0 + t.abs()) {
+                // Converging quadratically: what is left after this step
+                // is far below it, so the step is taken along the tangent
+                // instead of with one more point of the arc.
+                shift = next - t;
                 break;
             }
             t = next;
         }
-        Some((self.ray.position(&best), self.ray.direction(&best)))
+        let v = self.ray.velocity(&best);
+        Some((self.ray.position(&best) + v * shift, self.ray.direction(&best)))
     }
+}
+
+/// The root in [0, 1] of the cubic Hermite interpolant with values `fa`,
+/// `fb` (of opposite signs, or one zero) and slopes `sa`, `sb` (per unit of
+/// the interval) at its ends: Newton from the secant's root, which it keeps
+/// when the cubic leaves the bracket or is not finite.
+fn hermite_root(fa: f64, fb: f64, sa: f64, sb: f64) -> f64 {
+    let secant = (fa / (fa - fb)).clamp(0.0, 1.0);
+    // H(s) = fa + sa·s + c2·s² + c3·s³.
+    let c2 = 3.0 * (fb - fa) - 2.0 * sa - sb;
+    let c3 = 2.0 * (fa - fb) + sa + sb;
+    let mut s = secant;
+    for _ in 0..4 {
+        let h = fa + s * (sa + s * (c2 + s * c3));
+        let dh = sa + s * (2.0 * c2 + s * 3.0 * c3);
+        let next = s - h / dh;
+        if !(next.is_finite() && (0.0..=1.0).contains(&next)) {
+            return secant;
+        }
+        s = next;
+    }
+    s
 }

@@ -531,6 +531,37 @@ impl Medium {
 
     /// Start a curved ray at p (world, metres) with direction d (normalised here).
     pub fn start_ray(&self, p: DVec3, d: DVec3) -> CurvedRay {
+        let idle = State {
+            r: DVec3::ZERO,
+            t: DVec3::X,
+            v: DVec3::X,
+            n: f64::NAN,
+            g: DVec3::ZERO,
+            s: 0.0,
+        };
+        let mut ray = CurvedRay {
+            st: idle,
+            prev: idle,
+            last_arc: 0.0,
+            last_curved: false,
+            mode: Mode::Outside,
+            failure: None,
+            h_next: f64::INFINITY,
+            ell_prev: f64::INFINITY,
+            evals: 0,
+            chords: 0,
+            entered: false,
+            inv: None,
+            flown: None,
+        };
+        self.restart_ray(&mut ray, p, d);
+        ray
+    }
+
+    /// Start `ray` afresh at p with direction d, as [`Medium::start_ray`]
+    /// would, in its own storage: a render starts one curved ray per path
+    /// segment, and a new one is a copy of several hundred bytes each time.
+    pub fn restart_ray(&self, ray: &mut CurvedRay, p: DVec3, d: DVec3) {
         let dl = d.length();
         let bad = !(p.is_finite() && d.is_finite() && dl > 0.0);
         let t = if bad { DVec3::X } else { d / dl };
@@ -542,21 +573,19 @@ impl Medium {
             g: DVec3::ZERO,
             s: 0.0,
         };
-        CurvedRay {
-            st,
-            prev: st,
-            last_arc: 0.0,
-            last_curved: false,
-            mode: if bad { Mode::Failed } else { Mode::Outside },
-            failure: bad.then(|| format!("invalid ray: origin {p:?}, direction {d:?}")),
-            h_next: f64::INFINITY,
-            ell_prev: f64::INFINITY,
-            evals: 0,
-            chords: 0,
-            entered: false,
-            inv: None,
-            flown: None,
-        }
+        ray.st = st;
+        ray.prev = st;
+        ray.last_arc = 0.0;
+        ray.last_curved = false;
+        ray.mode = if bad { Mode::Failed } else { Mode::Outside };
+        ray.failure = bad.then(|| format!("invalid ray: origin {p:?}, direction {d:?}"));
+        ray.h_next = f64::INFINITY;
+        ray.ell_prev = f64::INFINITY;
+        ray.evals = 0;
+        ray.chords = 0;
+        ray.entered = false;
+        ray.inv = None;
+        ray.flown = None;
     }
 }
 
