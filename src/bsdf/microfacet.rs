@@ -28,11 +28,15 @@
 //!   Mitsuba uses a rational fit of G1 (< 0.35% error): the sampler draws
 //!   from the exact visible-normal density, so its pdf must use the exact G1.
 //! - GGX sampling maps (u1, u2) by Heitz 2018's polar construction where
-//!   Mitsuba uses its slope-space variant with a concentric disk map: the
-//!   same density, another assignment of random numbers.
-//! - Beckmann sampling inverts the slope CDF in the slope domain, with erfc
-//!   (no cancellation in the tail) and a safeguarded Newton iteration to
-//!   convergence, where Mitsuba runs three Newton steps in the erf domain.
+//!   Mitsuba uses the slope-space form of Heitz's 2017 report ("A simpler
+//!   and exact sampling routine for the GGX distribution of visible
+//!   normals") with a concentric disk map: the same density, another
+//!   assignment of random numbers.
+//! - Beckmann sampling runs Mitsuba's three Newton steps in the erf domain
+//!   (in f64, from the same start) and then polishes the slope to f64
+//!   precision by a bracketed Newton iteration on the slope CDF written with
+//!   erfc (no cancellation in the tail), where Mitsuba stops after the three
+//!   steps (in f32, accurate to about its precision).
 use super::{positive, BsdfError};
 use glam::{DVec3, Vec2, Vec3};
 use std::f32::consts::PI;

@@ -36,6 +36,30 @@
 //! - Constructors are `try_new` and reject bad parameters with a
 //!   [`BsdfError`](crate::bsdf::BsdfError) naming the parameter; nothing
 //!   here panics on parameters.
+//!
+//! # Example
+//!
+//! ```
+//! use glam::{Vec2, Vec3};
+//! use snell::bsdf::{Frame, MicrofacetDistribution, MicrofacetKind, RoughDielectric};
+//!
+//! // Rough glass (GGX, α = 0.2) under air, its shading normal +y in the world.
+//! let ggx = MicrofacetDistribution::isotropic(MicrofacetKind::Ggx, 0.2)?;
+//! let glass = RoughDielectric::try_new(ggx, 1.0, 1.5)?;
+//! let frame = Frame::from_normal(Vec3::Y);
+//! let wo = frame.to_local(Vec3::new(0.3, 1.0, 0.0).normalize());
+//! // u_lobe = 0.7 is above the Fresnel reflectance (≈ 0.04): a refraction.
+//! let s = glass.sample(wo, 0.7, Vec2::new(0.25, 0.5)).expect("a direction");
+//! assert!(s.is_transmission && s.wi.z < 0.0);
+//! // Its density and weight are what `pdf` and `f` say.
+//! let pdf = glass.pdf(wo, s.wi);
+//! assert!((s.pdf - pdf).abs() <= 1e-3 * pdf);
+//! let weight = glass.f(wo, s.wi) * s.wi.z.abs() / pdf;
+//! assert!((s.weight - weight).abs().max_element() <= 1e-3 * weight.max_element());
+//! let into_the_glass = frame.to_world(s.wi);
+//! assert!(into_the_glass.y < 0.0);
+//! # Ok::<(), snell::bsdf::BsdfError>(())
+//! ```
 use glam::{Vec3, Vec3A};
 
 pub mod conductor;

@@ -19,10 +19,16 @@
 //! the facet that refracts wo into wi (Snell's law in vector form:
 //! ηo wo + ηi wi is along the facet normal), and
 //! f = (1 − F) D G ηi² |wo·m| |wi·m| / (|cos θo| |cos θi| (ηo wo·m + ηi wi·m)²),
-//! times (ηo/ηi)² in radiance mode (see [`TransportMode`]). The Jacobian
-//! derived for sampling: with wi fixed by m through Snell's law,
-//! dω_m/dω_i = ηi² |wi·m| / (ηo wo·m + ηi wi·m)² (for reflection 1 / (4 |wi·m|)),
-//! so pdf(wi) = pdf_vis(m) · (F or 1 − F) · dω_m/dω_i. Both are implemented
+//! times (ηo/ηi)² in radiance mode (see [`TransportMode`]).
+//!
+//! The Jacobian of the half-vector map, derived for sampling: let
+//! h = ηo wo + ηi wi (unnormalised), m = h/|h|. Moving wi over a solid
+//! angle dωi moves h over an area ηi² dωi (wi scaled by ηi), of which the
+//! part seen along h is ηi² |wi·m| dωi; the direction of h sweeps that area
+//! divided by |h|². Since h ∥ m, |h| = |h·m| = |ηo wo·m + ηi wi·m|, so
+//! dω_m/dω_i = ηi² |wi·m| / (ηo wo·m + ηi wi·m)²
+//! (for reflection, h = wo + wi and the same argument gives 1 / (4 |wi·m|)),
+//! and pdf(wi) = pdf_vis(m) · (F or 1 − F) · dω_m/dω_i. Both are implemented
 //! with η = ηi/ηo, i.e. divided through by ηo² (Mitsuba's form).
 //!
 //! Sampling draws m from the normals visible from wo, then chooses

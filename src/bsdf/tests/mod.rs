@@ -27,7 +27,7 @@ mod plastic;
 mod rough_dielectric;
 
 /// An upper bound on the number of χ² tests run by this suite (correct
-/// models and wrong variants), for the Šidák correction.
+/// models and wrong variants; 70 at present), for the Šidák correction.
 pub const CHI2_TESTS: f64 = 80.0;
 
 /// A white rough plastic (ρ = 1, int_ior 1.5, ext_ior 1) of roughness
@@ -391,18 +391,21 @@ pub fn consistency(
     pdf: impl Fn(Vec3) -> f32,
 ) -> Consistency {
     let mut rng = Rng::new(seed);
-    let (mut pdf_error, mut weight_error) = (0.0f64, 0.0f64);
+    let (mut pdf_error, mut weight_error, mut checked) = (0.0f64, 0.0f64, 0usize);
     for _ in 0..n {
         let Some(s) = sample(&mut rng) else { continue };
         if s.is_delta {
             continue;
         }
+        checked += 1;
         let p = f64::from(pdf(s.wi));
         pdf_error = pdf_error.max((p - f64::from(s.pdf)).abs() / p.max(1e-30));
         let w = (f(s.wi) * s.wi.z.abs() / s.pdf).as_dvec3();
         let rel = (w - s.weight.as_dvec3()).abs().max_element() / w.abs().max_element().max(1e-6);
         weight_error = weight_error.max(rel);
     }
+    // A check of nothing would pass: most draws must have been compared.
+    assert!(checked * 10 >= n, "only {checked} of {n} samples had a density");
     Consistency {
         pdf_error,
         weight_error,
@@ -431,4 +434,22 @@ fn the_gamma_function_and_the_significance_are_right() {
     assert!((regularized_lower_gamma(k / 2.0, median / 2.0) - 0.5).abs() < 1e-3);
     let a = significance();
     assert!(a > 1e-4 && a < 1.3e-4, "{a}");
+}
+
+#[test]
+fn frames_are_orthonormal_and_round_trip() {
+    use crate::bsdf::Frame;
+    let mut rng = Rng::new(12);
+    for _ in 0..1000 {
+        let n = sphere(&mut rng);
+        let f = Frame::from_normal(n);
+        for (a, b) in [(f.s, f.t), (f.t, f.n), (f.n, f.s)] {
+            assert!(a.dot(b).abs() < 1e-5);
+        }
+        assert!((f.s.cross(f.t) - n).length() < 1e-5, "right-handed");
+        assert!((f.to_local(n) - Vec3::Z).length() < 1e-5);
+        let v = sphere(&mut rng);
+        assert!((f.to_world(f.to_local(v)) - v).length() < 1e-5);
+        assert!((f.to_local(v).z - v.dot(n)).abs() < 1e-6);
+    }
 }

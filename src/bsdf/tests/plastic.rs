@@ -64,6 +64,14 @@ fn smooth_plastic_sampling_matches_its_pdf_chi2_and_its_delta_share() {
             let sd = (p * (1.0 - p) / h.draws as f64).sqrt();
             let share = deltas as f64 / h.draws as f64;
             assert!((share - p).abs() < 4.0 * sd + 1e-4, "wo = {wo}: {share} vs {p}");
+            // ∫ pdf by uniform directions, independently of the cell quadrature.
+            let mass = estimate(200_000, 5, |rng| {
+                DVec3::splat(f64::from(b.pdf(wo, sphere(rng))) * 4.0 * PI)
+            });
+            assert!(
+                (mass.mean.x - (1.0 - share)).abs() < 4.0 * (mass.stderr.x + sd),
+                "{mass:?} vs {share}"
+            );
             assert!(share > 0.01, "the delta lobe is sampled: {share}");
             let s = consistency(
                 20_000,
