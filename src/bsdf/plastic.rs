@@ -35,7 +35,13 @@
 //!
 //! Departures from Mitsuba 3: `f` excludes the cosine; samples are drawn on
 //! the disk by the polar map where Mitsuba uses the concentric one (same
-//! density); a rough sample below the surface is `None`.
+//! density); a rough sample below the surface is `None`; a diffuse albedo
+//! above 1 is an error (Mitsuba accepts it, and with `nonlinear` the
+//! factor 1 / (1 − ρ F_dr) can then blow up); the rough coating's tables
+//! are computed in f64 quadrature weights and f32 samples like Mitsuba's,
+//! but GGX's visible normals are mapped differently (see
+//! [`super::microfacet`]), so they agree with Mitsuba's to the rules'
+//! accuracy, not bit for bit.
 use super::fresnel::{self, reflect, refract};
 use super::microfacet::MicrofacetDistribution;
 use super::quadrature::gauss_legendre;
