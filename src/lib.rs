@@ -209,7 +209,7 @@
 //! [`sampling`], [`counters`] → [`embree`] (the only FFI and the only
 //! `unsafe`; explicit SIMD, such as the cylinder warp's lanes, goes through
 //! the safe `pulp` crate with run-time dispatch) → [`error`] → [`camera`],
-//! [`media`], [`warp`] solvers, [`accum`] → [`scene`] (the model and its
+//! [`media`], [`warp`] solvers, [`accum`], [`bsdf`] → [`scene`] (the model and its
 //! builder) → [`dielectric`] (the nested rule) → [`integrator`] → [`render`](mod@render),
 //! [`audit`] → overrides, the warp renderer, and with `tooling` the parts, the
 //! farm, the benchmarks and the report.
@@ -218,6 +218,8 @@
 
 pub mod accum;
 pub mod audit;
+/// Microfacet BSDFs (rough glass, metals, plastics) after Mitsuba 3: pure math, local frame.
+pub mod bsdf;
 pub mod camera;
 pub mod counters;
 pub mod dielectric;

@@ -22,8 +22,8 @@ const LAYERS: &[&[&str]] = &[
     &["error", "timing"],
     // Pure models and solvers with no scene: the camera, gradient-index
     // media, the warp solvers (plate, tube, the paper's approximation),
-    // exact per-pixel sums.
-    &["camera", "media", "warp", "accum"],
+    // exact per-pixel sums, the microfacet BSDFs.
+    &["camera", "media", "warp", "accum", "bsdf"],
     // The scene model and its builder.
     &["scene"],
     // The nested rule; image files.
