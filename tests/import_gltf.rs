@@ -330,6 +330,16 @@ fn unmapped_material_features_warn_once_per_material_and_strict_refuses() {
         "{spots:?}"
     );
     assert!((spots[1].beam_width.unwrap() - 0.25f64.to_degrees()).abs() < 1e-5);
+    // An emissive double-sided material emits from both faces.
+    for double in [false, true] {
+        let lit = tri_gltf(|v| {
+            v["materials"][0]["emissiveFactor"] = serde_json::json!([1.0, 0.5, 0.25]);
+            v["materials"][0]["doubleSided"] = serde_json::json!(double);
+        });
+        let i = imp(&lit, &ImportOptions::default()).unwrap();
+        let e = i.desc.objects[0].emission.as_ref().expect("emission");
+        assert_eq!(e.two_sided, double);
+    }
     // The mesh loads through the scene loader (the file written above).
     let s = load_scene(&f, &BuildOptions::default()).unwrap();
     assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);

@@ -94,6 +94,20 @@ material = { type = "black" }
 emission = { radiance = [8.0, 7.0, 6.0] }
 "#;
 
+/// A two-sided emitting sphere around the room (a dome), and the quad.
+const DOME: &str = r#"
+[[objects]]
+name = "dome"
+shape = { type = "sphere", center = [0.0, 0.0, 0.0], radius = 8.0 }
+material = { type = "black" }
+emission = { radiance = [0.3, 0.4, 0.5], two_sided = true }
+[[objects]]
+name = "lamp"
+shape = { type = "rect", center = [0.0, 1.2, 0.0], normal = [0.0, -1.0, 0.0], u_axis = [1.0, 0.0, 0.0], size = [0.8, 0.8] }
+material = { type = "black" }
+emission = { radiance = [6.0, 5.0, 4.0] }
+"#;
+
 /// The `sphere` light of the same size, place and radiance as [`SPHERE`].
 const SPHERE_LIGHT: &str = r#"
 [[lights]]
@@ -226,6 +240,21 @@ fn analytic_emitters_by_area_match_bsdf_sampling_alone() {
         n_mis < 0.75 * n_bsdf,
         "NEE does not carry the emitters: {n_mis} vs {n_bsdf}"
     );
+}
+
+#[test]
+fn a_two_sided_dome_around_the_scene_by_area_from_inside_matches_bsdf_sampling_alone() {
+    let mut s = room(DOME);
+    assert_eq!(s.lights.len(), 2);
+    let bsdf = run(&s, LightSampling::Bsdf);
+    let mis = run(&s, LightSampling::Mis);
+    set_sampling(&mut s, EmitterSampling::WrongAreaPdf);
+    let area_pdf = run(&s, LightSampling::Mis);
+    let b = pair(&bsdf);
+    let (r, r_area) = (ratio(pair(&mis), b), ratio(pair(&area_pdf), b));
+    eprintln!("dome and quad: block-mean RMS / noise RMS: mis {r:.3}, area pdf {r_area:.3}");
+    assert!(r <= LIMIT, "NEE+MIS vs BSDF alone: {r}");
+    assert!(r_area > LIMIT, "no power: {r_area}");
 }
 
 #[test]

@@ -2,7 +2,8 @@
 //!
 //! An object with `emission` is sampled directly: an analytic sphere by the
 //! cone of directions it fills seen from the shaded point (the sampling of
-//! the `sphere` light, [`sample_sphere_cone`]), every other shape by area:
+//! the `sphere` light, [`sample_sphere_cone`]; from inside a two-sided one,
+//! uniformly by area), every other shape by area:
 //! a triangle drawn in proportion to its area from an alias table, then a
 //! point uniform on it; disks, annuli and cylinder walls (the parts of
 //! analytic cylinders and tubes) likewise, each part by its area. Shapes are

@@ -12,7 +12,7 @@ use super::texture::{ImageData, Texture};
 use crate::camera::Camera;
 use crate::error::{Error, Result};
 use crate::ray::{Hit, Ray};
-use crate::sampling::Rng;
+use crate::sampling::{uniform_sphere, Rng};
 use glam::{DVec3, Vec3A as V3};
 use std::sync::Arc;
 
@@ -568,7 +568,16 @@ impl RenderScene {
             Light::Sphere { center, radius, .. } => sphere_cone_pdf(*center, *radius, from) / n,
             Light::Emitter(e) if !e.weighs_hits() => 0.0,
             Light::Emitter(e) => match &e.shape {
-                EmitterShape::Sphere { center, radius, .. } => sphere_cone_pdf(*center, *radius, from) / n,
+                EmitterShape::Sphere { center, radius, .. } => {
+                    let cone = sphere_cone_pdf(*center, *radius, from);
+                    if cone > 0.0 || !e.two_sided {
+                        cone / n
+                    } else {
+                        // From inside a two-sided sphere: by area.
+                        let area = 4.0 * std::f32::consts::PI * radius * radius;
+                        e.area_density(area, (q - from).length_squared(), -ng.dot(wi)) / n
+                    }
+                }
                 EmitterShape::Area(a) => {
                     e.area_density(a.area(), (q - from).length_squared(), -ng.dot(wi)) / n
                 }
@@ -735,8 +744,27 @@ impl RenderScene {
                 center,
                 radius,
             } => {
-                let (wi, dist, pdf) = sample_sphere_cone(*center, *radius, p, u1, u2)?;
-                let q = p + wi * dist;
+                let (wi, dist, q, pdf) = match sample_sphere_cone(*center, *radius, p, u1, u2) {
+                    Some((wi, dist, pdf)) => (wi, dist, p + wi * dist, pdf),
+                    // Inside, a two-sided sphere shows its inner face all
+                    // round: a point uniform on it by area.
+                    None if e.two_sided => {
+                        let n = uniform_sphere(u1, u2);
+                        let q = *center + n * *radius;
+                        let d = q - p;
+                        let dist = d.length();
+                        if dist.is_nan() || dist <= 0.0 {
+                            return None;
+                        }
+                        let wi = d / dist;
+                        let area = 4.0 * std::f32::consts::PI * radius * radius;
+                        (wi, dist, q, e.area_density(area, dist * dist, -n.dot(wi)))
+                    }
+                    None => return None,
+                };
+                if pdf.is_nan() || pdf <= 0.0 {
+                    return None;
+                }
                 let quv = if uv {
                     sphere.uv(sphere.project(0, q.as_dvec3()))
                 } else {
