@@ -2,7 +2,6 @@
 //! turning `--region`/`--samples` (or their grid forms `--region-cell` and
 //! `--sample-chunk`, convenient in job templates) and `--resume` into a
 //! [`PartSpec`], process CPU time, and the stats table of a sweep. See docs/farm.md.
-use crate::dielectric::NestedStrategy;
 use crate::error::{Error, Result};
 use crate::part::{read_part, scene_id, PartMeta};
 use crate::render::{Accum, PartSpec, Region, RenderSettings};
@@ -11,24 +10,20 @@ use crate::scene::{build_scene_text, BuildOptions, RenderScene, SceneText};
 use std::path::{Path, PathBuf};
 
 /// Load a scene file with `--set` overrides; returns the scene and its
-/// [`scene_id`] (of the text after overrides and the nested strategy).
+/// [`scene_id`] (of the text after overrides and `tag`, what else makes
+/// the image: [`crate::render::id_tag`]).
 ///
 /// # Errors
 ///
 /// [`Error::Io`] when the file cannot be read; [`Error::Input`] for a
 /// malformed override or an invalid scene (located in the file or in the
 /// `--set` argument); any error of building the scene.
-pub fn load(
-    path: &Path,
-    sets: &[String],
-    opts: &BuildOptions,
-    strategy: NestedStrategy,
-) -> Result<(RenderScene, String)> {
+pub fn load(path: &Path, sets: &[String], opts: &BuildOptions, tag: &str) -> Result<(RenderScene, String)> {
     let text = SceneText::read(path, &opts.import)?;
     let src = crate::overrides::apply(Source::new(&text.source.file, text.source.text.clone()), sets)?;
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
     let scene = build_scene_text(&text, &src, &dir, opts)?;
-    Ok((scene, scene_id(&src.text, strategy.name())))
+    Ok((scene, scene_id(&src.text, tag)))
 }
 
 /// `x0,x1,y0,y1`: half-open pixel bounds.

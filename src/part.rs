@@ -5,7 +5,7 @@
 //! 32-bit words each. The data window is the region, the display window the
 //! film. Header attributes (strings): `snell_film` (`WxH`), `snell_spp` (the
 //! film's spp), `snell_seed`, `snell_scene` (a hash of the scene text after
-//! `--set` and of the nested strategy), `snell_region` (`x0,x1,y0,y1`),
+//! `--set`, of the nested strategy and of a non-default light sampling), `snell_region` (`x0,x1,y0,y1`),
 //! `snell_samples` (`START:COUNT`), `snell_fixed_bits` and `snell_stats` (the
 //! task's stats JSON).
 use crate::error::{Error, Result};
@@ -48,7 +48,9 @@ pub struct Part {
 }
 
 /// A stable identity for a scene: FNV-1a (64 bit) of the scene text (after
-/// `--set` overrides) and the nested-dielectric strategy. Files the scene
+/// `--set` overrides) and the render settings that change the image beside
+/// it (`nested`: `render::id_tag`, the nested-dielectric strategy's name
+/// unless lights are sampled otherwise than by default). Files the scene
 /// refers to (meshes, textures) are not part of it.
 pub fn scene_id(text: &str, nested: &str) -> String {
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;

@@ -5,7 +5,9 @@ use crate::camera::Camera;
 use crate::counters::Counters;
 use crate::dielectric::{InteriorList, NestedStrategy};
 use crate::error::{Error, Result};
-use crate::integrator::{path_lanes, path_lanes_apply, radiance_after, LanePackets, RayObserver, Tracer};
+use crate::integrator::{
+    path_lanes, path_lanes_apply, radiance_after, LanePackets, LightSampling, RayObserver, Tracer,
+};
 use crate::media::CurvedRay;
 use crate::ray::Ray;
 use crate::sampling::Rng;
@@ -161,6 +163,7 @@ impl RenderStats {
             "height": settings.height,
             "spp": spp,
             "nested_strategy": settings.strategy.name(),
+            "light_sampling": settings.light_sampling.name(),
             "false_hits_per_ray": per(c.false_hits, c.queries),
             "filter_calls_per_ray": per(c.filter_calls, c.queries),
             "chords_per_segment": per(c.chords, c.segments),
@@ -194,6 +197,8 @@ pub struct RenderSettings {
     pub seed: u64,
     /// How false hits of nested dielectrics are skipped.
     pub strategy: NestedStrategy,
+    /// Next-event estimation with MIS (the default), or BSDF sampling alone.
+    pub light_sampling: LightSampling,
 }
 
 impl RenderSettings {
@@ -205,6 +210,7 @@ impl RenderSettings {
             spp: scene.spp,
             seed: scene.seed,
             strategy: NestedStrategy::Filter,
+            light_sampling: LightSampling::Mis,
         }
     }
 
@@ -241,9 +247,30 @@ impl RenderSettings {
         self
     }
 
+    /// Another way of sampling lights.
+    pub fn with_light_sampling(mut self, light_sampling: LightSampling) -> Self {
+        self.light_sampling = light_sampling;
+        self
+    }
+
+    /// What besides the scene's text makes the image: the nested strategy,
+    /// and the light sampling when it is not the default (so that parts of
+    /// renders that differ in them are never merged).
+    pub fn id_tag(&self) -> String {
+        id_tag(self.strategy, self.light_sampling)
+    }
+
     /// The scene's camera at this film size.
     pub fn camera(&self, scene: &RenderScene) -> Camera {
         scene.camera.with_resolution(self.width, self.height)
+    }
+}
+
+/// [`RenderSettings::id_tag`] of a render with `strategy` and `light_sampling`.
+pub fn id_tag(strategy: NestedStrategy, light_sampling: LightSampling) -> String {
+    match light_sampling {
+        LightSampling::Mis => strategy.name().to_string(),
+        other => format!("{}+{}", strategy.name(), other.name()),
     }
 }
 
@@ -582,6 +609,7 @@ impl TileJob<'_> {
         let tracer = Tracer {
             scene,
             strategy: self.settings.strategy,
+            light_sampling: self.settings.light_sampling,
             observer: self.observer,
         };
         let start_list = InteriorList::from_solids(&scene.solids, &scene.camera_interior);
@@ -937,6 +965,9 @@ impl NoProgressBar {
 
 #[cfg(test)]
 mod sun_tests;
+
+#[cfg(test)]
+mod light_tests;
 
 #[cfg(test)]
 mod tests {

@@ -140,6 +140,74 @@ pub fn power_heuristic(pdf_a: f32, pdf_b: f32) -> f32 {
     }
 }
 
+/// Walker's alias table (Vose's construction): draws index `i` with
+/// probability `weights[i] / Σ weights` in constant time, whatever the
+/// number of entries (an emitting mesh's triangles by area).
+#[derive(Debug, Clone)]
+pub struct AliasTable {
+    /// Per bucket: the probability of keeping the bucket's own index.
+    keep: Vec<f64>,
+    /// Per bucket: the index taken otherwise.
+    alias: Vec<u32>,
+}
+
+impl AliasTable {
+    /// The table of `weights` (each finite and >= 0); `None` when there is
+    /// no entry, more than `u32::MAX`, or the weights do not sum to a
+    /// finite positive number.
+    pub fn new(weights: &[f64]) -> Option<AliasTable> {
+        let n = weights.len();
+        let total: f64 = weights.iter().sum();
+        if n == 0 || n > u32::MAX as usize || !(total.is_finite() && total > 0.0) {
+            return None;
+        }
+        if weights.iter().any(|w| !(w.is_finite() && *w >= 0.0)) {
+            return None;
+        }
+        // Scaled so that the mean is 1: a bucket holds exactly 1.
+        let mut scaled: Vec<f64> = weights.iter().map(|w| w * n as f64 / total).collect();
+        let mut keep = vec![1.0; n];
+        let mut alias: Vec<u32> = (0..n as u32).collect();
+        let (mut small, mut large): (Vec<usize>, Vec<usize>) = (0..n).partition(|&i| scaled[i] < 1.0);
+        while let (Some(&s), Some(&l)) = (small.last(), large.last()) {
+            small.pop();
+            keep[s] = scaled[s];
+            alias[s] = l as u32;
+            scaled[l] -= 1.0 - scaled[s];
+            if scaled[l] < 1.0 {
+                large.pop();
+                small.push(l);
+            }
+        }
+        // What is left holds 1 up to rounding: it keeps its own index.
+        Some(AliasTable { keep, alias })
+    }
+
+    /// The number of entries.
+    pub fn len(&self) -> usize {
+        self.keep.len()
+    }
+
+    /// Never empty (`new` refuses no entries); for clippy's `len` rule.
+    pub fn is_empty(&self) -> bool {
+        self.keep.is_empty()
+    }
+
+    /// The index drawn by `u` uniform in [0, 1) (53 bits: one draw picks
+    /// the bucket and, with what is left, the coin).
+    #[inline]
+    pub fn sample(&self, u: f64) -> usize {
+        let n = self.keep.len();
+        let x = u * n as f64;
+        let i = (x as usize).min(n - 1);
+        if x - (i as f64) < self.keep[i] {
+            i
+        } else {
+            self.alias[i] as usize
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -191,5 +259,31 @@ mod tests {
         }
         // E[cos] under pdf cos/π is 2/3; sd(cos) = sqrt(1/2 - 4/9) ≈ 0.236.
         assert!((s / m as f64 - 2.0 / 3.0).abs() < 5.0 * 0.236 / (m as f64).sqrt());
+    }
+
+    #[test]
+    fn alias_table_draws_in_proportion_to_the_weights() {
+        let w = [0.0, 1.0, 3.0, 0.5, 0.5, 2.0, 1e-3];
+        let t = AliasTable::new(&w).unwrap();
+        let total: f64 = w.iter().sum();
+        let mut r = Rng::new(11);
+        let m = 400_000;
+        let mut counts = [0usize; 7];
+        for _ in 0..m {
+            counts[t.sample(r.uniform_f64())] += 1;
+        }
+        for (i, (&c, &wi)) in counts.iter().zip(&w).enumerate() {
+            let p = wi / total;
+            let sd = (p * (1.0 - p) / m as f64).sqrt();
+            let f = c as f64 / m as f64;
+            assert!((f - p).abs() <= 5.0 * sd + 1e-12, "entry {i}: {f} vs {p}");
+        }
+        assert_eq!(counts[0], 0, "a zero weight is never drawn");
+        assert!(AliasTable::new(&[]).is_none());
+        assert!(AliasTable::new(&[0.0, 0.0]).is_none());
+        assert!(AliasTable::new(&[1.0, f64::NAN]).is_none());
+        // The last bucket at u just below 1.
+        let one = AliasTable::new(&[1.0]).unwrap();
+        assert_eq!(one.sample(1.0 - f64::EPSILON), 0);
     }
 }

@@ -347,3 +347,47 @@ fn flights_side_by_side_keep_the_image() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("flights"));
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// `--light-sampling`: `mis` is the default (the same image bit for bit),
+/// `bsdf` renders another image of the same scene and says so in the stats;
+/// an unknown value is refused.
+#[test]
+fn light_sampling_flag_turns_next_event_estimation_off() {
+    let d = tmpdir("light_sampling");
+    const FILM: [&str; 6] = ["--width", "32", "--height", "24", "--spp", "2"];
+    let scene = "scenes/lamps.toml";
+    let default = rendered_bits(scene, &d.join("default.exr"), &FILM, &[]);
+    assert_eq!(
+        default,
+        rendered_bits(scene, &d.join("mis.exr"), &FILM, &["--light-sampling", "mis"])
+    );
+    let stats = d.join("s.json");
+    let bsdf = rendered_bits(
+        scene,
+        &d.join("bsdf.exr"),
+        &FILM,
+        &[
+            "--light-sampling",
+            "bsdf",
+            "--stats-json",
+            stats.to_str().unwrap(),
+        ],
+    );
+    assert_ne!(default, bsdf);
+    let s: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+    assert_eq!(s["light_sampling"], "bsdf", "{s}");
+    let out = snell()
+        .args([
+            "render",
+            scene,
+            "-o",
+            d.join("x.exr").to_str().unwrap(),
+            "--light-sampling",
+            "none",
+        ])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("light-sampling"));
+    let _ = std::fs::remove_dir_all(&d);
+}

@@ -291,23 +291,55 @@ fn unmapped_material_features_warn_once_per_material_and_strict_refuses() {
         .map(|e| e.to_string())
         .unwrap_or_default();
     assert!(e.contains("/materials/0") && e.contains("--strict"), "{e}");
-    // A spot light is refused, and skipped with a warning under --lenient.
+    // A spot light: along the node's −Z, glTF's default cone (outer π/4,
+    // inner 0) as the cutoff and the beam, in degrees.
     let spot = tri_gltf(|v| {
         v["extensionsUsed"] = serde_json::json!(["KHR_lights_punctual"]);
-        v["extensions"] =
-            serde_json::json!({"KHR_lights_punctual": {"lights": [{"type": "spot", "spot": {}}]}});
+        v["extensions"] = serde_json::json!({"KHR_lights_punctual": {"lights": [
+            {"type": "spot", "spot": {}, "intensity": 2.0},
+            {"type": "spot", "spot": {"innerConeAngle": 0.25, "outerConeAngle": 0.5}}
+        ]}});
         v["nodes"][1]["extensions"] = serde_json::json!({"KHR_lights_punctual": {"light": 0}});
+        v["nodes"]
+            .as_array_mut()
+            .unwrap()
+            .push(serde_json::json!({"extensions": {"KHR_lights_punctual": {"light": 1}}, "translation": [0.0, 3.0, 0.0]}));
+        v["scenes"][0]["nodes"]
+            .as_array_mut()
+            .unwrap()
+            .push(serde_json::json!(2));
     });
-    let (key, msg) = pointer_err(&spot);
+    let i = imp(&spot, &ImportOptions::default()).unwrap();
+    let spots: Vec<_> = i
+        .desc
+        .lights
+        .iter()
+        .map(|l| match l {
+            snell::scene::desc::LightDesc::Spot(s) => s.clone(),
+            other => panic!("{other:?}"),
+        })
+        .collect();
+    assert_eq!(spots.len(), 2, "{spots:?}");
+    assert!((spots[0].cutoff_angle - 45.0).abs() < 1e-5, "{spots:?}");
+    assert_eq!(spots[0].beam_width, Some(0.0));
+    assert_eq!(spots[0].intensity, [2.0; 3]);
+    assert_eq!(spots[1].position, [0.0, 3.0, 0.0]);
+    assert_eq!(spots[1].direction, Some([0.0, 0.0, -1.0]));
     assert!(
-        key.contains("KHR_lights_punctual/lights/0") && msg.contains("spot"),
-        "{key}: {msg}"
+        (spots[1].cutoff_angle - 0.5f64.to_degrees()).abs() < 1e-5,
+        "{spots:?}"
     );
-    let lenient = ImportOptions {
-        lenient: true,
-        ..Default::default()
-    };
-    assert_eq!(imp(&spot, &lenient).unwrap().warnings.len(), 1);
+    assert!((spots[1].beam_width.unwrap() - 0.25f64.to_degrees()).abs() < 1e-5);
+    // An emissive double-sided material emits from both faces.
+    for double in [false, true] {
+        let lit = tri_gltf(|v| {
+            v["materials"][0]["emissiveFactor"] = serde_json::json!([1.0, 0.5, 0.25]);
+            v["materials"][0]["doubleSided"] = serde_json::json!(double);
+        });
+        let i = imp(&lit, &ImportOptions::default()).unwrap();
+        let e = i.desc.objects[0].emission.as_ref().expect("emission");
+        assert_eq!(e.two_sided, double);
+    }
     // The mesh loads through the scene loader (the file written above).
     let s = load_scene(&f, &BuildOptions::default()).unwrap();
     assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);

@@ -36,15 +36,41 @@ pub use lanes::{path_lanes, path_lanes_apply, LanePackets};
 pub use observer::{RayObserver, RayQuery, RayRecorder};
 pub use refraction_path::{refraction_path, PathEvent, RefractionPath};
 
+/// How paths find the light sources (a render setting, not part of the scene).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum LightSampling {
+    /// Next-event estimation at every diffuse vertex, combined with BSDF
+    /// sampling by multiple importance sampling (power heuristic).
+    #[default]
+    Mis,
+    /// BSDF sampling alone: emitters (area lights, emitting objects, the
+    /// sun's disk) count where a path meets them, with weight 1; point,
+    /// directional and spot lights, which no path can meet, add nothing.
+    /// The reference next-event estimation is judged against.
+    Bsdf,
+}
+
+impl LightSampling {
+    /// Its name on the command line and in stats.
+    pub fn name(self) -> &'static str {
+        match self {
+            LightSampling::Mis => "mis",
+            LightSampling::Bsdf => "bsdf",
+        }
+    }
+}
+
 /// What every path of a render shares: the scene, how nested dielectrics
-/// are resolved (a render setting, not part of the scene), and who is told
-/// of the queries.
+/// are resolved and how lights are sampled (render settings, not part of
+/// the scene), and who is told of the queries.
 #[derive(Clone, Copy)]
 pub struct Tracer<'a> {
     /// The scene.
     pub scene: &'a RenderScene,
     /// How false hits are found and skipped.
     pub strategy: NestedStrategy,
+    /// Next-event estimation with MIS, or BSDF sampling alone.
+    pub light_sampling: LightSampling,
     /// Told of every nearest-hit query and shadow ray (none: no cost but a branch).
     pub observer: Option<&'a dyn RayObserver>,
 }
@@ -55,6 +81,7 @@ impl<'a> Tracer<'a> {
         Tracer {
             scene,
             strategy: NestedStrategy::Filter,
+            light_sampling: LightSampling::Mis,
             observer: None,
         }
     }
@@ -62,6 +89,20 @@ impl<'a> Tracer<'a> {
     /// This tracer with another nested-dielectric strategy.
     pub fn with_strategy(self, strategy: NestedStrategy) -> Self {
         Tracer { strategy, ..self }
+    }
+
+    /// This tracer with another way of sampling lights.
+    pub fn with_light_sampling(self, light_sampling: LightSampling) -> Self {
+        Tracer {
+            light_sampling,
+            ..self
+        }
+    }
+
+    /// Does it make next-event connections?
+    #[inline(always)]
+    fn nee(self) -> bool {
+        self.light_sampling == LightSampling::Mis
     }
 
     /// Tell the observer, if any, of the query `q` makes.

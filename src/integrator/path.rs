@@ -93,7 +93,7 @@ impl PathState {
                 // straight paths from a diffuse vertex, and along curved ones
                 // through a stratified medium (`sun_through_medium`), whose
                 // density of this launch `sun_launch_jacobian` gives.
-                let mis = match (self.specular, seg.entered_medium) {
+                let mis = match (self.specular || !tr.nee(), seg.entered_medium) {
                     (true, _) => None,
                     (false, false) => Some((self.prev_pdf, 1.0)),
                     (false, true) => sun_launch_jacobian(scene, self.prev_p, self.prev_wi, seg.dir)
@@ -116,13 +116,13 @@ impl PathState {
         let front = front_facing(sp.ng, self.ray.dir);
 
         if let Some(em) = &rec.emission {
-            if front {
+            if front || rec.emission_two_sided {
                 let le = em.eval(sp.p, sp.uv);
                 let w = match rec.light {
                     // A path through the medium cannot come from NEE (which
                     // only connects straight segments that avoid it): weight 1.
-                    Some(li) if !self.specular && !seg.entered_medium => {
-                        let lp = scene.light_pdf(li, self.prev_p, sp.p, self.ray.dir);
+                    Some(li) if !self.specular && !seg.entered_medium && tr.nee() => {
+                        let lp = scene.light_pdf(li, self.prev_p, sp.p, sp.ng, self.ray.dir);
                         power_heuristic(self.prev_pdf, lp)
                     }
                     _ => 1.0,
@@ -145,8 +145,13 @@ impl PathState {
         match bsdf {
             Bsdf::Black => return (None, false),
             Bsdf::Diffuse(lambert) => {
-                // Next-event estimation.
-                match next_event(scene, sp.p, lambert.n, lambert.ng, rng) {
+                // Next-event estimation (none where the surface reflects
+                // nothing: its connections would all weigh 0).
+                let nee = tr.nee() && lambert.albedo != V3::ZERO;
+                match nee
+                    .then(|| next_event(scene, sp.p, lambert.n, lambert.ng, rng))
+                    .flatten()
+                {
                     Some(NextEvent::Straight(ls, cos)) => {
                         let w = if ls.delta {
                             1.0

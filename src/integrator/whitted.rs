@@ -46,7 +46,7 @@ pub(super) fn whitted(
     let rec = &scene.geoms[hit.geom_id as usize];
     let front = front_facing(sp.ng, dir);
     let mut l = V3::ZERO;
-    if let (Some(em), true) = (&rec.emission, front) {
+    if let (Some(em), true) = (&rec.emission, front || rec.emission_two_sided) {
         l += em.eval(sp.p, sp.uv);
     }
     if depth >= scene.max_depth {
@@ -56,7 +56,7 @@ pub(super) fn whitted(
         Bsdf::Black => {}
         Bsdf::Diffuse(lambert) => {
             // One sample per light, the sun's disk among them.
-            let lights = scene.nee_count();
+            let lights = if tr.nee() { scene.nee_count() } else { 0 };
             for _ in 0..lights {
                 if let Some((ls, cos)) = light_seen(tr, sp.p, lambert.n, lambert.ng, rng, st) {
                     l += lambert.f() * ls.li * (cos / ls.pdf) / lights as f32;

@@ -106,7 +106,7 @@ fn a_plane_under_the_real_sun_is_lit_as_the_formula_says() {
 }
 
 /// Per 16×16 block, the mean of the channels' sum.
-fn blocks(r: &Rendered) -> Vec<f64> {
+pub(super) fn blocks(r: &Rendered) -> Vec<f64> {
     let (w, h) = (r.width as usize, r.height as usize);
     let mut out = Vec::new();
     for by in 0..h / 16 {
@@ -124,7 +124,7 @@ fn blocks(r: &Rendered) -> Vec<f64> {
     out
 }
 
-fn rms(a: &[f64], b: &[f64]) -> f64 {
+pub(super) fn rms(a: &[f64], b: &[f64]) -> f64 {
     (a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>() / a.len() as f64).sqrt()
 }
 
@@ -133,7 +133,7 @@ fn rms(a: &[f64], b: &[f64]) -> f64 {
 /// noise alone: seed-to-seed RMS² per method estimates twice its variance,
 /// so (RMS²(a₁−a₂) + RMS²(b₁−b₂))/4 is the variance of the difference of
 /// the two-seed means. About 1 when both are unbiased.
-fn ratio(a: [&[f64]; 2], b: [&[f64]; 2]) -> f64 {
+pub(super) fn ratio(a: [&[f64]; 2], b: [&[f64]; 2]) -> f64 {
     let mean = |x: [&[f64]; 2]| {
         x[0].iter()
             .zip(x[1])

@@ -364,6 +364,40 @@ pub enum LightDesc {
     Rect(RectLightDesc),
     /// `type = "sphere"`: a visible emitting sphere.
     Sphere(SphereLightDesc),
+    /// `type = "spot"`: an invisible point emitting in a cone (Mitsuba 3's `spot`).
+    Spot(SpotLightDesc),
+}
+
+/// A spot light: a point whose intensity is `intensity` out to
+/// `beam_width` from its axis, falls linearly in the angle to zero at
+/// `cutoff_angle`, and is zero beyond (Mitsuba 3's `spot` falloff).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SpotLightDesc {
+    /// Name for `--set lights.NAME.…` (default: `lights[i]`).
+    #[serde(default)]
+    pub name: Option<String>,
+    /// Position, world space, metres.
+    pub position: Vec3,
+    /// The direction of the cone's axis (non-zero); give it or `target`.
+    #[serde(default)]
+    pub direction: Option<Vec3>,
+    /// A point the axis passes through (not `position`); give it or `direction`.
+    #[serde(default)]
+    pub target: Option<Vec3>,
+    /// Radiant intensity on the axis, W/sr per channel.
+    pub intensity: Vec3,
+    /// The cone's half-angle, degrees, in (0, 90] (default 20, as Mitsuba).
+    #[serde(default = "default_cutoff")]
+    pub cutoff_angle: f64,
+    /// Where the falloff begins, degrees from the axis, in [0, cutoff_angle]
+    /// (default: 3/4 of `cutoff_angle`, as Mitsuba).
+    #[serde(default)]
+    pub beam_width: Option<f64>,
+}
+
+fn default_cutoff() -> f64 {
+    20.0
 }
 
 /// A point light.
@@ -803,11 +837,15 @@ fn default_uv_scale() -> [f64; 2] {
     [1.0, 1.0]
 }
 
-/// An object's `emission`.
+/// An object's `emission`: the object is also a light of next-event
+/// estimation.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct EmissionDesc {
-    /// Emitted radiance, W/(sr·m²) per channel (one-sided: to the side the
-    /// normal points to).
+    /// Emitted radiance, W/(sr·m²) per channel.
     pub radiance: TextureDesc,
+    /// Emit from both sides (default false: only to the side the normal
+    /// points to).
+    #[serde(default)]
+    pub two_sided: bool,
 }

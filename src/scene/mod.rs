@@ -1,9 +1,11 @@
 //! Scenes: the typed TOML description, validation with file/key/line errors,
 //! and the built render scene (Embree geometry plus everything shading needs):
-//! `model` is the scene a render sees, `sun` the sky's sun disk and its sampling, `build` turns a description into it,
+//! `model` is the scene a render sees, `sun` the sky's sun disk and its sampling, `emitter` the
+//! sampling of emitting objects and the spot light, `build` turns a description into it,
 //! `import` reads glTF and Mitsuba scenes into descriptions.
 pub mod build;
 pub mod desc;
+pub mod emitter;
 pub mod import;
 pub mod meshgen;
 pub mod model;

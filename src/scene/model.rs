@@ -6,14 +6,14 @@
 //!
 //! Conventions: world space, scene units (metres in the shipped scenes);
 //! geometric normals of closed solids point out of the solid.
+use super::emitter::{sample_sphere_cone, sphere_cone_pdf, Emitter, EmitterShape, Spot};
 use super::shapes::{Analytic, Mesh};
 use super::texture::{ImageData, Texture};
 use crate::camera::Camera;
 use crate::error::{Error, Result};
 use crate::ray::{Hit, Ray};
-use crate::sampling::{uniform_cone, Rng};
+use crate::sampling::{uniform_sphere, Rng};
 use glam::{DVec3, Vec3A as V3};
-use std::f32::consts::PI;
 use std::sync::Arc;
 
 /// The largest film a scene or a render may ask for (checked before any
@@ -68,6 +68,9 @@ pub struct GeomRecord {
     pub material: Material,
     /// Emitted radiance, if it is a light source.
     pub emission: Option<Texture>,
+    /// The emission leaves both sides (else only the side the geometric
+    /// normal points to).
+    pub emission_two_sided: bool,
     /// Index into `RenderScene::lights` when this surface is also an NEE light.
     pub light: Option<u32>,
 }
@@ -142,6 +145,10 @@ pub enum Light {
         /// Emitted radiance.
         radiance: V3,
     },
+    /// A spot light (a point whose intensity falls off away from its axis).
+    Spot(Spot),
+    /// An emitting object.
+    Emitter(Emitter),
 }
 
 #[derive(Debug, Clone)]
@@ -541,8 +548,11 @@ impl RenderScene {
     }
 
     /// The light-sampling density (solid angle, including the choice of light)
-    /// of reaching light `li` from `from` in direction `wi` to the point `q`.
-    pub fn light_pdf(&self, li: u32, from: V3, q: V3, wi: V3) -> f32 {
+    /// of reaching light `li` from `from` in direction `wi` to the point `q`
+    /// whose geometric normal is `ng`: what [`Self::sample_light`] gives
+    /// that connection, for weighing a path that found the light by BSDF
+    /// sampling.
+    pub fn light_pdf(&self, li: u32, from: V3, q: V3, ng: V3, wi: V3) -> f32 {
         let scene = self;
         let n = scene.nee_count() as f32;
         match &scene.lights[li as usize] {
@@ -555,16 +565,24 @@ impl RenderScene {
                     d2 / (area * cos_l) / n
                 }
             }
-            Light::Sphere { center, radius, .. } => {
-                let d2 = (*center - from).length_squared();
-                let r2 = radius * radius;
-                if d2 <= r2 {
-                    return 0.0;
+            Light::Sphere { center, radius, .. } => sphere_cone_pdf(*center, *radius, from) / n,
+            Light::Emitter(e) if !e.weighs_hits() => 0.0,
+            Light::Emitter(e) => match &e.shape {
+                EmitterShape::Sphere { center, radius, .. } => {
+                    let cone = sphere_cone_pdf(*center, *radius, from);
+                    if cone > 0.0 || !e.two_sided {
+                        cone / n
+                    } else {
+                        // From inside a two-sided sphere: by area.
+                        let area = 4.0 * std::f32::consts::PI * radius * radius;
+                        e.area_density(area, (q - from).length_squared(), -ng.dot(wi)) / n
+                    }
                 }
-                let cos_max = (1.0 - r2 / d2).max(0.0).sqrt();
-                1.0 / (2.0 * PI * (1.0 - cos_max)) / n
-            }
-            _ => 0.0,
+                EmitterShape::Area(a) => {
+                    e.area_density(a.area(), (q - from).length_squared(), -ng.dot(wi)) / n
+                }
+            },
+            Light::Point { .. } | Light::Directional { .. } | Light::Spot(_) => 0.0,
         }
     }
 
@@ -674,28 +692,109 @@ impl RenderScene {
                 radius,
                 radiance,
             } => {
-                let d = *center - p;
-                let d2 = d.length_squared();
-                let r2 = radius * radius;
-                if d2 <= r2 {
-                    return None;
-                }
-                let cos_max = (1.0 - r2 / d2).max(0.0).sqrt();
-                let axis = d / d2.sqrt();
-                let wi = uniform_cone(axis, cos_max, u1, u2);
-                // Distance to the sphere along wi (nearest root).
-                let b = d.dot(wi);
-                let disc = (b * b - (d2 - r2)).max(0.0);
-                let dist = b - disc.sqrt();
+                let (wi, dist, pdf) = sample_sphere_cone(*center, *radius, p, u1, u2)?;
                 Some(LightSample {
                     wi,
                     dist,
                     li: *radiance,
-                    pdf: per_light(1.0 / (2.0 * PI * (1.0 - cos_max)), n, nf),
+                    pdf: per_light(pdf, n, nf),
                     delta: false,
                 })
             }
+            Light::Spot(s) => {
+                let d = s.position - p;
+                let dist = d.length();
+                if dist.is_nan() || dist <= 0.0 {
+                    return None;
+                }
+                let wi = d / dist;
+                // Outside the cone the sample is dark: no shadow ray.
+                let f = s.falloff(-wi.dot(s.axis));
+                (f > 0.0).then(|| LightSample {
+                    wi,
+                    dist,
+                    li: s.intensity * (f / (dist * dist)) * nf,
+                    pdf: 1.0,
+                    delta: true,
+                })
+            }
+            Light::Emitter(e) => self.sample_emitter(e, p, u1, u2, rng, n, nf),
         }
+    }
+
+    /// A next-event sample of the emitting object `e` seen from `p`
+    /// (`u1`, `u2`: the point's numbers; a triangle or part is drawn from
+    /// `rng`), chosen among `n` (= `nf`).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(never)]
+    fn sample_emitter(
+        &self,
+        e: &Emitter,
+        p: V3,
+        u1: f32,
+        u2: f32,
+        rng: &mut Rng,
+        n: usize,
+        nf: f32,
+    ) -> Option<LightSample> {
+        let uv = e.radiance.needs_uv();
+        let (wi, dist, q, quv, pdf) = match &e.shape {
+            EmitterShape::Sphere {
+                sphere,
+                center,
+                radius,
+            } => {
+                let (wi, dist, q, pdf) = match sample_sphere_cone(*center, *radius, p, u1, u2) {
+                    Some((wi, dist, pdf)) => (wi, dist, p + wi * dist, pdf),
+                    // Inside, a two-sided sphere shows its inner face all
+                    // round: a point uniform on it by area.
+                    None if e.two_sided => {
+                        let n = uniform_sphere(u1, u2);
+                        let q = *center + n * *radius;
+                        let d = q - p;
+                        let dist = d.length();
+                        if dist.is_nan() || dist <= 0.0 {
+                            return None;
+                        }
+                        let wi = d / dist;
+                        let area = 4.0 * std::f32::consts::PI * radius * radius;
+                        (wi, dist, q, e.area_density(area, dist * dist, -n.dot(wi)))
+                    }
+                    None => return None,
+                };
+                if pdf.is_nan() || pdf <= 0.0 {
+                    return None;
+                }
+                let quv = if uv {
+                    sphere.uv(sphere.project(0, q.as_dvec3()))
+                } else {
+                    [0.0, 0.0]
+                };
+                (wi, dist, q, quv, pdf)
+            }
+            EmitterShape::Area(a) => {
+                let s = a.sample(rng.uniform_f64(), u1, u2, uv);
+                let d = s.p - p;
+                let dist = d.length();
+                if dist.is_nan() || dist <= 0.0 {
+                    return None;
+                }
+                let wi = d / dist;
+                let pdf = e.area_density(a.area(), dist * dist, -s.n.dot(wi));
+                if pdf.is_nan() || pdf <= 0.0 {
+                    return None;
+                }
+                (wi, dist, s.p, s.uv, pdf)
+            }
+        };
+        let li = e.radiance.eval(q, quv);
+        (pdf.is_finite() && li.max_element() > 0.0).then(|| LightSample {
+            wi,
+            dist,
+            li,
+            pdf: per_light(pdf, n, nf),
+            delta: false,
+        })
     }
 }
 

@@ -7,7 +7,7 @@ use glam::{DVec3, Vec3A as V3};
 
 /// The colour of the point (`u`, `v`) of triangle `tri` of `object`,
 /// weighted by `weight`, and the point: emission + reflectance ×
-/// (constant environment + directional and point lights with |cos|),
+/// (constant environment + directional, point and spot lights with |cos|),
 /// unshadowed.
 pub(crate) fn shade(
     scene: &RenderScene,
@@ -35,7 +35,15 @@ pub(crate) fn shade(
             Environment::Constant(c) => *c,
             _ => V3::ZERO,
         };
-        let n = if scene.lights.is_empty() {
+        // Only point-like and directional lights shade here (emitters are
+        // seen, not sampled, by the warp).
+        let lit = scene.lights.iter().any(|l| {
+            matches!(
+                l,
+                Light::Directional { .. } | Light::Point { .. } | Light::Spot(_)
+            )
+        });
+        let n = if !lit {
             V3::ZERO
         } else {
             o.mesh.shading_normal(tri, u, v).unwrap_or_else(|| {
@@ -53,6 +61,12 @@ pub(crate) fn shade(
                     let d = *position - pf;
                     let r2 = d.length_squared().max(1e-12);
                     e += *intensity * (n.dot(d).abs() / r2.sqrt()) / (r2 * std::f32::consts::PI);
+                }
+                Light::Spot(sp) => {
+                    let d = sp.position - pf;
+                    let r2 = d.length_squared().max(1e-12);
+                    e +=
+                        sp.intensity_towards(pf) * (n.dot(d).abs() / r2.sqrt()) / (r2 * std::f32::consts::PI);
                 }
                 _ => {}
             }

@@ -121,6 +121,13 @@ pub struct RenderArgs {
     /// operation) or `one-by-one`. The image is the same either way.
     #[arg(long, value_enum, default_value = "side-by-side")]
     pub flights: FlightsArg,
+    /// How paths find lights: `mis` (next-event estimation combined with
+    /// BSDF sampling by multiple importance sampling) or `bsdf` (BSDF
+    /// sampling alone: emitters count where paths meet them; point,
+    /// directional and spot lights add nothing). `bsdf` is the reference
+    /// next-event estimation is checked against.
+    #[arg(long, value_enum, default_value = "mis")]
+    pub light_sampling: LightSamplingArg,
     /// Diagnostic layers: false_hits,list_depth,tir,fallbacks (EXR channels, or PNGs beside a PNG).
     #[arg(long, value_delimiter = ',', value_parser = aov_parser())]
     pub aov: Vec<Aov>,
@@ -355,6 +362,22 @@ pub enum PacketWidthArg {
     Eight,
     #[value(name = "16")]
     Sixteen,
+}
+
+/// `--light-sampling` of `snell render`.
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum LightSamplingArg {
+    Mis,
+    Bsdf,
+}
+
+impl From<LightSamplingArg> for snell::integrator::LightSampling {
+    fn from(l: LightSamplingArg) -> Self {
+        match l {
+            LightSamplingArg::Mis => Self::Mis,
+            LightSamplingArg::Bsdf => Self::Bsdf,
+        }
+    }
 }
 
 /// `--flights` of `snell render`.

@@ -10,12 +10,7 @@ pub fn grin_fan(a: GrinFanArgs) -> Result<()> {
         import: a.import.options()?,
         ..BuildOptions::default()
     };
-    let (scene, _) = snell::farm::load(
-        &a.scene,
-        &a.set,
-        &build,
-        snell::dielectric::NestedStrategy::Filter,
-    )?;
+    let (scene, _) = snell::farm::load(&a.scene, &a.set, &build, "filter")?;
     for w in &scene.warnings {
         eprintln!("warning: {w}");
     }

@@ -22,7 +22,8 @@ pub fn render(mut a: RenderArgs) -> Result<()> {
         analytic_set: a.analytic_shapes == crate::args::AnalyticShapes::Auto,
         ..BuildOptions::default()
     };
-    let (s, scene_id) = snell::farm::load(&a.scene, &a.set, &build, a.nested)?;
+    let tag = snell::render::id_tag(a.nested, a.light_sampling.into());
+    let (s, scene_id) = snell::farm::load(&a.scene, &a.set, &build, &tag)?;
     let load_s = load_t.elapsed().as_secs_f64();
     for w in &s.warnings {
         eprintln!("warning: {w}");
@@ -94,10 +95,12 @@ pub fn render(mut a: RenderArgs) -> Result<()> {
     Ok(())
 }
 
-/// The scene's render settings with the command line's strategy, spp, seed
-/// and resolution.
+/// The scene's render settings with the command line's strategy, light
+/// sampling, spp, seed and resolution.
 fn render_settings(a: &RenderArgs, s: &RenderScene) -> Result<RenderSettings> {
-    let mut settings = RenderSettings::from_scene(s).with_strategy(a.nested);
+    let mut settings = RenderSettings::from_scene(s)
+        .with_strategy(a.nested)
+        .with_light_sampling(a.light_sampling.into());
     if let Some(v) = a.spp {
         settings = settings.with_spp(v);
     }

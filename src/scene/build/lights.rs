@@ -3,6 +3,7 @@
 use super::{Builder, Pending};
 use crate::error::Result;
 use crate::scene::desc::*;
+use crate::scene::emitter::Spot;
 use crate::scene::meshgen;
 use crate::scene::model::{Light, Material, Shape};
 use crate::scene::shapes::{Analytic, Sphere};
@@ -53,6 +54,7 @@ impl Builder<'_> {
                         shape: Shape::Mesh(Arc::new(meshgen::rect(center, normal, u, [su, sv]))),
                         material: Material::Black,
                         emission: Some(Texture::Constant(radiance)),
+                        emission_two_sided: false,
                         light: Some(li),
                         solid: None,
                     });
@@ -73,12 +75,71 @@ impl Builder<'_> {
                         shape: Shape::Analytic(Analytic::Sphere(Sphere { center, radius })),
                         material: Material::Black,
                         emission: Some(Texture::Constant(radiance)),
+                        emission_two_sided: false,
                         light: Some(li),
                         solid: None,
                     });
                 }
+                LightDesc::Spot(s) => lights.push(Light::Spot(self.spot(&k, s)?)),
             }
         }
         Ok(lights)
+    }
+
+    /// A spot light: an axis from `direction` or `target`, and the cone's
+    /// angles checked (0 < cutoff <= 90, 0 <= beam <= cutoff).
+    fn spot(&self, k: &str, s: &SpotLightDesc) -> Result<Spot> {
+        let position = self.finite3(&format!("{k}.position"), s.position)?;
+        let axis = match (s.direction, s.target) {
+            (Some(d), None) => self.unit(&format!("{k}.direction"), d)?,
+            (None, Some(t)) => {
+                let t = self.finite3(&format!("{k}.target"), t)?;
+                let d = t - position;
+                if d.length() < 1e-12 {
+                    return Err(self.err(&format!("{k}.target"), "the target must differ from the position"));
+                }
+                d.normalize()
+            }
+            (Some(_), Some(_)) => {
+                return Err(self.err(
+                    &format!("{k}.target"),
+                    "give either `direction` or `target`, not both",
+                ))
+            }
+            (None, None) => {
+                return Err(self.err(
+                    k,
+                    "a spot light needs `direction` or `target` (where its axis points)",
+                ))
+            }
+        };
+        let intensity = self.color(&format!("{k}.intensity"), s.intensity)?;
+        let cutoff = s.cutoff_angle;
+        if !(cutoff.is_finite() && cutoff > 0.0 && cutoff <= 90.0) {
+            return Err(self.err(
+                &format!("{k}.cutoff_angle"),
+                format!("expected the cone's half-angle in (0, 90] degrees, got {cutoff}"),
+            ));
+        }
+        let beam = s.beam_width.unwrap_or(cutoff * 0.75);
+        if !(beam.is_finite() && beam >= 0.0) {
+            return Err(self.err(
+                &format!("{k}.beam_width"),
+                format!("expected an angle >= 0 degrees, got {beam}"),
+            ));
+        }
+        if beam > cutoff {
+            return Err(self.err(
+                &format!("{k}.beam_width"),
+                format!("beam_width ({beam}) must not exceed cutoff_angle ({cutoff})"),
+            ));
+        }
+        Ok(Spot::new(
+            position.as_vec3a(),
+            axis.as_vec3a(),
+            intensity,
+            cutoff,
+            beam,
+        ))
     }
 }

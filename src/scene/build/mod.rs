@@ -108,6 +108,7 @@ struct Pending {
     shape: Shape,
     material: Material,
     emission: Option<Texture>,
+    emission_two_sided: bool,
     light: Option<u32>,
     solid: Option<PendingSolid>,
 }
@@ -185,9 +186,19 @@ impl Builder<'_> {
         }
         let mut pending: Vec<Pending> = Vec::new();
         let mut warnings = Vec::new();
-        let lights = self.lights(d, &mut pending)?;
+        let mut lights = self.lights(d, &mut pending)?;
+        let first_object = pending.len();
         for (i, o) in d.objects.iter().enumerate() {
             pending.push(self.object(i, o, &mut warnings)?);
+        }
+        // Every emitting object is a light too, after the `[[lights]]`
+        // (whose indices, and so their images, stay as they were).
+        for (g, p) in pending.iter_mut().enumerate().skip(first_object) {
+            let key = format!("objects[{}]", g - first_object);
+            if let Some(e) = self.emitter(&key, g as u32, p)? {
+                p.light = Some(lights.len() as u32);
+                lights.push(e);
+            }
         }
         let warp = match &d.warp {
             None => None,

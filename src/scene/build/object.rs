@@ -3,8 +3,9 @@
 use super::{v3, Builder, Pending, PendingSolid, MAX_HEIGHTFIELD_LEVELS};
 use crate::error::Result;
 use crate::scene::desc::*;
+use crate::scene::emitter::{AreaSampler, Emitter, EmitterShape};
 use crate::scene::meshgen;
-use crate::scene::model::{Containment, Material, Shape};
+use crate::scene::model::{Containment, Light, Material, Shape};
 use crate::scene::shapes::{Analytic, Cylinder, Disk, Mesh, Sphere, Tube};
 use crate::scene::texture::{load_image, Texture};
 use glam::{DMat3, DMat4, DVec3, Vec3A as V3};
@@ -65,9 +66,48 @@ impl Builder<'_> {
             shape,
             material,
             emission,
+            emission_two_sided: o.emission.as_ref().is_some_and(|e| e.two_sided),
             light: None,
             solid,
         })
+    }
+
+    /// The light of the pending object `key` (geometry `geom`) when it
+    /// emits: an analytic sphere sampled by its cone, anything else by area.
+    /// `None` when it does not emit (or emits nothing anywhere).
+    pub(super) fn emitter(&self, key: &str, geom: u32, p: &Pending) -> Result<Option<Light>> {
+        let Some(radiance) = &p.emission else {
+            return Ok(None);
+        };
+        if radiance.max_value() <= 0.0 {
+            return Ok(None);
+        }
+        let shape = match &p.shape {
+            Shape::Analytic(a @ Analytic::Sphere(s)) => EmitterShape::Sphere {
+                sphere: *a,
+                center: s.center.as_vec3a(),
+                radius: s.radius as f32,
+            },
+            Shape::Analytic(a) => EmitterShape::Area(AreaSampler::analytic(a).ok_or_else(|| {
+                self.err(
+                    &format!("{key}.shape"),
+                    "an emitting shape needs a positive, finite area",
+                )
+            })?),
+            Shape::Mesh(m) => EmitterShape::Area(AreaSampler::mesh(m.clone()).ok_or_else(|| {
+                self.err(
+                    &format!("{key}.shape"),
+                    "an emitting mesh needs a positive, finite area",
+                )
+            })?),
+        };
+        Ok(Some(Light::Emitter(Emitter {
+            geom,
+            radiance: radiance.clone(),
+            two_sided: p.emission_two_sided,
+            shape,
+            sampling: Default::default(),
+        })))
     }
 
     /// The shape of object `k` in world space (its transform applied), and

@@ -122,6 +122,7 @@ impl Builder<'_> {
                 shape: p.shape,
                 material,
                 emission: p.emission,
+                emission_two_sided: p.emission_two_sided,
                 light: p.light,
             });
         }

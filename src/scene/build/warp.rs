@@ -150,6 +150,7 @@ fn glass_pending(name: &str, shape: Shape, ior: f64) -> Pending {
             ext_ior: 1.0,
         },
         emission: None,
+        emission_two_sided: false,
         light: None,
         solid: None,
     }

@@ -169,6 +169,22 @@ fn light(o: &mut String, l: &LightDesc) {
             let _ = writeln!(o, "radius = {}", num(s.radius));
             let _ = writeln!(o, "radiance = {}", vec3(s.radiance));
         }
+        LightDesc::Spot(s) => {
+            name(o, &s.name);
+            let _ = writeln!(o, "type = \"spot\"");
+            let _ = writeln!(o, "position = {}", vec3(s.position));
+            if let Some(d) = s.direction {
+                let _ = writeln!(o, "direction = {}", vec3(d));
+            }
+            if let Some(t) = s.target {
+                let _ = writeln!(o, "target = {}", vec3(t));
+            }
+            let _ = writeln!(o, "intensity = {}", vec3(s.intensity));
+            let _ = writeln!(o, "cutoff_angle = {}", num(s.cutoff_angle));
+            if let Some(b) = s.beam_width {
+                let _ = writeln!(o, "beam_width = {}", num(b));
+            }
+        }
     }
 }
 
@@ -179,7 +195,8 @@ fn object(o: &mut String, ob: &ObjectDesc) {
     let _ = writeln!(o, "shape = {}", shape(&ob.shape));
     let _ = writeln!(o, "material = {}", material(&ob.material));
     if let Some(e) = &ob.emission {
-        let _ = writeln!(o, "emission = {{ radiance = {} }}", texture(&e.radiance));
+        let two = if e.two_sided { ", two_sided = true" } else { "" };
+        let _ = writeln!(o, "emission = {{ radiance = {}{two} }}", texture(&e.radiance));
     }
     if !ob.transform.is_empty() {
         let steps: Vec<String> = ob.transform.iter().map(transform_step).collect();

@@ -191,8 +191,10 @@ pub fn map(
     if m.emissive_texture().is_some() {
         lost.push("emissive texture (the emissive factor is used)".into());
     }
+    // A double-sided material shades (and so emits from) both faces.
     let emission = (e.iter().any(|x| *x > 0.0)).then_some(EmissionDesc {
         radiance: TextureDesc::Constant(e),
+        two_sided: m.double_sided(),
     });
     if m.alpha_mode() != gltf::material::AlphaMode::Opaque {
         lost.push(format!("alphaMode {:?}", m.alpha_mode()));

@@ -101,7 +101,6 @@ struct Walk<'a> {
     d: &'a data::GltfData,
     file: &'a str,
     mesh_file: &'a str,
-    opts: &'a ImportOptions,
     camera: Option<(CameraDesc, FilmDesc, Location)>,
     lights: Vec<(LightDesc, Location)>,
     objects: Vec<(ObjectDesc, Location)>,
@@ -122,17 +121,6 @@ impl Walk<'_> {
 
     fn err(&self, p: impl Into<String>, m: impl Into<String>) -> Error {
         self.at(p).error(m)
-    }
-
-    /// Something snell does not have: an error, or with `--lenient` a warning.
-    fn refuse(&mut self, p: String, m: String) -> Result<()> {
-        if self.opts.lenient {
-            let w = self.at(p).warning(format!("{m} (skipped: --lenient)"));
-            self.warnings.push(w);
-            Ok(())
-        } else {
-            Err(self.err(p, m))
-        }
     }
 
     fn unique(&mut self, base: String) -> String {
@@ -226,7 +214,6 @@ impl Walk<'_> {
         ptr: &str,
         name: Option<&str>,
     ) -> Result<()> {
-        let lp = format!("/extensions/KHR_lights_punctual/lights/{}", l.index());
         let power = l
             .color()
             .map(|c| material::short(c) * material::short(l.intensity()));
@@ -252,9 +239,23 @@ impl Walk<'_> {
                 }),
                 at,
             )),
-            gltf::khr_lights_punctual::Kind::Spot { .. } => {
-                self.refuse(lp, "a spot light: snell has no spot lights yet".into())?;
-            }
+            // The cone's angles as snell's (Mitsuba's) spot: full intensity
+            // out to the inner angle, a linear ramp in the angle to the outer.
+            gltf::khr_lights_punctual::Kind::Spot {
+                inner_cone_angle,
+                outer_cone_angle,
+            } => self.lights.push((
+                LightDesc::Spot(SpotLightDesc {
+                    name,
+                    position: m.transform_point3(DVec3::ZERO).to_array(),
+                    direction: Some(m.transform_vector3(-DVec3::Z).to_array()),
+                    target: None,
+                    intensity: power,
+                    cutoff_angle: material::short(outer_cone_angle).to_degrees(),
+                    beam_width: Some(material::short(inner_cone_angle).to_degrees()),
+                }),
+                at,
+            )),
         }
         Ok(())
     }
@@ -313,6 +314,7 @@ impl Walk<'_> {
         if let (
             Some(EmissionDesc {
                 radiance: TextureDesc::Constant(r),
+                two_sided: false,
             }),
             true,
             false,
@@ -354,12 +356,14 @@ impl Walk<'_> {
     }
 }
 
-fn scene(d: &data::GltfData, file: &str, mesh_file: &str, opts: &ImportOptions) -> Result<Imported> {
+/// The scene of `d`. (Nothing a glTF file holds is refused or skipped, so
+/// `--lenient` changes nothing here; `--strict` applies to the warnings,
+/// by the caller.)
+fn scene(d: &data::GltfData, file: &str, mesh_file: &str, _opts: &ImportOptions) -> Result<Imported> {
     let mut w = Walk {
         d,
         file,
         mesh_file,
-        opts,
         camera: None,
         lights: Vec::new(),
         objects: Vec::new(),

@@ -1,6 +1,6 @@
 //! Top-level `<emitter>`s: `constant` and `envmap` become the environment,
-//! `point` and `directional` lights; `spot` is refused (snell has no spot
-//! lights yet); `area` emitters belong inside shapes (see `shapes`).
+//! `point`, `directional` and `spot` lights; `area` emitters belong inside
+//! shapes (see `shapes`).
 use super::props::{ColorParam, Ctx, Obj};
 use super::transform;
 use super::xml::Node;
@@ -102,7 +102,39 @@ pub fn top_level(ctx: &Ctx<'_>, n: &Node, out: &mut Out) -> Result<()> {
                 n.at.clone(),
             ));
         }
-        "spot" => return Err(o.at().error("snell has no spot lights yet")),
+        "spot" => {
+            // Mitsuba's spot sits at the origin of `to_world` and points
+            // along its +z; snell's cone is round, so `to_world` must not
+            // stretch it.
+            let (m, _) = o.transform("to_world")?;
+            if transform::similarity(&m).is_none() {
+                return Err(o.at().error(
+                    "a spot light's to_world must be a similarity (translations, rotations, uniform scales): snell's cone is round",
+                ));
+            }
+            let intensity = constant("intensity")?;
+            let cutoff_angle = o.float_or("cutoff_angle", 20.0)?;
+            let beam_width = o.float_or("beam_width", cutoff_angle * 0.75)?;
+            if let Some(t) = o.color("texture", true)? {
+                let at = match t {
+                    ColorParam::Texture(t) => &t.at,
+                    ColorParam::Rgb(_) => o.at(),
+                };
+                ctx.unknown(at, "a spot light's projected texture is not supported".into())?;
+            }
+            out.lights.push((
+                LightDesc::Spot(SpotLightDesc {
+                    name,
+                    position: transform::point(&m, DVec3::ZERO).to_array(),
+                    direction: Some(transform::vector(&m, DVec3::Z).to_array()),
+                    target: None,
+                    intensity,
+                    cutoff_angle,
+                    beam_width: Some(beam_width),
+                }),
+                n.at.clone(),
+            ));
+        }
         "area" => {
             return Err(o
                 .at()

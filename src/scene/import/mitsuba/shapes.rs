@@ -2,7 +2,9 @@
 //! `to_world` must be a similarity), rectangles in world space when their
 //! sides stay perpendicular, cubes and mesh files (`obj`, `ply`,
 //! `serialized`) with their `to_world` as a matrix step. A rectangle or
-//! sphere with a constant area emitter becomes a light (sampled directly).
+//! sphere with a constant area emitter becomes a light; any other emitting
+//! shape an object with `emission` (Mitsuba's area emitters are one-sided),
+//! sampled directly as well.
 use super::bsdf::{self, Surface};
 use super::props::{ColorParam, Ctx, Obj};
 use super::textures::{self, Uv, UvFrame};
@@ -111,7 +113,10 @@ pub fn shape(ctx: &Ctx<'_>, n: &Node, out: &mut Out) -> Result<()> {
             name,
             shape: g.shape,
             material,
-            emission: radiance.map(|(t, _)| EmissionDesc { radiance: t }),
+            emission: radiance.map(|(t, _)| EmissionDesc {
+                radiance: t,
+                two_sided: false,
+            }),
             transform: g.transform,
             flip_inside_out: false,
         },
