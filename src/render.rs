@@ -670,8 +670,7 @@ impl TileJob<'_> {
                     }
                     // Each sample's own counts only where a layer reads them.
                     let per_sample = if aov.is_some() { lanes } else { 1 };
-                    let counted = if packets { per_sample } else { lanes };
-                    sts[..counted].fill(Counters::default());
+                    sts[..per_sample].fill(Counters::default());
                     let ls = if packets {
                         lane_packets.trace(
                             tracer,
@@ -699,13 +698,13 @@ impl TileJob<'_> {
                                 d,
                                 start_list.clone(),
                                 &mut rngs[i],
-                                &mut sts[i],
+                                &mut sts[i.min(per_sample - 1)],
                                 first,
                             )?;
                         }
                         ls
                     };
-                    for st in &sts[..counted] {
+                    for st in &sts[..per_sample] {
                         stats += *st;
                     }
                     for (&l, st) in ls.iter().zip(&sts).take(lanes) {

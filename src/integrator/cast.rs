@@ -127,17 +127,13 @@ fn cast_curved(
 ) -> Result<(Segment, dielectric::Coincident)> {
     let scene = tr.scene;
     let mut travelled = 0.0f64;
-    // The first chord is inside the medium when the ray starts in its bounds;
-    // every later chord is (the first one ends at the entry).
-    let starts_inside = med
-        .bounds()
-        .clip(ray.org.as_dvec3(), ray.dir.as_dvec3())
-        .is_some_and(|(t0, t1)| t0 <= 0.0 && t1 > med.tolerance());
     // A budget of chords per segment (the load-time checks bound the chord
     // count across the box; this also covers rays trapped in a duct).
     for k in 0..MAX_CHORDS_PER_SEGMENT {
-        let entered_medium = k > 0 || starts_inside;
         let chord = curved.next_chord(med);
+        // The first chord is inside the medium when the ray starts in its
+        // bounds; every later chord is (the first one ends at the entry).
+        let entered_medium = k > 0 || curved.started_inside();
         travelled += chord.skipped;
         if chord.length == 0.0 && curved.failure().is_none() {
             // A zero-length chord is the ray leaving the bounds exactly where it

@@ -151,8 +151,9 @@ pub struct InvariantCast {
 impl InvariantCast {
     /// Starts in `slot` the cast of the ray from `p` (inside the medium's
     /// box) with unit direction `t`. Written into the caller's slot rather
-    /// than returned: the cast is large, one starts per path segment, and a
-    /// returned value was copied on its way there.
+    /// than returned, reusing a cast already there: the cast is large, one
+    /// starts per path segment, and a returned value was copied on its way
+    /// there.
     ///
     /// # Errors
     ///
@@ -166,7 +167,32 @@ impl InvariantCast {
         t: DVec3,
     ) -> Result<(), String> {
         let (h_lo, h_hi) = setup.limits.h;
-        let ray = StratifiedRay::new(field, h_lo, h_hi, p, t, Options::default())?;
+        // Restarted in the slot's storage when it has one (see `StratifiedRay::restart`).
+        let cast = match slot {
+            Some(c) => {
+                c.ray.restart(field, h_lo, h_hi, p, t, Options::default())?;
+                c
+            }
+            None => {
+                let ray = StratifiedRay::new(field, h_lo, h_hi, p, t, Options::default())?;
+                let here = ray.start_point();
+                slot.insert(InvariantCast {
+                    tau: 0.0,
+                    here,
+                    tau_side: f64::INFINITY,
+                    tau_exit: None,
+                    exit_point: None,
+                    h_origin: [0.0; 2],
+                    h_inv_rate: [0.0; 2],
+                    h0: 0.0,
+                    p_start: 0.0,
+                    level_scale: 1.0,
+                    last: (here, here),
+                    ray,
+                })
+            }
+        };
+        let ray = &cast.ray;
         let here = ray.start_point();
         let r0 = ray.origin();
         let v = ray.horizontal() * ray.invariant();
@@ -190,20 +216,17 @@ impl InvariantCast {
             // within τ ≤ range/n.
             tau_side = 2.0 * (h_hi - h_lo) / setup.n_min + 1.0;
         }
-        *slot = Some(InvariantCast {
-            tau: 0.0,
-            here,
-            tau_side,
-            tau_exit: None,
-            exit_point: None,
-            h_origin,
-            h_inv_rate,
-            h0: ray.start_height(),
-            p_start: here.p,
-            level_scale: ray.level_scale(),
-            last: (here, here),
-            ray,
-        });
+        cast.h0 = ray.start_height();
+        cast.level_scale = ray.level_scale();
+        cast.tau = 0.0;
+        cast.here = here;
+        cast.tau_side = tau_side;
+        cast.tau_exit = None;
+        cast.exit_point = None;
+        cast.h_origin = h_origin;
+        cast.h_inv_rate = h_inv_rate;
+        cast.p_start = here.p;
+        cast.last = (here, here);
         Ok(())
     }
 

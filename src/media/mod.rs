@@ -551,7 +551,9 @@ impl Medium {
             evals: 0,
             chords: 0,
             entered: false,
+            started_inside: false,
             inv: None,
+            inv_live: false,
             flown: None,
         };
         self.restart_ray(&mut ray, p, d);
@@ -584,7 +586,8 @@ impl Medium {
         ray.evals = 0;
         ray.chords = 0;
         ray.entered = false;
-        ray.inv = None;
+        ray.started_inside = false;
+        ray.inv_live = false;
         ray.flown = None;
     }
 }
@@ -639,8 +642,12 @@ pub struct CurvedRay {
     chords: u64,
     /// The ray has been inside the bounds.
     entered: bool,
-    /// Method `invariant` while inside the bounds.
+    /// It started inside them (its first chord is in the medium).
+    started_inside: bool,
+    /// Method `invariant`: the cast, while inside the bounds (`inv_live`);
+    /// kept after it for the next start to reuse its storage.
     inv: Option<InvariantCast>,
+    inv_live: bool,
     /// A flight flown beforehand ([`fly_camera_rays`]).
     flown: Option<Box<Flown>>,
 }
@@ -686,6 +693,11 @@ impl CurvedRay {
     pub fn entered(&self) -> bool {
         self.entered
     }
+    /// True when the ray started inside the bounds (so its first chord lies
+    /// in the medium), known once its first chord is made.
+    pub fn started_inside(&self) -> bool {
+        self.started_inside
+    }
     /// True while the ray is inside the bounds and being integrated.
     pub fn is_inside(&self) -> bool {
         self.mode == Mode::Inside
@@ -695,7 +707,7 @@ impl CurvedRay {
         self.mode = Mode::Failed;
         self.failure = Some(msg);
         self.last_curved = false;
-        self.inv = None;
+        self.inv_live = false;
         Chord {
             origin: self.st.r,
             dir: self.st.t,
@@ -746,6 +758,7 @@ impl CurvedRay {
                             {
                                 return self.fail(e);
                             }
+                            self.inv_live = true;
                             self.st.r = p;
                         } else {
                             match State::new(&medium.field, p, t, &mut self.evals) {
@@ -758,6 +771,7 @@ impl CurvedRay {
                         }
                         self.prev = self.st;
                         self.mode = Mode::Inside;
+                        self.started_inside |= !self.entered && entry == 0.0;
                         self.entered = true;
                         if entry > 0.0 {
                             return straight(entry);
@@ -766,7 +780,7 @@ impl CurvedRay {
                     _ => return straight(f64::INFINITY),
                 }
             }
-            if let (Some(cast), Some(setup)) = (&mut self.inv, &medium.invariant) {
+            if let (true, Some(cast), Some(setup)) = (self.inv_live, &mut self.inv, &medium.invariant) {
                 let before = cast.evaluations();
                 let step = cast.next(&medium.field, setup, |p| medium.tolerance_at(p));
                 self.evals += cast.evaluations() - before;
@@ -780,9 +794,10 @@ impl CurvedRay {
                         skipped += sk;
                         let c = end - origin;
                         let len = c.length();
-                        let bend = (tangent - self.st.t).length();
-                        // Arc length of a circular arc on the chord, to 4th order.
-                        self.st.s += sk + len * (1.0 + bend * bend / 24.0);
+                        // Arc length of a circular arc on the chord, to 4th
+                        // order in the turn |Δt| (its square: no square root).
+                        let bend2 = (tangent - self.st.t).length_squared();
+                        self.st.s += sk + len * (1.0 + bend2 / 24.0);
                         self.st.r = end;
                         self.st.t = tangent;
                         self.last_curved = true;
@@ -802,7 +817,7 @@ impl CurvedRay {
                         self.st.s += sk;
                         self.st.r = at;
                         self.st.t = tangent;
-                        self.inv = None;
+                        self.inv_live = false;
                         self.mode = Mode::Outside;
                         // Outside, the ray returns a chord or re-enters where
                         // it stands (on a face); exiting again without a chord
@@ -1065,7 +1080,7 @@ impl CurvedRay {
         if !self.last_curved || ng.length().is_nan() || ng.length() <= 0.0 {
             return straight;
         }
-        if let Some(cast) = &mut self.inv {
+        if let (true, Some(cast)) = (self.inv_live, &mut self.inv) {
             return cast.refine(&medium.field, hit, ng).unwrap_or(straight);
         }
         if self.last_arc <= 0.0 {

@@ -363,6 +363,46 @@ impl StratifiedRay {
         t: DVec3,
         opts: Options,
     ) -> Result<Self, String> {
+        let mut ray = StratifiedRay {
+            r0: r,
+            up: DVec3::Y,
+            e: DVec3::X,
+            h0: 0.0,
+            n0: 1.0,
+            b: 1.0,
+            p0: 0.0,
+            g0: 0.0,
+            evals: std::cell::Cell::new(0),
+            u_scale: 1.0,
+            form: Form::Quad(Quad {
+                legs: Vec::new(),
+                lo,
+                hi,
+                branch: opts.branch,
+                done: true,
+            }),
+        };
+        ray.restart(field, lo, hi, r, t, opts)?;
+        Ok(ray)
+    }
+
+    /// Makes this the ray [`StratifiedRay::new`] would make, in place: a
+    /// render starts one per path segment, and a new one moved into its
+    /// place would be a copy of a few hundred bytes each time. On an error
+    /// the ray is left as it was.
+    ///
+    /// # Errors
+    ///
+    /// As [`StratifiedRay::new`].
+    pub fn restart(
+        &mut self,
+        field: &IndexField,
+        lo: f64,
+        hi: f64,
+        r: DVec3,
+        t: DVec3,
+        opts: Options,
+    ) -> Result<(), String> {
         let s = field.strata().ok_or_else(|| {
             format!(
                 "the invariant tracer needs a stratified field, not {}",
@@ -433,9 +473,7 @@ impl StratifiedRay {
                     )
                 }
             };
-            // Built in the return value itself: a cast starts one ray per
-            // path segment, and a local moved out would be a copy each time.
-            return Ok(StratifiedRay {
+            *self = StratifiedRay {
                 r0: r,
                 up,
                 e,
@@ -454,7 +492,8 @@ impl StratifiedRay {
                     modes,
                     mode_turn: None,
                 }),
-            });
+            };
+            return Ok(());
         }
         let mut ray = StratifiedRay {
             r0: r,
@@ -481,7 +520,8 @@ impl StratifiedRay {
         };
         q.done = first.straight || (!first.turn_b);
         q.legs.push(first);
-        Ok(ray)
+        *self = ray;
+        Ok(())
     }
 
     /// Index evaluations so far (a closed-form point counts as one).
