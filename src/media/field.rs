@@ -51,6 +51,17 @@ impl Aabb {
         ]
     }
 
+    /// Does the line `p + t d` leave the box by `t = tol` through a face it
+    /// moves out of (so that, the box being convex, it is outside from there
+    /// on)? The slab test's `t1 <= tol` without its divisions, for a ray just
+    /// come out through a face.
+    pub fn leaves_within(&self, p: DVec3, d: DVec3, tol: f64) -> bool {
+        (0..3).any(|k| {
+            (d[k] > 0.0 && self.max[k] - p[k] <= tol * d[k])
+                || (d[k] < 0.0 && self.min[k] - p[k] >= tol * d[k])
+        })
+    }
+
     /// Slab test: the parameter interval `[t0, t1]` (possibly with t0 < 0) where the
     /// line `p + t d` is inside the box, or None when it misses.
     pub fn clip(&self, p: DVec3, d: DVec3) -> Option<(f64, f64)> {

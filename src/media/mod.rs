@@ -747,6 +747,10 @@ impl CurvedRay {
                     length,
                     skipped,
                 };
+                // Just out through a face: no slab test to see it go.
+                if exits > 0 && medium.bounds.leaves_within(r, t, tol) {
+                    return straight(f64::INFINITY);
+                }
                 match medium.bounds.clip(r, t) {
                     Some((t0, t1)) if t1 > tol => {
                         let entry = t0.max(0.0);

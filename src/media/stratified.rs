@@ -266,6 +266,10 @@ pub struct StratifiedRay {
     evals: std::cell::Cell<u64>,
     /// e^{−h₀/H} for an exponential profile, 1 otherwise.
     u_scale: f64,
+    /// The scale height `u_scale` was taken with (NaN: none): a camera's
+    /// rays all start at its height, and restarting one for the next keeps
+    /// the exponential.
+    u_scale_hs: f64,
 }
 
 /// (Ch, Sh, Cm) at τ for κ² = k2: cosh κτ, sinh(κτ)/κ, (cosh κτ − 1)/κ²
@@ -374,6 +378,7 @@ impl StratifiedRay {
             g0: 0.0,
             evals: std::cell::Cell::new(0),
             u_scale: 1.0,
+            u_scale_hs: f64::NAN,
             form: Form::Quad(Quad {
                 legs: Vec::new(),
                 lo,
@@ -440,9 +445,15 @@ impl StratifiedRay {
         };
         // The deficit D at h = 0 becomes D₀ = D·e^{−h₀/H} at the start.
         let mut u_scale = 1.0;
+        let mut u_scale_hs = f64::NAN;
         let closed = closed.map(|k| match k {
             ClosedKind::Exp { a, d0, hs } => {
-                u_scale = (-h0 / hs).exp();
+                u_scale = if self.h0 == h0 && self.u_scale_hs == hs {
+                    self.u_scale
+                } else {
+                    (-h0 / hs).exp()
+                };
+                u_scale_hs = hs;
                 ClosedKind::Exp {
                     a,
                     d0: d0 * u_scale,
@@ -484,6 +495,7 @@ impl StratifiedRay {
                 g0,
                 evals: std::cell::Cell::new(1),
                 u_scale,
+                u_scale_hs,
                 form: Form::Closed(Closed {
                     kind,
                     q1,
@@ -506,6 +518,7 @@ impl StratifiedRay {
             g0,
             evals: std::cell::Cell::new(1),
             u_scale,
+            u_scale_hs,
             form: Form::Quad(Quad {
                 legs: Vec::new(),
                 lo: lo.min(h0),
