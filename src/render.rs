@@ -618,18 +618,18 @@ impl TileJob<'_> {
         // A group's counters (reset per group, as far as it uses them).
         let mut sts = [Counters::default(); MAX_PATHS_PER_PACKET];
         let width = lane_packets.width();
+        // Without flights, the camera rays' curved rays are started in
+        // these, one per sample of a group (see `Medium::restart_ray`).
+        let mut camera_curved: Vec<CurvedRay> = match (&scene.medium, self.fly_rows || skip) {
+            (Some(med), false) => (0..width).map(|_| med.start_ray(DVec3::ZERO, DVec3::X)).collect(),
+            _ => Vec::new(),
+        };
         for j in 0..h {
             // A row at a time: a whole tile's flights at once stay in flight
             // longer than the caches hold them.
             let mut flown = match (&scene.medium, self.fly_rows && !skip) {
                 (Some(med), true) => self.flown_rays(med, (x0, y0 + j), (w, 1)),
                 _ => Vec::new(),
-            };
-            // Without flights, each camera ray's curved ray is started in
-            // this one's storage (see `Medium::restart_ray`).
-            let mut camera_curved = match (&scene.medium, flown.is_empty()) {
-                (Some(med), true) => Some(med.start_ray(DVec3::ZERO, DVec3::X)),
-                _ => None,
             };
             let mut next_flown = flown.iter_mut();
             for i in 0..w {
@@ -681,16 +681,20 @@ impl TileJob<'_> {
                         )?
                     } else {
                         let mut ls = [V3::ZERO; MAX_PATHS_PER_PACKET];
+                        // The group's curved rays begun together (`CurvedRay::begin`).
+                        if let (Some(med), false) = (&scene.medium, camera_curved.is_empty()) {
+                            for (c, &(o, d)) in camera_curved.iter_mut().zip(&rays[..lanes]) {
+                                let ray = Ray::new(o, d);
+                                med.restart_ray(c, ray.org.as_dvec3(), ray.dir.as_dvec3());
+                                c.begin(med);
+                            }
+                        }
+                        let mut group_curved = camera_curved.iter_mut();
                         for i in 0..lanes {
                             let (o, d) = rays[i];
-                            let first = match (next_flown.next(), &mut camera_curved, &scene.medium) {
-                                (Some(f), _, _) => Some(f),
-                                (None, Some(c), Some(med)) => {
-                                    let ray = Ray::new(o, d);
-                                    med.restart_ray(c, ray.org.as_dvec3(), ray.dir.as_dvec3());
-                                    Some(c)
-                                }
-                                _ => None,
+                            let first = match next_flown.next() {
+                                Some(f) => Some(f),
+                                None => group_curved.next(),
                             };
                             ls[i] = radiance_after(
                                 tracer,

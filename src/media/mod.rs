@@ -716,6 +716,50 @@ impl CurvedRay {
         }
     }
 
+    /// Enters the bounds `entry` along the straight ray (from outside, or 0
+    /// where it starts in them): the state the medium's method starts from.
+    #[inline(always)]
+    fn enter(&mut self, medium: &Medium, entry: f64) -> Result<(), String> {
+        let (r, t) = (self.st.r, self.st.t);
+        let p = r + t * entry;
+        if let Some(setup) = &medium.invariant {
+            // The invariant cast keeps its own state; here only position and
+            // direction.
+            InvariantCast::start_in(&mut self.inv, &medium.field, setup, p, t)?;
+            self.inv_live = true;
+            self.st.r = p;
+        } else {
+            let mut s = State::new(&medium.field, p, t, &mut self.evals)?;
+            s.s = self.st.s;
+            self.st = s;
+        }
+        self.prev = self.st;
+        self.mode = Mode::Inside;
+        self.started_inside |= !self.entered && entry == 0.0;
+        self.entered = true;
+        Ok(())
+    }
+
+    /// Sets up now what the first chord of a ray that starts inside the
+    /// bounds would (method `invariant`'s start), and nothing for any other:
+    /// the same chords follow. Begun for several rays in a row before any is
+    /// traced, their setups (chains of dependent roots and divisions) overlap
+    /// in the processor instead of waiting one by one.
+    pub fn begin(&mut self, medium: &Medium) {
+        if medium.invariant.is_none() || self.mode != Mode::Outside || self.entered || self.flown.is_some() {
+            return;
+        }
+        let inside = medium
+            .bounds
+            .clip(self.st.r, self.st.t)
+            .is_some_and(|(t0, t1)| t0 <= 0.0 && t1 > medium.tolerance);
+        if inside {
+            if let Err(e) = self.enter(medium, 0.0) {
+                self.fail(e);
+            }
+        }
+    }
+
     /// The next straight chord to cast: outside the bounds one chord to the entry (or
     /// of infinite length); inside, a chord whose deviation from the arc is at most the
     /// tolerance (ray-equation methods) or one native piece (the paper's methods);
@@ -754,29 +798,9 @@ impl CurvedRay {
                 match medium.bounds.clip(r, t) {
                     Some((t0, t1)) if t1 > tol => {
                         let entry = t0.max(0.0);
-                        let p = r + t * entry;
-                        if let Some(setup) = &medium.invariant {
-                            // The invariant cast keeps its own state; here only
-                            // position and direction.
-                            if let Err(e) = InvariantCast::start_in(&mut self.inv, &medium.field, setup, p, t)
-                            {
-                                return self.fail(e);
-                            }
-                            self.inv_live = true;
-                            self.st.r = p;
-                        } else {
-                            match State::new(&medium.field, p, t, &mut self.evals) {
-                                Ok(mut s) => {
-                                    s.s = self.st.s;
-                                    self.st = s;
-                                }
-                                Err(e) => return self.fail(e),
-                            }
+                        if let Err(e) = self.enter(medium, entry) {
+                            return self.fail(e);
                         }
-                        self.prev = self.st;
-                        self.mode = Mode::Inside;
-                        self.started_inside |= !self.entered && entry == 0.0;
-                        self.entered = true;
                         if entry > 0.0 {
                             return straight(entry);
                         }
