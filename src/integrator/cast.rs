@@ -107,7 +107,28 @@ pub(super) fn cast(
             &mut own
         }
     };
-    let out = cast_curved(tr, med, curved, ray, list, st);
+    let mut seg = Segment::failed(ray, 0.0, false);
+    let mut coincident = dielectric::Coincident::NONE;
+    cast_curved_into(tr, med, curved, ray, list, st, &mut seg, &mut coincident)?;
+    Ok((seg, coincident))
+}
+
+/// [`cast`] through the medium `med` with the curved ray `curved`, the
+/// segment and its coincident surfaces written into `seg` and `coincident`:
+/// the path tracer's loop keeps them across segments, and a returned pair
+/// (some 200 bytes in a `Result`) was copied out of it at every segment.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn cast_curved_into(
+    tr: Tracer<'_>,
+    med: &crate::media::Medium,
+    curved: &mut crate::media::CurvedRay,
+    ray: &Ray,
+    list: &mut InteriorList,
+    st: &mut Counters,
+    seg: &mut Segment,
+    coincident: &mut dielectric::Coincident,
+) -> Result<()> {
+    let out = cast_curved(tr, med, curved, ray, list, st, seg, coincident);
     st.field_evals += curved.evaluations();
     if curved.entered() {
         st.medium_segments += 1;
@@ -116,7 +137,9 @@ pub(super) fn cast(
 }
 
 /// [`cast`] through the medium: the chords of `curved` until one hits or
-/// escapes.
+/// escapes (written into `seg` and `coincident`).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
 fn cast_curved(
     tr: Tracer<'_>,
     med: &crate::media::Medium,
@@ -124,7 +147,9 @@ fn cast_curved(
     ray: &Ray,
     list: &mut InteriorList,
     st: &mut Counters,
-) -> Result<(Segment, dielectric::Coincident)> {
+    seg: &mut Segment,
+    coincident: &mut dielectric::Coincident,
+) -> Result<()> {
     let scene = tr.scene;
     let mut travelled = 0.0f64;
     // A budget of chords per segment (the load-time checks bound the chord
@@ -141,10 +166,9 @@ fn cast_curved(
             continue;
         }
         if curved.failure().is_some() || chord.length.is_nan() || chord.length < 0.0 {
-            return Ok((
-                Segment::failed(ray, travelled, entered_medium),
-                dielectric::Coincident::NONE,
-            ));
+            *seg = Segment::failed(ray, travelled, entered_medium);
+            *coincident = dielectric::Coincident::NONE;
+            return Ok(());
         }
         let mut r = Ray::new(chord.origin.as_vec3a(), chord.dir.as_vec3a());
         if chord.length.is_finite() {
@@ -167,37 +191,34 @@ fn cast_curved(
                 p.as_dvec3(),
                 (th.hit.ng.normalize_or(V3::Y)).as_dvec3(),
             );
-            return Ok((
-                Segment {
-                    hit: Some(th.hit),
-                    chord: r,
-                    dir: (tangent.normalize()).as_vec3a(),
-                    length: (travelled + th.hit.t as f64) as f32,
-                    failed: false,
-                    entered_medium,
-                },
-                th.coincident,
-            ));
+            *seg = Segment {
+                hit: Some(th.hit),
+                chord: r,
+                dir: (tangent.normalize()).as_vec3a(),
+                length: (travelled + th.hit.t as f64) as f32,
+                failed: false,
+                entered_medium,
+            };
+            *coincident = th.coincident;
+            return Ok(());
         }
         if !chord.length.is_finite() {
-            return Ok((
-                Segment {
-                    hit: None,
-                    chord: r,
-                    dir: r.dir,
-                    length: f32::INFINITY,
-                    failed: false,
-                    entered_medium,
-                },
-                dielectric::Coincident::NONE,
-            ));
+            *seg = Segment {
+                hit: None,
+                chord: r,
+                dir: r.dir,
+                length: f32::INFINITY,
+                failed: false,
+                entered_medium,
+            };
+            *coincident = dielectric::Coincident::NONE;
+            return Ok(());
         }
         travelled += chord.length;
     }
-    Ok((
-        Segment::failed(ray, travelled, true),
-        dielectric::Coincident::NONE,
-    ))
+    *seg = Segment::failed(ray, travelled, true);
+    *coincident = dielectric::Coincident::NONE;
+    Ok(())
 }
 
 /// A shadow ray that curves: from `org` along unit `dir` through the

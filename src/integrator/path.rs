@@ -1,7 +1,7 @@
 //! The path tracer: a path's state between segments and the step that
 //! shades one segment (emission, scattering, the next-event connection, the
 //! next ray, Russian roulette), shared by single rays and [`super::lanes`].
-use super::cast::{cast, Segment};
+use super::cast::{cast, cast_curved_into, Segment};
 use super::light::{next_event, shadow_ray, sun_launch_jacobian, sun_through_medium, NextEvent};
 use super::scatter::{Bsdf, Lobe};
 use super::Tracer;
@@ -269,10 +269,18 @@ pub(super) fn path(
         (None, Some(m)) => Some(spare.insert(m.start_ray(org.as_dvec3(), dir.as_dvec3()))),
         (None, None) => None,
     };
+    // Through a medium the segment is written in place (`cast_curved_into`).
+    let mut seg = Segment::failed(&p.ray, 0.0, false);
+    let mut coincident = dielectric::Coincident::NONE;
     loop {
         st.segments += 1;
         let sigma = tr.medium(&p.list);
-        let (seg, coincident) = cast(tr, &p.ray, &mut p.list, st, curved.as_deref_mut())?;
+        match (curved.as_deref_mut(), &tr.scene.medium) {
+            (Some(c), Some(m)) => {
+                cast_curved_into(tr, m, c, &p.ray, &mut p.list, st, &mut seg, &mut coincident)?
+            }
+            (c, _) => (seg, coincident) = cast(tr, &p.ray, &mut p.list, st, c)?,
+        }
         let (shadow, go) = p.advance(tr, sigma, &seg, &coincident, None, rng, st);
         if let Some(sh) = shadow {
             if !tr.scene.embree.occluded(&sh.ray) {
