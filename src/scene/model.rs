@@ -9,6 +9,7 @@
 use super::emitter::{sample_sphere_cone, sphere_cone_pdf, Emitter, EmitterShape, Spot};
 use super::shapes::{Analytic, Mesh};
 use super::texture::{ImageData, Texture};
+use crate::bsdf::{Conductor, MicrofacetDistribution, Plastic, RoughConductor, RoughPlastic};
 use crate::camera::Camera;
 use crate::error::{Error, Result};
 use crate::ray::{Hit, Ray};
@@ -46,6 +47,64 @@ pub enum Material {
     },
     /// Absorbs everything (lights' bodies).
     Black,
+    /// A priority solid (as [`Material::Solid`]) whose surface is rough: the
+    /// nested rule's index pair feeds a microfacet boundary.
+    RoughSolid {
+        /// Index into `RenderScene::solids`.
+        solid: u32,
+        /// The surface's microfacet normals.
+        distribution: MicrofacetDistribution,
+    },
+    /// A rough interface: [`Material::Interface`] with microfacet normals.
+    RoughInterface {
+        /// Index on the side opposite the normal.
+        int_ior: f32,
+        /// Index on the side the normal points to.
+        ext_ior: f32,
+        /// The surface's microfacet normals.
+        distribution: MicrofacetDistribution,
+    },
+    /// A smooth metal (a mirror with the conductor's Fresnel reflectance).
+    Conductor {
+        /// The BSDF, one-sided about the normal.
+        bsdf: Conductor,
+        /// Reflects on both sides (else black from behind the normal).
+        two_sided: bool,
+    },
+    /// A rough metal.
+    RoughConductor {
+        /// The BSDF, one-sided about the normal.
+        bsdf: RoughConductor,
+        /// Reflects on both sides.
+        two_sided: bool,
+    },
+    /// A diffuse base under a smooth dielectric coating.
+    Plastic {
+        /// The BSDF, one-sided about the normal.
+        bsdf: Plastic,
+        /// Reflects on both sides.
+        two_sided: bool,
+    },
+    /// A diffuse base under a rough coating (its tables built once, shared).
+    RoughPlastic {
+        /// The BSDF, one-sided about the normal.
+        bsdf: Arc<RoughPlastic>,
+        /// Reflects on both sides.
+        two_sided: bool,
+    },
+}
+
+impl Material {
+    /// A dielectric boundary (smooth or rough): the nested rule applies to it.
+    pub fn is_dielectric(&self) -> bool {
+        matches!(
+            self,
+            Material::Interface { .. }
+                | Material::Solid(_)
+                | Material::RoughSolid { .. }
+                | Material::RoughInterface { .. }
+        )
+    }
 }
 
 /// Geometry shape as the integrator sees it.
