@@ -235,6 +235,8 @@ impl PathState {
                 if tr.nee() && !micro.is_delta() {
                     if let Some(ls) = light_straight(scene, sp.p, rng) {
                         let (fc, pdf) = micro.eval(ls.wi);
+                        #[cfg(test)]
+                        let (fc, pdf) = micro.wrong_eval(scene.bsdf_variant, ls.wi, fc, pdf);
                         if fc != V3::ZERO {
                             let w = if ls.delta {
                                 1.0
@@ -258,6 +260,8 @@ impl PathState {
                 let Some(s) = micro.sample(rng) else {
                     return (shadow, false);
                 };
+                #[cfg(test)]
+                let s = micro.wrong_sample(scene.bsdf_variant, s);
                 self.beta *= s.weight;
                 self.specular = s.is_delta;
                 if !s.is_delta {

@@ -10,6 +10,8 @@ use crate::dielectric::{self, InteriorList};
 use crate::optics;
 use crate::ray::front_facing;
 use crate::sampling::{cosine_hemisphere, Rng};
+#[cfg(test)]
+use crate::scene::model::BsdfVariant;
 use crate::scene::{Material, SurfacePoint};
 use glam::{DVec3, Vec2, Vec3, Vec3A as V3};
 use std::f32::consts::FRAC_1_PI;
@@ -312,6 +314,37 @@ impl<'a> Micro<'a> {
             }
             None => 1.0,
         }
+    }
+}
+
+/// The known-wrong variants of the render tests ([`crate::scene::model::BsdfVariant`]).
+#[cfg(test)]
+impl Micro<'_> {
+    /// Next-event estimation's (f·cos, pdf) under `variant`.
+    pub fn wrong_eval(&self, variant: BsdfVariant, wi: V3, fc: V3, pdf: f32) -> (V3, f32) {
+        match variant {
+            BsdfVariant::WrongMisPdf => (fc, 2.0 * pdf),
+            BsdfVariant::WrongDoubleScale if wi.dot(self.side) < 0.0 => (fc * self.radiance_scale(), pdf),
+            _ => (fc, pdf),
+        }
+    }
+
+    /// A sample under `variant`.
+    pub fn wrong_sample(&self, variant: BsdfVariant, mut s: MicroSample) -> MicroSample {
+        let MicroModel::RoughDielectric(d) = &self.model else {
+            return s;
+        };
+        if variant != BsdfVariant::WrongJacobian || !s.is_transmission {
+            return s;
+        }
+        let (wo, wi) = (self.wo, self.frame.to_local(Vec3::from(s.wi)));
+        let eta = if wo.z > 0.0 { d.eta() } else { 1.0 / d.eta() };
+        let m = (wo + wi * eta).normalize();
+        // The weight goes as 1/pdf: the right Jacobian over the wrong one.
+        let (om, im) = (wo.dot(m), wi.dot(m));
+        let denom = om + eta * im;
+        s.weight *= 4.0 * eta * eta * im * im / (denom * denom);
+        s
     }
 }
 

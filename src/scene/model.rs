@@ -21,6 +21,23 @@ use std::sync::Arc;
 /// allocation): 134 M pixels, ~1.6 GB of f32 RGB.
 pub const MAX_PIXELS: u64 = 1 << 27;
 
+/// How the microfacet materials are shaded: correctly, or (tests only) in
+/// a known-wrong way that the render tests must detect.
+#[cfg(test)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub(crate) enum BsdfVariant {
+    /// The library's f, pdf and sample weights.
+    #[default]
+    Right,
+    /// Next-event estimation weighs itself against twice the BSDF's density.
+    WrongMisPdf,
+    /// A transmitted connection carries the radiance scale (n1/n2)² twice.
+    WrongDoubleScale,
+    /// Sampled transmissions are weighed with the reflection's Jacobian of
+    /// the half vector, 1 / (4 |wi·m|), in place of refraction's.
+    WrongJacobian,
+}
+
 /// Surface response.
 #[derive(Debug, Clone)]
 pub enum Material {
@@ -268,6 +285,10 @@ pub enum IntegratorKind {
 pub struct RenderScene {
     /// The Embree scene of every geometry.
     pub embree: crate::embree::Scene,
+    /// Known-wrong variants of the microfacet materials' shading, for the
+    /// render tests' power.
+    #[cfg(test)]
+    pub(crate) bsdf_variant: BsdfVariant,
     /// The analytic shapes, when the path tracer's packets intersect them
     /// itself (`embree` then has a twin of its meshes alone).
     pub analytic_set: Option<crate::scene::shapes::AnalyticSet>,
