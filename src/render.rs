@@ -973,6 +973,9 @@ mod sun_tests;
 mod light_tests;
 
 #[cfg(test)]
+mod material_tests;
+
+#[cfg(test)]
 mod tests {
     use super::*;
     use crate::scene::{load_scene_str, BuildOptions};

@@ -200,14 +200,19 @@ fn features_map_as_documented() {
         dbg.contains("Mirror(MirrorDesc { reflectance: [1.0, 1.0, 1.0] })"),
         "{dbg}"
     );
-    // One warning each: the moment wrapper, the rough dielectric.
+    // The rough dielectric keeps its roughness (Mitsuba's defaults: Beckmann, 0.1).
+    assert!(
+        dbg.contains("RoughDielectric(RoughDielectricDesc")
+            && dbg.contains("distribution: Beckmann, alpha: 0.1"),
+        "{dbg}"
+    );
+    // One warning: the moment wrapper.
     let w: Vec<String> = imp.warnings.iter().map(|w| w.to_string()).collect();
-    assert_eq!(w.len(), 2, "{w:?}");
+    assert_eq!(w.len(), 1, "{w:?}");
     assert!(
         w[0].contains("t.xml:3:3: <integrator type=\"moment\">") && w[0].contains("unwrapped"),
         "{w:?}"
     );
-    assert!(w[1].contains("roughness"), "{w:?}");
     // It builds and renders.
     let s = build_xml(FEATURES);
     assert_eq!(s.lights.len(), 2);
@@ -436,4 +441,71 @@ fn ply_and_serialized_meshes_load_and_bad_indices_are_placed() {
             && e.contains("out of range"),
         "{e}"
     );
+}
+
+/// A scene of one sphere with `bsdf` (XML), imported.
+fn sphere_with(bsdf: &str) -> snell::Result<snell::scene::import::Imported> {
+    let xml = format!(
+        r#"<scene version="3.0.0">
+  <sensor type="perspective"><transform name="to_world"><lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
+    <film type="hdrfilm"><integer name="width" value="16"/><integer name="height" value="16"/><rfilter type="box"/></film></sensor>
+  <emitter type="constant"><rgb name="radiance" value="1"/></emitter>
+  <shape type="sphere">{bsdf}</shape>
+</scene>"#
+    );
+    import_text(&xml, &ImportOptions::default())
+}
+
+#[test]
+fn rough_metal_and_plastic_bsdfs_map_exactly_and_refuse_what_they_cannot() {
+    let cases = [
+        (
+            r#"<bsdf type="roughconductor"><string name="material" value="Au"/><string name="distribution" value="ggx"/><float name="alpha" value="0.3"/></bsdf>"#,
+            r#"RoughConductor(RoughConductorDesc { material: Some("Au"), eta: None, k: None, specular_reflectance: [1.0, 1.0, 1.0], two_sided: false, distribution: Ggx, alpha: 0.3 })"#,
+        ),
+        (
+            r#"<bsdf type="twosided"><bsdf type="conductor"><rgb name="eta" value="0.2, 0.9, 1.1"/><rgb name="k" value="3.9, 2.4, 2.2"/></bsdf></bsdf>"#,
+            r#"Conductor(ConductorDesc { material: None, eta: Some([0.2, 0.9, 1.1]), k: Some([3.9, 2.4, 2.2]), specular_reflectance: [1.0, 1.0, 1.0], two_sided: true })"#,
+        ),
+        (
+            r#"<bsdf type="plastic"><rgb name="diffuse_reflectance" value="0.1, 0.2, 0.3"/><boolean name="nonlinear" value="true"/></bsdf>"#,
+            r#"Plastic(PlasticDesc { diffuse_reflectance: [0.1, 0.2, 0.3], specular_reflectance: [1.0, 1.0, 1.0], int_ior: 1.49, ext_ior: 1.000277, nonlinear: true, two_sided: false })"#,
+        ),
+        (
+            r#"<bsdf type="roughplastic"><float name="alpha_u" value="0.2"/><float name="alpha_v" value="0.2"/></bsdf>"#,
+            r#"RoughPlastic(RoughPlasticDesc { diffuse_reflectance: [0.5, 0.5, 0.5], specular_reflectance: [1.0, 1.0, 1.0], int_ior: 1.49, ext_ior: 1.000277, nonlinear: false, two_sided: false, distribution: Beckmann, alpha: 0.2 })"#,
+        ),
+    ];
+    for (bsdf, want) in cases {
+        let imp = sphere_with(bsdf).unwrap();
+        let dbg = format!("{:?}", imp.desc.objects[0].material);
+        assert_eq!(dbg, want, "{bsdf}");
+        assert!(imp.warnings.is_empty(), "{bsdf}: {:?}", imp.warnings);
+        // The TOML written back builds.
+        let toml = to_toml(&imp.desc).unwrap();
+        load_scene_str("t.toml", &toml, Path::new("scenes"), &BuildOptions::default()).unwrap();
+    }
+    for (bsdf, want) in [
+        (
+            r#"<bsdf type="roughconductor"><float name="alpha_u" value="0.1"/><float name="alpha_v" value="0.3"/></bsdf>"#,
+            "anisotropic",
+        ),
+        (
+            r#"<bsdf type="roughdielectric"><texture type="bitmap" name="alpha"><string name="filename" value="a.png"/></texture></bsdf>"#,
+            "textured alpha",
+        ),
+        (
+            r#"<bsdf type="conductor"><string name="material" value="Xx"/></bsdf>"#,
+            "unknown metal",
+        ),
+        (
+            r#"<bsdf type="roughplastic"><string name="distribution" value="phong"/></bsdf>"#,
+            "unknown distribution",
+        ),
+    ] {
+        match sphere_with(bsdf) {
+            Err(e) => assert!(e.to_string().contains(want), "{bsdf}: {e}"),
+            Ok(_) => panic!("accepted: {bsdf}"),
+        }
+    }
 }

@@ -837,3 +837,26 @@ fn a_glass_exit_onto_the_waters_surface_refracts_into_the_water() {
         assert!(!e.tir);
     }
 }
+
+/// The frosted glass of water: rough glass (a microfacet surface on a
+/// nested solid) holding water by priorities. Rendered, no ray falls back
+/// and no sample is lost; audited, no interior list is wrong.
+#[test]
+fn frosted_glass_of_water_renders_without_fallbacks_and_audits_clean() {
+    let case = load(
+        "scenes/frosted_glass_of_water.toml",
+        NestedStrategy::Filter,
+        96,
+        72,
+        4,
+        1,
+    );
+    let r = go(&case);
+    let c = &r.stats.counters;
+    assert_eq!((c.fallbacks, c.nan), (0, 0), "{c:?}");
+    assert!(c.false_hits > 0, "the water's false hits are skipped: {c:?}");
+    let tr = Tracer::new(&case.0);
+    let report = snell::audit::audit_scene(tr, 20_000, 1).unwrap();
+    assert_eq!(report.wrong_rays, 0, "{report}");
+    assert!(report.segments > 20_000, "{report}");
+}

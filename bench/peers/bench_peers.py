@@ -20,6 +20,14 @@ DRJIT_LIBLLVM_PATH); see docs/peers.md. Per reference scene of
 5. compares 16x16 block means: RMSE(snell, Mitsuba seed 0) and RMSE(snell,
    Mitsuba seed 1) must stay within --limit times RMSE(Mitsuba seed 0, Mitsuba
    seed 1), the seed-to-seed noise. Exit status 1 when a scene fails.
+
+With --materials it compares images instead of speed, on the material scenes
+of bench/peers/materials/NAME.xml (rough glass, rough gold, plastics), each
+rendered by both renderers from the one XML file (snell through its
+importer) at --seeds seeds: the block-mean difference over its noise, the
+image means, and the median over pixels of snell's per-pixel variance over
+Mitsuba's (both estimated across the seeds; about 1 when the estimators are
+equally noisy).
 """
 import argparse
 import ctypes
@@ -84,11 +92,17 @@ def parse_args():
         action="store_true",
         help="also render snell with seed 1: its own seed-to-seed block RMSE beside Mitsuba's",
     )
+    p.add_argument("--materials", action="store_true",
+                   help="compare images of bench/peers/materials/*.xml instead of timing the reference scenes")
+    p.add_argument("--material", action="append", help="with --materials: only this scene (repeatable)")
+    p.add_argument("--seeds", type=int, default=3, help="with --materials: renders per renderer and scene")
     p.add_argument("--out", default=str(REPO / "out/peers"), help="directory for the EXR/PNG images")
     p.add_argument("--json", metavar="FILE", help="write the table, image figures and provenance as JSON")
     a = p.parse_args()
     if a.reps < 1:
         p.error("--reps must be at least 1")
+    if a.seeds < 2:
+        p.error("--seeds must be at least 2 (noise is estimated across seeds)")
     return a
 
 
@@ -335,8 +349,83 @@ def set_llvm_target(spec):
     return f"{cpu} {features} x{width}"
 
 
+def materials_main(a):
+    """The material scenes: snell against Mitsuba by block means and per-pixel variance."""
+    import numpy as np
+
+    os.environ.setdefault("DRJIT_CACHE_DIR", tempfile.mkdtemp(prefix="bench-peers-drjit-"))
+    import drjit as dr
+    import mitsuba as mi
+
+    mi.set_variant(a.variant)
+    dr.set_thread_count(a.threads)
+    out = Path(a.out) / "materials"
+    out.mkdir(parents=True, exist_ok=True)
+    scenes = sorted((REPO / "bench/peers/materials").glob("*.xml"))
+    if a.material:
+        scenes = [x for x in scenes if x.stem in a.material]
+    print(f"bench-peers --materials: snell vs Mitsuba {mi.__version__} {a.variant}, {a.width}x{a.height}, "
+          f"{a.spp} spp, {a.seeds} seeds each, {a.block}x{a.block} blocks", flush=True)
+    print(f"  {'scene':26} {'block ratio':>11} {'5% darker':>9} {'mean snell':>10} {'mean Mitsuba':>12} "
+          f"{'var ratio':>9}", flush=True)
+    results = {}
+    failed = []
+    for xml in scenes:
+        name = xml.stem
+        s_imgs, m_imgs = [], []
+        scene = mi.load_file(str(xml), width=a.width, height=a.height, spp=a.spp, seed=0)
+        for seed in range(a.seeds):
+            exr = out / f"{name}.snell.seed{seed}.exr"
+            subprocess.run([a.snell, "render", str(xml), "-o", str(exr), "--threads", str(a.threads),
+                            "-D", f"width={a.width}", "-D", f"height={a.height}", "-D", f"spp={a.spp}",
+                            "--seed", str(seed + 1), "--quiet"], check=True, stdout=subprocess.DEVNULL)
+            s_imgs.append(read_exr(mi, exr)[..., :3].astype(np.float64))
+            img = mi.render(scene, spp=a.spp, seed=seed)
+            m_imgs.append(np.array(img, dtype=np.float64)[..., :3])
+            if seed == 0:
+                write_images(mi, img, out / f"{name}.mitsuba.seed0")
+        k = a.seeds
+        s_arr, m_arr = np.stack(s_imgs), np.stack(m_imgs)
+        # Block means: the difference of the seed means over the noise of that
+        # difference (each method's variance of its seed mean, from the seeds).
+        sb = np.stack([block_means(x, a.block) for x in s_imgs])
+        mb = np.stack([block_means(x, a.block) for x in m_imgs])
+        noise_var = sb.var(axis=0, ddof=1) / k + mb.var(axis=0, ddof=1) / k
+
+        def block_ratio(scale):
+            diff = scale * sb.mean(axis=0) - mb.mean(axis=0)
+            return float(np.sqrt(np.mean(diff ** 2) / np.mean(noise_var)))
+
+        ratio = block_ratio(1.0)
+        # Power: the same comparison of a snell image 5% too dark must fail.
+        dim = block_ratio(0.95)
+        # Per-pixel variance of one render, across seeds (channel mean).
+        sv = s_arr.mean(axis=3).var(axis=0, ddof=1)
+        mv = m_arr.mean(axis=3).var(axis=0, ddof=1)
+        both = (sv > 0) & (mv > 0)
+        var_ratio = float(np.median(sv[both] / mv[both])) if both.any() else math.nan
+        ms, mm = float(s_arr.mean()), float(m_arr.mean())
+        ok = ratio <= a.limit
+        if not ok:
+            failed.append(name)
+        results[name] = {"block_ratio": ratio, "block_ratio_snell_5pct_darker": dim, "mean_snell": ms, "mean_mitsuba": mm,
+                         "median_pixel_variance_ratio": var_ratio, "agree": ok}
+        print(f"  {name:26} {ratio:11.3f} {dim:9.2f} {ms:10.5f} {mm:12.5f} {var_ratio:9.3f}"
+              + ("" if ok else f"   (above --limit {a.limit})"), flush=True)
+    if a.json:
+        Path(a.json).write_text(json.dumps({
+            "settings": {"width": a.width, "height": a.height, "spp": a.spp, "seeds": a.seeds,
+                         "block": a.block, "limit": a.limit},
+            "mitsuba": mi.__version__, "variant": a.variant,
+            "repo_commit": git("rev-parse", "--short=12", "HEAD"),
+            "materials": results}, indent=2))
+    return 1 if failed else 0
+
+
 def main():
     a = parse_args()
+    if a.materials:
+        sys.exit(materials_main(a))
     ref_path = Path(a.reference)
     if not ref_path.is_file():
         sys.exit(f"bench-peers: {ref_path} not found (set SNELL_REFERENCE_SCENES or --reference)")

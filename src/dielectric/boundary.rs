@@ -123,7 +123,7 @@ pub fn boundary(
         l
     };
     match *material {
-        Material::Interface { int_ior, ext_ior } => {
+        Material::Interface { int_ior, ext_ior } | Material::RoughInterface { int_ior, ext_ior, .. } => {
             let transmitted = (!coincident.is_empty()).then(|| with_coincident(list.clone()));
             let (n1, n2) = if front {
                 (ext_ior, int_ior)
@@ -137,7 +137,7 @@ pub fn boundary(
                 transmitted,
             })
         }
-        Material::Solid(s) => {
+        Material::Solid(s) | Material::RoughSolid { solid: s, .. } => {
             let solid = &nesting.solids[s as usize];
             let entering = match strategy {
                 NestedStrategy::Toggle => !list.contains(s),

@@ -93,6 +93,16 @@ pub(super) fn next_event(scene: &RenderScene, p: V3, n: V3, ng: V3, rng: &mut Rn
     (cos > 0.0 && ng.dot(ls.wi) > 0.0).then_some(NextEvent::Straight(ls, cos))
 }
 
+/// A light sample from `p` whose straight connection avoids the
+/// gradient-index medium, for any BSDF (the caller weighs its side and
+/// cosine). The sun's disk through the medium is left to BSDF sampling here
+/// ([`sun_through_medium`] solves it for Lambertian points only).
+#[inline(always)]
+pub(super) fn light_straight(scene: &RenderScene, p: V3, rng: &mut Rng) -> Option<LightSample> {
+    let ls = scene.sample_light(p, rng)?;
+    (!meets_medium(scene, p, ls.wi, ls.dist)).then_some(ls)
+}
+
 /// The sun's next-event contribution at the diffuse point `p` through a
 /// stratified medium, before the path's throughput: `ls.wi`, uniform in the
 /// disk, is the exit direction; the launch that leaves along it

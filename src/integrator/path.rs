@@ -2,7 +2,9 @@
 //! shades one segment (emission, scattering, the next-event connection, the
 //! next ray, Russian roulette), shared by single rays and [`super::lanes`].
 use super::cast::{cast, cast_curved_into, Segment};
-use super::light::{next_event, shadow_ray, sun_launch_jacobian, sun_through_medium, NextEvent};
+use super::light::{
+    light_straight, next_event, shadow_ray, sun_launch_jacobian, sun_through_medium, NextEvent,
+};
 use super::scatter::{Bsdf, Lobe};
 use super::Tracer;
 use crate::counters::Counters;
@@ -29,6 +31,9 @@ pub(super) struct PathState {
     /// where it escapes after curving through the medium, the sun's
     /// next-event density of that launch weighs it.
     pub(super) prev_wi: V3,
+    /// The last non-delta vertex was Lambertian: only there does next-event
+    /// estimation also sample the sun through the medium.
+    pub(super) prev_lambert: bool,
     /// Segment index of `ray`.
     pub(super) depth: u32,
     pub(super) list: InteriorList,
@@ -56,6 +61,7 @@ impl PathState {
             prev_p: org,
             prev_pdf: 0.0,
             prev_wi: dir,
+            prev_lambert: true,
             depth: 1,
             list,
             only_specular: true,
@@ -96,8 +102,11 @@ impl PathState {
                 let mis = match (self.specular || !tr.nee(), seg.entered_medium) {
                     (true, _) => None,
                     (false, false) => Some((self.prev_pdf, 1.0)),
-                    (false, true) => sun_launch_jacobian(scene, self.prev_p, self.prev_wi, seg.dir)
-                        .map(|j| (self.prev_pdf, j)),
+                    (false, true) if self.prev_lambert => {
+                        sun_launch_jacobian(scene, self.prev_p, self.prev_wi, seg.dir)
+                            .map(|j| (self.prev_pdf, j))
+                    }
+                    (false, true) => None,
                 };
                 self.l += self.beta * scene.escaped_radiance(seg.dir, mis);
             }
@@ -185,6 +194,7 @@ impl PathState {
                 self.beta *= lambert.albedo;
                 self.prev_pdf = lambert.pdf(wi);
                 self.prev_wi = wi;
+                self.prev_lambert = true;
                 self.specular = false;
                 self.only_specular = false;
                 self.prev_p = sp.p;
@@ -220,6 +230,61 @@ impl PathState {
                 }
                 self.specular = true;
                 self.prev_p = sp.p;
+            }
+            Bsdf::Micro(micro) => {
+                if tr.nee() && !micro.is_delta() {
+                    if let Some(ls) = light_straight(scene, sp.p, rng) {
+                        let (fc, pdf) = micro.eval(ls.wi);
+                        #[cfg(test)]
+                        let (fc, pdf) = micro.wrong_eval(scene.bsdf_variant, ls.wi, fc, pdf);
+                        if fc != V3::ZERO {
+                            let w = if ls.delta {
+                                1.0
+                            } else {
+                                power_heuristic(ls.pdf, pdf)
+                            };
+                            let contrib = self.beta * fc * ls.li * (w / ls.pdf);
+                            // A transmitted connection leaves from the far side.
+                            let side = if ls.wi.dot(micro.side) > 0.0 {
+                                micro.side
+                            } else {
+                                -micro.side
+                            };
+                            match shadow_ray(tr, sp.p, side, ls.wi, ls.dist, st) {
+                                None => self.l += contrib,
+                                Some(ray) => shadow = Some(PendingShadow { ray, contrib }),
+                            }
+                        }
+                    }
+                }
+                let Some(s) = micro.sample(rng) else {
+                    return (shadow, false);
+                };
+                #[cfg(test)]
+                let s = micro.wrong_sample(scene.bsdf_variant, s);
+                self.beta *= s.weight;
+                self.specular = s.is_delta;
+                if !s.is_delta {
+                    self.prev_pdf = s.pdf;
+                    self.prev_wi = s.wi;
+                    self.prev_lambert = false;
+                    self.only_specular = false;
+                }
+                self.prev_p = sp.p;
+                if s.is_transmission {
+                    // The weight carries (n1/n2)² already; Russian roulette
+                    // looks through it as for the smooth boundary.
+                    self.eta_scale /= micro.radiance_scale();
+                    let next = Ray::new(offset_origin(sp.p, -micro.side), s.wi);
+                    if let Some(b) = micro.boundary {
+                        b.transmit(&mut self.list);
+                    }
+                    tr.settle(coincident, &next, &mut self.list, st);
+                    self.ray = next;
+                } else {
+                    self.ray = Ray::new(offset_origin(sp.p, micro.side), s.wi);
+                    tr.settle(coincident, &self.ray, &mut self.list, st);
+                }
             }
         }
         self.depth += 1;

@@ -6,7 +6,6 @@ use crate::dielectric::{self, InteriorList};
 use crate::error::Result;
 use crate::optics;
 use crate::ray::{front_facing, offset_origin, spawn_transmitted, Ray};
-use crate::scene::Material;
 use glam::Vec3A as V3;
 
 /// One surface event along a deterministic refraction-only path.
@@ -67,7 +66,7 @@ pub fn refraction_path(
         let rec = &scene.geoms[hit.geom_id as usize];
         let front = front_facing(sp.ng, ray.dir);
         let m = &rec.material;
-        if !matches!(m, Material::Interface { .. } | Material::Solid(_)) {
+        if !m.is_dielectric() {
             return Ok(RefractionPath {
                 events,
                 final_list: list.sorted(),

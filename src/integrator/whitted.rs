@@ -1,9 +1,16 @@
 //! The Whitted preview: direct light at diffuse surfaces (one sample per
 //! light), perfect specular recursion for mirrors and both lobes of
 //! dielectrics, through the same scattering model as the path tracer.
+//!
+//! The microfacet materials, kept cheap: a rough dielectric is previewed as
+//! its smooth counterpart (both lobes recursed, same index pair); rough
+//! metals and plastics get direct light through their BSDF (one sample per
+//! light, no recursion); the delta reflections of a smooth metal and of a
+//! smooth plastic's coating recurse like a mirror with their Fresnel
+//! reflectance.
 use super::cast::cast;
-use super::light::light_seen;
-use super::scatter::Bsdf;
+use super::light::{light_seen, light_straight, unoccluded};
+use super::scatter::{Bsdf, Interface};
 use super::Tracer;
 use crate::counters::Counters;
 use crate::dielectric::InteriorList;
@@ -73,21 +80,32 @@ pub(super) fn whitted(
             l += mirror.reflectance * whitted(tr, org, mirror.wi, list, rng, st, depth + 1)?;
         }
         Bsdf::Dielectric(iface) => {
-            // Both lobes, each weighted by its Fresnel share.
-            let fr = iface.fresnel as f32;
-            let wr = iface.reflected();
-            let org = offset_origin(sp.p, iface.side);
-            let mut rl = list.clone();
-            tr.settle(&coincident, &Ray::new(org, wr), &mut rl, st);
-            l += fr * whitted(tr, org, wr, rl, rng, st, depth + 1)?;
-            if let Some(t) = iface.refracted {
-                let (n1, n2) = (iface.boundary.n1, iface.boundary.n2);
-                let k = n1 / n2;
-                let mut nl = list;
-                iface.boundary.transmit(&mut nl);
-                let next = spawn_transmitted(sp.p, -iface.side, dir, t, (n1, n2), None);
-                tr.settle(&coincident, &next, &mut nl, st);
-                l += (1.0 - fr) * k * k * whitted(tr, next.org, next.dir, nl, rng, st, depth + 1)?;
+            l += dielectric(tr, &iface, sp.p, dir, &coincident, list, rng, st, depth)?;
+        }
+        Bsdf::Micro(micro) => {
+            if let Some(b) = micro.boundary {
+                let iface = Interface::new(b, dir, sp.ns, micro.side, st);
+                l += dielectric(tr, &iface, sp.p, dir, &coincident, list, rng, st, depth)?;
+            } else {
+                let lights = if tr.nee() && !micro.is_delta() {
+                    scene.nee_count()
+                } else {
+                    0
+                };
+                for _ in 0..lights {
+                    let Some(ls) = light_straight(scene, sp.p, rng) else {
+                        continue;
+                    };
+                    let (fc, _) = micro.eval(ls.wi);
+                    if fc != V3::ZERO && unoccluded(tr, sp.p, micro.side, ls.wi, ls.dist, st) {
+                        l += fc * ls.li / (ls.pdf * lights as f32);
+                    }
+                }
+                if let Some((wi, reflectance)) = micro.delta_reflection() {
+                    let org = offset_origin(sp.p, micro.side);
+                    tr.settle(&coincident, &Ray::new(org, wi), &mut list, st);
+                    l += reflectance * whitted(tr, org, wi, list, rng, st, depth + 1)?;
+                }
             }
         }
     }
@@ -97,4 +115,35 @@ pub(super) fn whitted(
         return Ok(V3::ZERO);
     }
     Ok(out)
+}
+
+/// Both lobes of a smooth boundary, each weighted by its Fresnel share.
+#[allow(clippy::too_many_arguments)]
+fn dielectric(
+    tr: Tracer<'_>,
+    iface: &Interface,
+    p: V3,
+    dir: V3,
+    coincident: &crate::dielectric::Coincident,
+    list: InteriorList,
+    rng: &mut Rng,
+    st: &mut Counters,
+    depth: u32,
+) -> Result<V3> {
+    let fr = iface.fresnel as f32;
+    let wr = iface.reflected();
+    let org = offset_origin(p, iface.side);
+    let mut rl = list.clone();
+    tr.settle(coincident, &Ray::new(org, wr), &mut rl, st);
+    let mut l = fr * whitted(tr, org, wr, rl, rng, st, depth + 1)?;
+    if let Some(t) = iface.refracted {
+        let (n1, n2) = (iface.boundary.n1, iface.boundary.n2);
+        let k = n1 / n2;
+        let mut nl = list;
+        iface.boundary.clone().transmit(&mut nl);
+        let next = spawn_transmitted(p, -iface.side, dir, t, (n1, n2), None);
+        tr.settle(coincident, &next, &mut nl, st);
+        l += (1.0 - fr) * k * k * whitted(tr, next.org, next.dir, nl, rng, st, depth + 1)?;
+    }
+    Ok(l)
 }

@@ -723,6 +723,174 @@ pub enum MaterialDesc {
     Dielectric(DielectricDesc),
     /// Black, non-reflecting (e.g. the back of an emitter).
     Black(BlackDesc),
+    /// `type = "rough_dielectric"`: frosted glass (microfacet reflection and
+    /// transmission), nested solid or interface like `dielectric`.
+    RoughDielectric(RoughDielectricDesc),
+    /// `type = "conductor"`: a smooth metal.
+    Conductor(ConductorDesc),
+    /// `type = "rough_conductor"`: a rough metal.
+    RoughConductor(RoughConductorDesc),
+    /// `type = "plastic"`: a diffuse base under a smooth dielectric coating.
+    Plastic(PlasticDesc),
+    /// `type = "rough_plastic"`: a diffuse base under a rough coating.
+    RoughPlastic(RoughPlasticDesc),
+}
+
+/// Which distribution of microfacet normals a rough surface has.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DistributionDesc {
+    /// GGX (Trowbridge–Reitz), the default.
+    #[default]
+    Ggx,
+    /// Beckmann.
+    Beckmann,
+}
+
+/// Mitsuba's default roughness.
+fn default_alpha() -> f64 {
+    0.1
+}
+
+/// A rough dielectric: the keys of [`DielectricDesc`] plus the roughness.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RoughDielectricDesc {
+    /// Index of refraction of a closed solid (> 0).
+    #[serde(default)]
+    pub ior: Option<f64>,
+    /// Nesting priority of a solid (default 0; solids only).
+    #[serde(default)]
+    pub priority: Option<i64>,
+    /// Interface only: index on the side opposite the normal.
+    #[serde(default)]
+    pub int_ior: Option<f64>,
+    /// Interface only: index on the side the normal points to.
+    #[serde(default)]
+    pub ext_ior: Option<f64>,
+    /// Beer–Lambert absorption inside a solid.
+    #[serde(default)]
+    pub absorption: Option<AbsorptionDesc>,
+    /// `"ggx"` (default) or `"beckmann"`.
+    #[serde(default)]
+    pub distribution: DistributionDesc,
+    /// Isotropic roughness, in (0, 1] (default 0.1).
+    #[serde(default = "default_alpha")]
+    pub alpha: f64,
+}
+
+/// A smooth metal: a named `material` or its complex index `eta` + i`k`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ConductorDesc {
+    /// A named metal (Mitsuba's names: "Au", "Ag", "Cu", "Al", ...).
+    #[serde(default)]
+    pub material: Option<String>,
+    /// Real part of the index per channel (with `k`, instead of `material`).
+    #[serde(default)]
+    pub eta: Option<Vec3>,
+    /// Imaginary part of the index per channel.
+    #[serde(default)]
+    pub k: Option<Vec3>,
+    /// Factor on the reflection per channel (default `[1, 1, 1]`).
+    #[serde(default = "white")]
+    pub specular_reflectance: Vec3,
+    /// Reflects on both sides (default: one-sided, as Mitsuba).
+    #[serde(default)]
+    pub two_sided: bool,
+}
+
+/// A rough metal: [`ConductorDesc`]'s keys plus the roughness.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RoughConductorDesc {
+    /// A named metal.
+    #[serde(default)]
+    pub material: Option<String>,
+    /// Real part of the index per channel.
+    #[serde(default)]
+    pub eta: Option<Vec3>,
+    /// Imaginary part of the index per channel.
+    #[serde(default)]
+    pub k: Option<Vec3>,
+    /// Factor on the reflection per channel (default `[1, 1, 1]`).
+    #[serde(default = "white")]
+    pub specular_reflectance: Vec3,
+    /// Reflects on both sides.
+    #[serde(default)]
+    pub two_sided: bool,
+    /// `"ggx"` (default) or `"beckmann"`.
+    #[serde(default)]
+    pub distribution: DistributionDesc,
+    /// Isotropic roughness, in (0, 1] (default 0.1).
+    #[serde(default = "default_alpha")]
+    pub alpha: f64,
+}
+
+fn default_plastic_diffuse() -> Vec3 {
+    [0.5, 0.5, 0.5]
+}
+
+fn default_plastic_int_ior() -> f64 {
+    1.49
+}
+
+fn default_plastic_ext_ior() -> f64 {
+    1.000277
+}
+
+/// A smooth plastic (Mitsuba's keys and defaults).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlasticDesc {
+    /// Albedo of the base per channel, in [0, 1] (default 0.5).
+    #[serde(default = "default_plastic_diffuse")]
+    pub diffuse_reflectance: Vec3,
+    /// Factor on the coating's reflection (default `[1, 1, 1]`).
+    #[serde(default = "white")]
+    pub specular_reflectance: Vec3,
+    /// Index of the coating (default 1.49, polypropylene).
+    #[serde(default = "default_plastic_int_ior")]
+    pub int_ior: f64,
+    /// Index outside (default 1.000277, air).
+    #[serde(default = "default_plastic_ext_ior")]
+    pub ext_ior: f64,
+    /// Internal scattering darkens and saturates the base colour.
+    #[serde(default)]
+    pub nonlinear: bool,
+    /// Reflects on both sides.
+    #[serde(default)]
+    pub two_sided: bool,
+}
+
+/// A rough plastic: [`PlasticDesc`]'s keys plus the roughness.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RoughPlasticDesc {
+    /// Albedo of the base per channel, in [0, 1] (default 0.5).
+    #[serde(default = "default_plastic_diffuse")]
+    pub diffuse_reflectance: Vec3,
+    /// Factor on the coating's reflection (default `[1, 1, 1]`).
+    #[serde(default = "white")]
+    pub specular_reflectance: Vec3,
+    /// Index of the coating (default 1.49).
+    #[serde(default = "default_plastic_int_ior")]
+    pub int_ior: f64,
+    /// Index outside (default 1.000277).
+    #[serde(default = "default_plastic_ext_ior")]
+    pub ext_ior: f64,
+    /// Internal scattering darkens and saturates the base colour.
+    #[serde(default)]
+    pub nonlinear: bool,
+    /// Reflects on both sides.
+    #[serde(default)]
+    pub two_sided: bool,
+    /// `"ggx"` (default) or `"beckmann"`.
+    #[serde(default)]
+    pub distribution: DistributionDesc,
+    /// Isotropic roughness, in (0, 1] (default 0.1).
+    #[serde(default = "default_alpha")]
+    pub alpha: f64,
 }
 
 /// A Lambertian material.

@@ -9,6 +9,7 @@
 use super::emitter::{sample_sphere_cone, sphere_cone_pdf, Emitter, EmitterShape, Spot};
 use super::shapes::{Analytic, Mesh};
 use super::texture::{ImageData, Texture};
+use crate::bsdf::{Conductor, MicrofacetDistribution, Plastic, RoughConductor, RoughPlastic};
 use crate::camera::Camera;
 use crate::error::{Error, Result};
 use crate::ray::{Hit, Ray};
@@ -19,6 +20,23 @@ use std::sync::Arc;
 /// The largest film a scene or a render may ask for (checked before any
 /// allocation): 134 M pixels, ~1.6 GB of f32 RGB.
 pub const MAX_PIXELS: u64 = 1 << 27;
+
+/// How the microfacet materials are shaded: correctly, or (tests only) in
+/// a known-wrong way that the render tests must detect.
+#[cfg(test)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub(crate) enum BsdfVariant {
+    /// The library's f, pdf and sample weights.
+    #[default]
+    Right,
+    /// Next-event estimation weighs itself against twice the BSDF's density.
+    WrongMisPdf,
+    /// A transmitted connection carries the radiance scale (n1/n2)² twice.
+    WrongDoubleScale,
+    /// Sampled transmissions are weighed with the reflection's Jacobian of
+    /// the half vector, 1 / (4 |wi·m|), in place of refraction's.
+    WrongJacobian,
+}
 
 /// Surface response.
 #[derive(Debug, Clone)]
@@ -46,6 +64,64 @@ pub enum Material {
     },
     /// Absorbs everything (lights' bodies).
     Black,
+    /// A priority solid (as [`Material::Solid`]) whose surface is rough: the
+    /// nested rule's index pair feeds a microfacet boundary.
+    RoughSolid {
+        /// Index into `RenderScene::solids`.
+        solid: u32,
+        /// The surface's microfacet normals.
+        distribution: MicrofacetDistribution,
+    },
+    /// A rough interface: [`Material::Interface`] with microfacet normals.
+    RoughInterface {
+        /// Index on the side opposite the normal.
+        int_ior: f32,
+        /// Index on the side the normal points to.
+        ext_ior: f32,
+        /// The surface's microfacet normals.
+        distribution: MicrofacetDistribution,
+    },
+    /// A smooth metal (a mirror with the conductor's Fresnel reflectance).
+    Conductor {
+        /// The BSDF, one-sided about the normal.
+        bsdf: Conductor,
+        /// Reflects on both sides (else black from behind the normal).
+        two_sided: bool,
+    },
+    /// A rough metal.
+    RoughConductor {
+        /// The BSDF, one-sided about the normal.
+        bsdf: RoughConductor,
+        /// Reflects on both sides.
+        two_sided: bool,
+    },
+    /// A diffuse base under a smooth dielectric coating.
+    Plastic {
+        /// The BSDF, one-sided about the normal.
+        bsdf: Plastic,
+        /// Reflects on both sides.
+        two_sided: bool,
+    },
+    /// A diffuse base under a rough coating (its tables built once, shared).
+    RoughPlastic {
+        /// The BSDF, one-sided about the normal.
+        bsdf: Arc<RoughPlastic>,
+        /// Reflects on both sides.
+        two_sided: bool,
+    },
+}
+
+impl Material {
+    /// A dielectric boundary (smooth or rough): the nested rule applies to it.
+    pub fn is_dielectric(&self) -> bool {
+        matches!(
+            self,
+            Material::Interface { .. }
+                | Material::Solid(_)
+                | Material::RoughSolid { .. }
+                | Material::RoughInterface { .. }
+        )
+    }
 }
 
 /// Geometry shape as the integrator sees it.
@@ -209,6 +285,10 @@ pub enum IntegratorKind {
 pub struct RenderScene {
     /// The Embree scene of every geometry.
     pub embree: crate::embree::Scene,
+    /// Known-wrong variants of the microfacet materials' shading, for the
+    /// render tests' power.
+    #[cfg(test)]
+    pub(crate) bsdf_variant: BsdfVariant,
     /// The analytic shapes, when the path tracer's packets intersect them
     /// itself (`embree` then has a twin of its meshes alone).
     pub analytic_set: Option<crate::scene::shapes::AnalyticSet>,

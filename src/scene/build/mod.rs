@@ -228,6 +228,8 @@ impl Builder<'_> {
         });
         let film = &d.film;
         let mut scene = RenderScene {
+            #[cfg(test)]
+            bsdf_variant: Default::default(),
             warp,
             medium,
             embree: up.embree,

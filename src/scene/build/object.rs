@@ -1,6 +1,7 @@
 //! The `[[objects]]` section: shapes (with their transforms), materials,
 //! textures; priority solids checked closed and outward facing.
 use super::{v3, Builder, Pending, PendingSolid, MAX_HEIGHTFIELD_LEVELS};
+use crate::bsdf;
 use crate::error::Result;
 use crate::scene::desc::*;
 use crate::scene::emitter::{AreaSampler, Emitter, EmitterShape};
@@ -10,6 +11,15 @@ use crate::scene::shapes::{Analytic, Cylinder, Disk, Mesh, Sphere, Tube};
 use crate::scene::texture::{load_image, Texture};
 use glam::{DMat3, DMat4, DVec3, Vec3A as V3};
 use std::sync::Arc;
+
+/// The keys a smooth and a rough dielectric share.
+struct DielectricKeys<'a> {
+    ior: Option<f64>,
+    priority: Option<i64>,
+    int_ior: Option<f64>,
+    ext_ior: Option<f64>,
+    absorption: Option<&'a AbsorptionDesc>,
+}
 
 /// An object's transform as its shape needs it: points and directions to
 /// world space, and whether it is a similarity (a uniform scale `scale`
@@ -382,7 +392,6 @@ impl Builder<'_> {
         closed_mesh: bool,
         warnings: &mut Vec<String>,
     ) -> Result<(Material, Option<PendingSolid>, Shape)> {
-        let sk = format!("{k}.shape");
         let mk = format!("{k}.material");
         let mut solid = None;
         let material = match &o.material {
@@ -403,107 +412,319 @@ impl Builder<'_> {
                 reflectance: self.color(&format!("{mk}.reflectance"), m.reflectance)?,
             },
             MaterialDesc::Black(_) => Material::Black,
-            MaterialDesc::Dielectric(dd) => match (dd.ior, dd.int_ior, dd.ext_ior) {
-                (Some(ior), None, None) => {
-                    let ior = self.positive(&format!("{mk}.ior"), ior)?;
-                    let sigma_a = match &dd.absorption {
-                        None => V3::ZERO,
-                        Some(a) => {
-                            let c = self.color(&format!("{mk}.absorption.color"), a.color)?;
-                            if c.min_element() <= 0.0 || c.max_element() > 1.0 {
-                                return Err(self.err(
-                                    &format!("{mk}.absorption.color"),
-                                    "expected transmitted colour in (0, 1]",
-                                ));
-                            }
-                            let dist = self.positive(&format!("{mk}.absorption.distance"), a.distance)?;
-                            V3::new(-c.x.ln(), -c.y.ln(), -c.z.ln()) / dist as f32
-                        }
-                    };
-                    // A priority solid must be closed and outward facing.
-                    let mut flipped = None;
-                    let containment = match &shape {
-                        Shape::Analytic(a) => {
-                            if a.contains(DVec3::ZERO).is_none() {
-                                return Err(self.err(
-                                    &sk,
-                                    format!("dielectric solid \"{name}\" must be closed: use a sphere, a capped cylinder, a tube, a box, a closed lathe or a closed mesh (or int_ior/ext_ior for an open interface)"),
-                                ));
-                            }
-                            Containment::Analytic(*a)
-                        }
-                        Shape::Mesh(m) => {
-                            if !closed_mesh {
-                                return Err(self
-                                    .err(&sk, format!("dielectric solid \"{name}\" must be a closed mesh")));
-                            }
-                            m.check_closed().map_err(|e| {
-                                self.err(
-                                    &sk,
-                                    format!("dielectric solid \"{name}\" is not a closed solid: {e}"),
-                                )
-                            })?;
-                            let vol = m.signed_volume();
-                            if vol <= 0.0 && !o.flip_inside_out {
-                                return Err(self.err(
-                                    &sk,
-                                    format!("dielectric solid \"{name}\" is inside out (signed volume {vol:.3e} <= 0); set flip_inside_out = true to flip it"),
-                                ));
-                            }
-                            if vol <= 0.0 {
-                                warnings.push(format!(
-                                    "{}: {k}: \"{name}\" was inside out (negative volume); flipped",
-                                    self.src.file
-                                ));
-                                let mut fm = (**m).clone();
-                                fm.flip();
-                                flipped = Some(Arc::new(fm));
-                            }
-                            Containment::Mesh(Arc::new(crate::scene::shapes::ContainsGrid::new(
-                                flipped.clone().unwrap_or_else(|| m.clone()),
-                            )))
-                        }
-                    };
-                    if let Some(fm) = flipped {
-                        shape = Shape::Mesh(fm);
-                    }
-                    let aabb = match &shape {
-                        Shape::Analytic(a) => a.aabb(),
-                        Shape::Mesh(m) => m.aabb(),
-                    };
-                    solid = Some(PendingSolid {
-                        priority: dd.priority.unwrap_or(0),
-                        ior,
-                        sigma_a,
-                        containment,
-                        aabb,
-                    });
-                    Material::Black // replaced by Material::Solid when the index is known
-                }
-                (None, Some(int), Some(ext)) => {
-                    if dd.priority.is_some() {
-                        return Err(self.err(
-                            &format!("{mk}.priority"),
-                            "priority applies to solids given by `ior`, not to int_ior/ext_ior interfaces",
-                        ));
-                    }
-                    if dd.absorption.is_some() {
-                        return Err(self.err(
-                            &format!("{mk}.absorption"),
-                            "absorption needs a closed solid given by `ior` (an interface has no inside)",
-                        ));
-                    }
-                    Material::Interface {
-                        int_ior: self.positive(&format!("{mk}.int_ior"), int)? as f32,
-                        ext_ior: self.positive(&format!("{mk}.ext_ior"), ext)? as f32,
-                    }
-                }
-                _ => {
-                    return Err(self.err(&mk, "a dielectric needs either `ior` (a closed solid, with optional priority) or both `int_ior` and `ext_ior`"));
-                }
+            MaterialDesc::Dielectric(dd) => self.dielectric(
+                k,
+                o,
+                name,
+                &mut shape,
+                closed_mesh,
+                warnings,
+                DielectricKeys {
+                    ior: dd.ior,
+                    priority: dd.priority,
+                    int_ior: dd.int_ior,
+                    ext_ior: dd.ext_ior,
+                    absorption: dd.absorption.as_ref(),
+                },
+                None,
+                &mut solid,
+            )?,
+            MaterialDesc::RoughDielectric(dd) => {
+                let distribution = self.distribution(&mk, dd.distribution, dd.alpha)?;
+                self.dielectric(
+                    k,
+                    o,
+                    name,
+                    &mut shape,
+                    closed_mesh,
+                    warnings,
+                    DielectricKeys {
+                        ior: dd.ior,
+                        priority: dd.priority,
+                        int_ior: dd.int_ior,
+                        ext_ior: dd.ext_ior,
+                        absorption: dd.absorption.as_ref(),
+                    },
+                    Some(distribution),
+                    &mut solid,
+                )?
+            }
+            MaterialDesc::Conductor(c) => Material::Conductor {
+                bsdf: {
+                    let (eta, kk, spec) = self.metal(&mk, &c.material, c.eta, c.k, c.specular_reflectance)?;
+                    bsdf::Conductor::try_new(eta, kk, spec).map_err(|e| self.err(&mk, e.to_string()))?
+                },
+                two_sided: c.two_sided,
+            },
+            MaterialDesc::RoughConductor(c) => Material::RoughConductor {
+                bsdf: {
+                    let (eta, kk, spec) = self.metal(&mk, &c.material, c.eta, c.k, c.specular_reflectance)?;
+                    let d = self.distribution(&mk, c.distribution, c.alpha)?;
+                    bsdf::RoughConductor::try_new(d, eta, kk, spec)
+                        .map_err(|e| self.err(&mk, e.to_string()))?
+                },
+                two_sided: c.two_sided,
+            },
+            MaterialDesc::Plastic(p) => Material::Plastic {
+                bsdf: {
+                    let params = self.plastic(
+                        &mk,
+                        p.diffuse_reflectance,
+                        p.specular_reflectance,
+                        p.int_ior,
+                        p.ext_ior,
+                        p.nonlinear,
+                    )?;
+                    bsdf::Plastic::try_new(&params).map_err(|e| self.err(&mk, e.to_string()))?
+                },
+                two_sided: p.two_sided,
+            },
+            MaterialDesc::RoughPlastic(p) => Material::RoughPlastic {
+                bsdf: {
+                    let params = self.plastic(
+                        &mk,
+                        p.diffuse_reflectance,
+                        p.specular_reflectance,
+                        p.int_ior,
+                        p.ext_ior,
+                        p.nonlinear,
+                    )?;
+                    let d = self.distribution(&mk, p.distribution, p.alpha)?;
+                    // The coating's tables: once per material, shared by every hit.
+                    Arc::new(
+                        bsdf::RoughPlastic::try_new(&params, d).map_err(|e| self.err(&mk, e.to_string()))?,
+                    )
+                },
+                two_sided: p.two_sided,
             },
         };
         Ok((material, solid, shape))
+    }
+
+    /// A dielectric (smooth, or rough with `roughness`): a priority solid
+    /// given by `ior` (its record goes to `solid`; the material returned is a
+    /// placeholder until the solid's index is known) or an interface given by
+    /// `int_ior` and `ext_ior`.
+    #[allow(clippy::too_many_arguments)]
+    fn dielectric(
+        &self,
+        k: &str,
+        o: &ObjectDesc,
+        name: &str,
+        shape: &mut Shape,
+        closed_mesh: bool,
+        warnings: &mut Vec<String>,
+        dd: DielectricKeys<'_>,
+        roughness: Option<bsdf::MicrofacetDistribution>,
+        solid: &mut Option<PendingSolid>,
+    ) -> Result<Material> {
+        let sk = format!("{k}.shape");
+        let mk = format!("{k}.material");
+        Ok(match (dd.ior, dd.int_ior, dd.ext_ior) {
+            (Some(ior), None, None) => {
+                let ior = self.positive(&format!("{mk}.ior"), ior)?;
+                let sigma_a = match &dd.absorption {
+                    None => V3::ZERO,
+                    Some(a) => {
+                        let c = self.color(&format!("{mk}.absorption.color"), a.color)?;
+                        if c.min_element() <= 0.0 || c.max_element() > 1.0 {
+                            return Err(self.err(
+                                &format!("{mk}.absorption.color"),
+                                "expected transmitted colour in (0, 1]",
+                            ));
+                        }
+                        let dist = self.positive(&format!("{mk}.absorption.distance"), a.distance)?;
+                        V3::new(-c.x.ln(), -c.y.ln(), -c.z.ln()) / dist as f32
+                    }
+                };
+                // A priority solid must be closed and outward facing.
+                let mut flipped = None;
+                let containment = match &*shape {
+                    Shape::Analytic(a) => {
+                        if a.contains(DVec3::ZERO).is_none() {
+                            return Err(self.err(
+                                &sk,
+                                format!("dielectric solid \"{name}\" must be closed: use a sphere, a capped cylinder, a tube, a box, a closed lathe or a closed mesh (or int_ior/ext_ior for an open interface)"),
+                            ));
+                        }
+                        Containment::Analytic(*a)
+                    }
+                    Shape::Mesh(m) => {
+                        if !closed_mesh {
+                            return Err(
+                                self.err(&sk, format!("dielectric solid \"{name}\" must be a closed mesh"))
+                            );
+                        }
+                        m.check_closed().map_err(|e| {
+                            self.err(
+                                &sk,
+                                format!("dielectric solid \"{name}\" is not a closed solid: {e}"),
+                            )
+                        })?;
+                        let vol = m.signed_volume();
+                        if vol <= 0.0 && !o.flip_inside_out {
+                            return Err(self.err(
+                                &sk,
+                                format!("dielectric solid \"{name}\" is inside out (signed volume {vol:.3e} <= 0); set flip_inside_out = true to flip it"),
+                            ));
+                        }
+                        if vol <= 0.0 {
+                            warnings.push(format!(
+                                "{}: {k}: \"{name}\" was inside out (negative volume); flipped",
+                                self.src.file
+                            ));
+                            let mut fm = (**m).clone();
+                            fm.flip();
+                            flipped = Some(Arc::new(fm));
+                        }
+                        Containment::Mesh(Arc::new(crate::scene::shapes::ContainsGrid::new(
+                            flipped.clone().unwrap_or_else(|| m.clone()),
+                        )))
+                    }
+                };
+                if let Some(fm) = flipped {
+                    *shape = Shape::Mesh(fm);
+                }
+                let aabb = match &*shape {
+                    Shape::Analytic(a) => a.aabb(),
+                    Shape::Mesh(m) => m.aabb(),
+                };
+                *solid = Some(PendingSolid {
+                    priority: dd.priority.unwrap_or(0),
+                    ior,
+                    sigma_a,
+                    containment,
+                    aabb,
+                });
+                // Replaced by the solid's material when its index is known.
+                match roughness {
+                    None => Material::Black,
+                    Some(distribution) => Material::RoughSolid {
+                        solid: u32::MAX,
+                        distribution,
+                    },
+                }
+            }
+            (None, Some(int), Some(ext)) => {
+                if dd.priority.is_some() {
+                    return Err(self.err(
+                        &format!("{mk}.priority"),
+                        "priority applies to solids given by `ior`, not to int_ior/ext_ior interfaces",
+                    ));
+                }
+                if dd.absorption.is_some() {
+                    return Err(self.err(
+                        &format!("{mk}.absorption"),
+                        "absorption needs a closed solid given by `ior` (an interface has no inside)",
+                    ));
+                }
+                let int_ior = self.positive(&format!("{mk}.int_ior"), int)? as f32;
+                let ext_ior = self.positive(&format!("{mk}.ext_ior"), ext)? as f32;
+                match roughness {
+                    None => Material::Interface { int_ior, ext_ior },
+                    // An index-matched interface scatters nothing: kept smooth (a pass-through).
+                    Some(_) if int_ior == ext_ior => Material::Interface { int_ior, ext_ior },
+                    Some(distribution) => Material::RoughInterface {
+                        int_ior,
+                        ext_ior,
+                        distribution,
+                    },
+                }
+            }
+            _ => {
+                return Err(self.err(&mk, "a dielectric needs either `ior` (a closed solid, with optional priority) or both `int_ior` and `ext_ior`"));
+            }
+        })
+    }
+
+    /// A checked microfacet distribution from `distribution` and `alpha` (keys of `mk`).
+    fn distribution(
+        &self,
+        mk: &str,
+        kind: DistributionDesc,
+        alpha: f64,
+    ) -> Result<bsdf::MicrofacetDistribution> {
+        if !(alpha.is_finite() && alpha > 0.0 && alpha <= 1.0) {
+            return Err(self.err(
+                &format!("{mk}.alpha"),
+                format!("expected a roughness in (0, 1], got {alpha}"),
+            ));
+        }
+        let kind = match kind {
+            DistributionDesc::Ggx => bsdf::MicrofacetKind::Ggx,
+            DistributionDesc::Beckmann => bsdf::MicrofacetKind::Beckmann,
+        };
+        bsdf::MicrofacetDistribution::isotropic(kind, alpha as f32)
+            .map_err(|e| self.err(&format!("{mk}.alpha"), e.to_string()))
+    }
+
+    /// A metal's complex index and reflectance factor: a named `material` or
+    /// both `eta` and `k` (keys of `mk`).
+    fn metal(
+        &self,
+        mk: &str,
+        material: &Option<String>,
+        eta: Option<Vec3>,
+        k: Option<Vec3>,
+        specular_reflectance: Vec3,
+    ) -> Result<(glam::Vec3, glam::Vec3, glam::Vec3)> {
+        let spec = self.color(&format!("{mk}.specular_reflectance"), specular_reflectance)?;
+        match (material, eta, k) {
+            (Some(m), None, None) => {
+                let metal = bsdf::metals::find(m).ok_or_else(|| {
+                    self.err(
+                        &format!("{mk}.material"),
+                        format!("unknown metal {m:?}; known: {}", bsdf::metals::names()),
+                    )
+                })?;
+                Ok((metal.eta, metal.k, spec.into()))
+            }
+            (None, Some(eta), Some(k)) => Ok((
+                self.color(&format!("{mk}.eta"), eta)?.into(),
+                self.color(&format!("{mk}.k"), k)?.into(),
+                spec.into(),
+            )),
+            _ => Err(self.err(
+                mk,
+                "a conductor needs either `material` (a named metal) or both `eta` and `k`",
+            )),
+        }
+    }
+
+    /// A plastic's checked parameters (keys of `mk`).
+    fn plastic(
+        &self,
+        mk: &str,
+        diffuse: Vec3,
+        specular: Vec3,
+        int_ior: f64,
+        ext_ior: f64,
+        nonlinear: bool,
+    ) -> Result<bsdf::PlasticParams> {
+        let diffuse = self.color(&format!("{mk}.diffuse_reflectance"), diffuse)?;
+        if diffuse.max_element() > 1.0 {
+            return Err(self.err(
+                &format!("{mk}.diffuse_reflectance"),
+                "a reflectance above 1 creates energy",
+            ));
+        }
+        let int_ior = self.positive(&format!("{mk}.int_ior"), int_ior)?;
+        let ext_ior = self.positive(&format!("{mk}.ext_ior"), ext_ior)?;
+        if int_ior == ext_ior {
+            return Err(self.err(
+                &format!("{mk}.int_ior"),
+                "expected an index different from ext_ior (an index-matched coating reflects nothing)",
+            ));
+        }
+        Ok(bsdf::PlasticParams {
+            int_ior: int_ior as f32,
+            ext_ior: ext_ior as f32,
+            diffuse_reflectance: diffuse.into(),
+            specular_reflectance: self
+                .color(&format!("{mk}.specular_reflectance"), specular)?
+                .into(),
+            nonlinear,
+        })
     }
 
     fn texture(&self, key: &str, t: &TextureDesc) -> Result<Texture> {

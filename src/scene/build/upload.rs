@@ -112,7 +112,14 @@ impl Builder<'_> {
                     aabb: s.aabb,
                 });
                 containment.push(s.containment);
-                material = Material::Solid(si);
+                // The placeholder carries a rough surface's distribution.
+                material = match material {
+                    Material::RoughSolid { distribution, .. } => Material::RoughSolid {
+                        solid: si,
+                        distribution,
+                    },
+                    _ => Material::Solid(si),
+                };
                 solid_idx = Some(si);
             }
             rank_by_geom.push(rank_of[i]);

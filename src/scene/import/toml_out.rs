@@ -298,26 +298,154 @@ fn material(m: &MaterialDesc) -> String {
         MaterialDesc::Mirror(m) => format!("{{ type = \"mirror\", reflectance = {} }}", vec3(m.reflectance)),
         MaterialDesc::Black(_) => "{ type = \"black\" }".into(),
         MaterialDesc::Dielectric(d) => {
-            let mut s = String::from("{ type = \"dielectric\"");
-            for (k, v) in [("ior", d.ior), ("int_ior", d.int_ior), ("ext_ior", d.ext_ior)] {
-                if let Some(v) = v {
-                    let _ = write!(s, ", {k} = {}", num(v));
-                }
-            }
-            if let Some(p) = d.priority {
-                let _ = write!(s, ", priority = {p}");
-            }
-            if let Some(a) = &d.absorption {
-                let _ = write!(
-                    s,
-                    ", absorption = {{ color = {}, distance = {} }}",
-                    vec3(a.color),
-                    num(a.distance)
-                );
-            }
-            s + " }"
+            dielectric(
+                "dielectric",
+                d.ior,
+                d.int_ior,
+                d.ext_ior,
+                d.priority,
+                d.absorption.as_ref(),
+            ) + " }"
+        }
+        MaterialDesc::RoughDielectric(d) => {
+            dielectric(
+                "rough_dielectric",
+                d.ior,
+                d.int_ior,
+                d.ext_ior,
+                d.priority,
+                d.absorption.as_ref(),
+            ) + &roughness(d.distribution, d.alpha)
+                + " }"
+        }
+        MaterialDesc::Conductor(c) => {
+            conductor(
+                "conductor",
+                &c.material,
+                c.eta,
+                c.k,
+                c.specular_reflectance,
+                c.two_sided,
+            ) + " }"
+        }
+        MaterialDesc::RoughConductor(c) => {
+            conductor(
+                "rough_conductor",
+                &c.material,
+                c.eta,
+                c.k,
+                c.specular_reflectance,
+                c.two_sided,
+            ) + &roughness(c.distribution, c.alpha)
+                + " }"
+        }
+        MaterialDesc::Plastic(p) => {
+            plastic(
+                "plastic",
+                p.diffuse_reflectance,
+                p.specular_reflectance,
+                p.int_ior,
+                p.ext_ior,
+                p.nonlinear,
+                p.two_sided,
+            ) + " }"
+        }
+        MaterialDesc::RoughPlastic(p) => {
+            plastic(
+                "rough_plastic",
+                p.diffuse_reflectance,
+                p.specular_reflectance,
+                p.int_ior,
+                p.ext_ior,
+                p.nonlinear,
+                p.two_sided,
+            ) + &roughness(p.distribution, p.alpha)
+                + " }"
         }
     }
+}
+
+/// A dielectric's table without its closing brace.
+fn dielectric(
+    ty: &str,
+    ior: Option<f64>,
+    int_ior: Option<f64>,
+    ext_ior: Option<f64>,
+    priority: Option<i64>,
+    absorption: Option<&AbsorptionDesc>,
+) -> String {
+    let mut s = format!("{{ type = \"{ty}\"");
+    for (k, v) in [("ior", ior), ("int_ior", int_ior), ("ext_ior", ext_ior)] {
+        if let Some(v) = v {
+            let _ = write!(s, ", {k} = {}", num(v));
+        }
+    }
+    if let Some(p) = priority {
+        let _ = write!(s, ", priority = {p}");
+    }
+    if let Some(a) = absorption {
+        let _ = write!(
+            s,
+            ", absorption = {{ color = {}, distance = {} }}",
+            vec3(a.color),
+            num(a.distance)
+        );
+    }
+    s
+}
+
+/// The roughness keys, each after a comma.
+fn roughness(d: DistributionDesc, alpha: f64) -> String {
+    let d = match d {
+        DistributionDesc::Ggx => "ggx",
+        DistributionDesc::Beckmann => "beckmann",
+    };
+    format!(", distribution = \"{d}\", alpha = {}", num(alpha))
+}
+
+/// A conductor's table without its closing brace.
+fn conductor(
+    ty: &str,
+    material: &Option<String>,
+    eta: Option<Vec3>,
+    k: Option<Vec3>,
+    spec: Vec3,
+    two_sided: bool,
+) -> String {
+    let mut s = format!("{{ type = \"{ty}\"");
+    if let Some(m) = material {
+        let _ = write!(s, ", material = {}", string(m));
+    }
+    for (key, v) in [("eta", eta), ("k", k)] {
+        if let Some(v) = v {
+            let _ = write!(s, ", {key} = {}", vec3(v));
+        }
+    }
+    let _ = write!(
+        s,
+        ", specular_reflectance = {}, two_sided = {two_sided}",
+        vec3(spec)
+    );
+    s
+}
+
+/// A plastic's table without its closing brace.
+fn plastic(
+    ty: &str,
+    diffuse: Vec3,
+    spec: Vec3,
+    int_ior: f64,
+    ext_ior: f64,
+    nonlinear: bool,
+    two_sided: bool,
+) -> String {
+    format!(
+        "{{ type = \"{ty}\", diffuse_reflectance = {}, specular_reflectance = {}, int_ior = {}, ext_ior = {}, nonlinear = {nonlinear}, two_sided = {two_sided}",
+        vec3(diffuse),
+        vec3(spec),
+        num(int_ior),
+        num(ext_ior)
+    )
 }
 
 fn texture(t: &TextureDesc) -> String {

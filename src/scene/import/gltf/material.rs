@@ -2,8 +2,9 @@
 //! and `KHR_materials_volume`) makes a dielectric: a priority solid on a
 //! closed mesh (Beer–Lambert absorption from the volume's attenuation,
 //! priority from the `snell:priority` extra), an interface on an open one.
-//! Everything else is diffuse with its base colour (a texture file when it
-//! has one). What does not map is listed in one warning per material.
+//! A fully metallic material is a rough conductor tinted by its base colour
+//! (see [`map`]). Everything else is diffuse with its base colour (a texture
+//! file when it has one). What does not map is listed in one warning per material.
 use crate::scene::desc::*;
 use serde_json::Value;
 
@@ -135,6 +136,49 @@ pub fn map(
                 int_ior: Some(ior),
                 ext_ior: Some(1.0),
                 absorption: None,
+            })
+        }
+    } else if metallic >= 1.0 {
+        if t > 0.0 {
+            lost.push(format!("transmission {t} (rendered opaque)"));
+        }
+        if priority.is_some() {
+            lost.push(format!("{PRIORITY_KEY} on an opaque material"));
+        }
+        if pbr.base_color_texture().is_some() {
+            lost.push("base colour texture on a metal (the factor is used)".into());
+        }
+        if pbr.metallic_roughness_texture().is_some() {
+            lost.push("metallic-roughness texture (the factors are used)".into());
+        }
+        // glTF gives a metal's colour as its reflectance at normal incidence
+        // (Schlick's F0), not a complex index: the ideal mirror metal ("none",
+        // F = 1) scaled by the base colour keeps that colour at every angle,
+        // without the whitening towards grazing.
+        lost.push(format!(
+            "metallic {metallic}: a conductor of reflectance base colour at every angle (no complex index)"
+        ));
+        let specular_reflectance = rgb.map(|c| c.clamp(0.0, 1.0));
+        let two_sided = m.double_sided();
+        // glTF's roughness is the square root of the microfacet alpha.
+        let alpha = short(rough) * short(rough);
+        if alpha > 0.0 {
+            MaterialDesc::RoughConductor(RoughConductorDesc {
+                material: Some("none".into()),
+                eta: None,
+                k: None,
+                specular_reflectance,
+                two_sided,
+                distribution: DistributionDesc::Ggx,
+                alpha: alpha.min(1.0),
+            })
+        } else {
+            MaterialDesc::Conductor(ConductorDesc {
+                material: Some("none".into()),
+                eta: None,
+                k: None,
+                specular_reflectance,
+                two_sided,
             })
         }
     } else {

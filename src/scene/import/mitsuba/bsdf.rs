@@ -1,13 +1,18 @@
-//! `<bsdf>`s as snell materials. `diffuse`, `dielectric`, `twosided` and a
-//! smooth `conductor` of `material="none"` map exactly; rough variants,
-//! coloured conductors and `plastic` map to their nearest smooth kind with
-//! one warning per material; what snell has no kind for is refused.
+//! `<bsdf>`s as snell materials. `diffuse`, `dielectric`, `roughdielectric`,
+//! `conductor`, `roughconductor`, `plastic`, `roughplastic` and `twosided`
+//! map exactly (a `conductor` of `material="none"` as a mirror); what snell
+//! cannot represent (anisotropic or textured roughness, textured metal or
+//! plastic colours) is refused, as is what it has no kind for.
 use super::ior;
 use super::props::{ColorParam, Ctx, Obj};
 use super::textures::{self, Uv};
 use super::xml::Node;
+use crate::bsdf::metals;
 use crate::error::Result;
-use crate::scene::desc::{DielectricDesc, DiffuseDesc, MaterialDesc, MirrorDesc, TextureDesc};
+use crate::scene::desc::{
+    ConductorDesc, DielectricDesc, DiffuseDesc, DistributionDesc, MaterialDesc, MirrorDesc, PlasticDesc,
+    RoughConductorDesc, RoughDielectricDesc, RoughPlasticDesc, TextureDesc,
+};
 
 /// A surface's material, before the shape's `flip_normals` is applied.
 pub enum Surface {
@@ -18,15 +23,20 @@ pub enum Surface {
         /// Both sides.
         two_sided: bool,
     },
-    /// A smooth dielectric interface (int on the side opposite the normal).
+    /// A dielectric interface (int on the side opposite the normal),
+    /// smooth or rough.
     Dielectric {
         /// Index inside.
         int_ior: f64,
         /// Index outside.
         ext_ior: f64,
+        /// A rough one's distribution and alpha.
+        rough: Option<(DistributionDesc, f64)>,
     },
     /// A perfect mirror.
     Mirror([f64; 3]),
+    /// A metal or a plastic: one-sided unless its `two_sided` is set.
+    OneSided(MaterialDesc),
 }
 
 impl Surface {
@@ -47,19 +57,40 @@ impl Surface {
                     two_sided: *two_sided,
                 })
             }
-            Surface::Dielectric { int_ior, ext_ior } => {
+            Surface::Dielectric {
+                int_ior,
+                ext_ior,
+                rough,
+            } => {
                 let (i, e) = if flip {
                     (*ext_ior, *int_ior)
                 } else {
                     (*int_ior, *ext_ior)
                 };
-                MaterialDesc::Dielectric(DielectricDesc {
-                    ior: None,
-                    priority: None,
-                    int_ior: Some(i),
-                    ext_ior: Some(e),
-                    absorption: None,
-                })
+                match rough {
+                    None => MaterialDesc::Dielectric(DielectricDesc {
+                        ior: None,
+                        priority: None,
+                        int_ior: Some(i),
+                        ext_ior: Some(e),
+                        absorption: None,
+                    }),
+                    Some((distribution, alpha)) => MaterialDesc::RoughDielectric(RoughDielectricDesc {
+                        ior: None,
+                        priority: None,
+                        int_ior: Some(i),
+                        ext_ior: Some(e),
+                        absorption: None,
+                        distribution: *distribution,
+                        alpha: *alpha,
+                    }),
+                }
+            }
+            Surface::OneSided(m) => {
+                if flip && !one_sided_is_two_sided(m) {
+                    return None;
+                }
+                m.clone()
             }
             Surface::Mirror(r) => {
                 if flip {
@@ -73,6 +104,76 @@ impl Surface {
     /// Does the surface reflect nothing (a black one-sided diffuse)?
     pub fn is_black(&self) -> bool {
         matches!(self, Surface::Diffuse { reflectance, .. } if is_black(reflectance))
+    }
+}
+
+/// Does a metal or plastic reflect on both sides?
+fn one_sided_is_two_sided(m: &MaterialDesc) -> bool {
+    match m {
+        MaterialDesc::Conductor(c) => c.two_sided,
+        MaterialDesc::RoughConductor(c) => c.two_sided,
+        MaterialDesc::Plastic(p) => p.two_sided,
+        MaterialDesc::RoughPlastic(p) => p.two_sided,
+        _ => false,
+    }
+}
+
+/// The same metal or plastic, reflecting on both sides.
+fn make_two_sided(mut m: MaterialDesc) -> MaterialDesc {
+    match &mut m {
+        MaterialDesc::Conductor(c) => c.two_sided = true,
+        MaterialDesc::RoughConductor(c) => c.two_sided = true,
+        MaterialDesc::Plastic(p) => p.two_sided = true,
+        MaterialDesc::RoughPlastic(p) => p.two_sided = true,
+        _ => {}
+    }
+    m
+}
+
+/// A rough BSDF's `distribution` (Mitsuba's default: Beckmann) and
+/// isotropic `alpha` (default 0.1); anisotropic or textured roughness is refused.
+fn roughness(o: &Obj<'_, '_>) -> Result<(DistributionDesc, f64)> {
+    let distribution = match o.string("distribution")? {
+        None | Some(("beckmann", _)) => DistributionDesc::Beckmann,
+        Some(("ggx", _)) => DistributionDesc::Ggx,
+        Some((other, at)) => {
+            return Err(at.error(format!(
+                "unknown distribution \"{other}\": expected \"beckmann\" or \"ggx\""
+            )))
+        }
+    };
+    for k in ["alpha", "alpha_u", "alpha_v"] {
+        if o.named_texture(k)?.is_some() {
+            return Err(o.at().error(format!(
+                "a textured {k} is not supported (snell's roughness is one number)"
+            )));
+        }
+    }
+    let alpha = match (o.float("alpha")?, o.float("alpha_u")?, o.float("alpha_v")?) {
+        (a, None, None) => a.unwrap_or(0.1),
+        (None, Some(u), Some(v)) if u == v => u,
+        (None, Some(u), Some(v)) => {
+            return Err(o.at().error(format!(
+                "anisotropic roughness (alpha_u = {u}, alpha_v = {v}) is not supported: give one alpha"
+            )))
+        }
+        _ => {
+            return Err(o.at().error(
+                "give either alpha, or both alpha_u and alpha_v (equal: snell's roughness is isotropic)",
+            ))
+        }
+    };
+    // Visible normals are always sampled: the estimate is the same either way.
+    o.bool_or("sample_visible", true)?;
+    Ok((distribution, alpha))
+}
+
+/// An RGB parameter that must be a constant (not a texture), `default` when absent.
+fn constant_rgb(o: &Obj<'_, '_>, key: &str, default: [f64; 3]) -> Result<[f64; 3]> {
+    match o.color(key, false)? {
+        None => Ok(default),
+        Some(ColorParam::Rgb(v)) => Ok(v),
+        Some(ColorParam::Texture(t)) => Err(t.at.error(format!("a textured {key} is not supported"))),
     }
 }
 
@@ -91,35 +192,17 @@ pub fn surface(ctx: &Ctx<'_>, n: Option<&Node>, uv: Uv) -> Result<Surface> {
     };
     let o = Obj::new(ctx, n)?;
     let plugin = o.plugin()?;
-    let rough_note = |o: &Obj<'_, '_>| -> Result<()> {
-        let alpha = o.float("alpha")?.unwrap_or(0.1);
-        let au = o.float("alpha_u")?;
-        let av = o.float("alpha_v")?;
-        o.string("distribution")?;
-        o.bool_or("sample_visible", true)?;
-        ctx.warn(
-            o.at(),
-            format!(
-                "roughness (alpha {}) is dropped: snell's {} are smooth",
-                au.or(av).unwrap_or(alpha),
-                if plugin.contains("dielectric") {
-                    "dielectrics"
-                } else {
-                    "mirrors"
-                }
-            ),
-        );
-        Ok(())
-    };
     let s = match plugin {
         "diffuse" => Surface::Diffuse {
             reflectance: reflectance(ctx, &o, "reflectance", uv)?,
             two_sided: false,
         },
         "dielectric" | "roughdielectric" => {
-            if plugin == "roughdielectric" {
-                rough_note(&o)?;
-            }
+            let rough = if plugin == "roughdielectric" {
+                Some(roughness(&o)?)
+            } else {
+                None
+            };
             let int_ior = ior::param(&o, "int_ior", "bk7")?;
             let ext_ior = ior::param(&o, "ext_ior", "air")?;
             if o.float("eta")?.is_some() {
@@ -135,50 +218,103 @@ pub fn surface(ctx: &Ctx<'_>, n: Option<&Node>, uv: Uv) -> Result<Surface> {
                     ),
                 }
             }
-            Surface::Dielectric { int_ior, ext_ior }
+            Surface::Dielectric {
+                int_ior,
+                ext_ior,
+                rough,
+            }
         }
         "conductor" | "roughconductor" => {
-            if plugin == "roughconductor" {
-                rough_note(&o)?;
-            }
-            let material = o.string("material")?.map(|(m, _)| m.to_string());
-            let eta = o.color("eta", false)?.is_some() || o.color("k", false)?.is_some();
-            let r = match o.color("specular_reflectance", false)? {
-                None => [1.0; 3],
-                Some(ColorParam::Rgb(v)) => v,
-                Some(ColorParam::Texture(t)) => {
-                    return Err(t.at.error("a textured specular_reflectance is not supported"))
+            let rough = if plugin == "roughconductor" {
+                Some(roughness(&o)?)
+            } else {
+                None
+            };
+            let material = o.string("material")?;
+            let spec = constant_rgb(&o, "specular_reflectance", [1.0; 3])?;
+            let eta = match o.color("eta", false)? {
+                None => None,
+                Some(ColorParam::Rgb(v)) => Some(v),
+                Some(ColorParam::Texture(t)) => return Err(t.at.error("a textured eta is not supported")),
+            };
+            let k = match o.color("k", false)? {
+                None => None,
+                Some(ColorParam::Rgb(v)) => Some(v),
+                Some(ColorParam::Texture(t)) => return Err(t.at.error("a textured k is not supported")),
+            };
+            let (material, eta, k) = match (material, eta, k) {
+                (None, None, None) => (None, None, None),
+                (Some((m, at)), None, None) => {
+                    if m != "none" && metals::find(m).is_none() {
+                        return Err(at.error(format!("unknown metal \"{m}\"; known: {}", metals::names())));
+                    }
+                    (Some(m), None, None)
+                }
+                (None, Some(e), Some(k)) => (None, Some(e), Some(k)),
+                _ => {
+                    return Err(o
+                        .at()
+                        .error("give either material, or both eta and k (not a mix)"))
                 }
             };
-            if eta || material.as_deref().is_some_and(|m| m != "none") {
-                ctx.warn(
-                    o.at(),
-                    format!(
-                        "the conductor's Fresnel ({}) is dropped: rendered as a mirror of reflectance {r:?} (snell has no metals)",
-                        material.as_deref().unwrap_or("eta, k")
-                    ),
-                );
+            // Mitsuba's default metal is "none": a perfect mirror.
+            let material = material.unwrap_or("none").to_string();
+            let (material, eta, k) = if eta.is_some() {
+                (None, eta, k)
+            } else {
+                (Some(material), None, None)
+            };
+            match rough {
+                None if material.as_deref() == Some("none") => Surface::Mirror(spec),
+                None => Surface::OneSided(MaterialDesc::Conductor(ConductorDesc {
+                    material,
+                    eta,
+                    k,
+                    specular_reflectance: spec,
+                    two_sided: false,
+                })),
+                Some((distribution, alpha)) => Surface::OneSided(MaterialDesc::RoughConductor(RoughConductorDesc {
+                    material,
+                    eta,
+                    k,
+                    specular_reflectance: spec,
+                    two_sided: false,
+                    distribution,
+                    alpha,
+                })),
             }
-            Surface::Mirror(r)
         }
         "plastic" | "roughplastic" => {
-            if plugin == "roughplastic" {
-                o.float("alpha")?;
-                o.string("distribution")?;
-            }
-            let refl = reflectance(ctx, &o, "diffuse_reflectance", uv)?;
-            o.color("specular_reflectance", false)?;
-            ior::param(&o, "int_ior", "polypropylene")?;
-            ior::param(&o, "ext_ior", "air")?;
-            o.bool_or("nonlinear", false)?;
-            ctx.warn(
-                o.at(),
-                format!("\"{plugin}\": its specular coat is dropped, rendered as its diffuse base"),
-            );
-            Surface::Diffuse {
-                reflectance: refl,
-                two_sided: false,
-            }
+            let rough = if plugin == "roughplastic" {
+                Some(roughness(&o)?)
+            } else {
+                None
+            };
+            let diffuse_reflectance = constant_rgb(&o, "diffuse_reflectance", [0.5; 3])?;
+            let specular_reflectance = constant_rgb(&o, "specular_reflectance", [1.0; 3])?;
+            let int_ior = ior::param(&o, "int_ior", "polypropylene")?;
+            let ext_ior = ior::param(&o, "ext_ior", "air")?;
+            let nonlinear = o.bool_or("nonlinear", false)?;
+            Surface::OneSided(match rough {
+                None => MaterialDesc::Plastic(PlasticDesc {
+                    diffuse_reflectance,
+                    specular_reflectance,
+                    int_ior,
+                    ext_ior,
+                    nonlinear,
+                    two_sided: false,
+                }),
+                Some((distribution, alpha)) => MaterialDesc::RoughPlastic(RoughPlasticDesc {
+                    diffuse_reflectance,
+                    specular_reflectance,
+                    int_ior,
+                    ext_ior,
+                    nonlinear,
+                    two_sided: false,
+                    distribution,
+                    alpha,
+                }),
+            })
         }
         "twosided" => {
             let inner = o.objects("bsdf")?;
@@ -197,6 +333,7 @@ pub fn surface(ctx: &Ctx<'_>, n: Option<&Node>, uv: Uv) -> Result<Surface> {
                     two_sided: true,
                 },
                 Surface::Mirror(r) => Surface::Mirror(r),
+                Surface::OneSided(m) => Surface::OneSided(make_two_sided(m)),
                 Surface::Dielectric { .. } => {
                     return Err(o
                         .at()
@@ -229,7 +366,7 @@ pub fn surface(ctx: &Ctx<'_>, n: Option<&Node>, uv: Uv) -> Result<Surface> {
         "principled" | "principledthin" | "hair" | "measured" | "pplastic" | "polarizer" | "retarder"
         | "circular" => {
             return Err(o.at().error(format!(
-                "\"{plugin}\" has no counterpart in snell (diffuse, dielectric, mirror)"
+                "\"{plugin}\" has no counterpart in snell (diffuse, dielectric, conductor, plastic and their rough kinds)"
             )))
         }
         other => return Err(o.at().error(format!("unknown BSDF \"{other}\""))),

@@ -163,7 +163,7 @@ impl<'c, 'd> Obj<'c, 'd> {
 
     /// A texture given as a named child (`<texture name="reflectance">` or
     /// `<ref name="reflectance" id=…>`), marked read.
-    fn named_texture(&self, name: &str) -> Result<Option<&'d Node>> {
+    pub fn named_texture(&self, name: &str) -> Result<Option<&'d Node>> {
         for (k, c) in self.node.children.iter().enumerate() {
             if (c.tag == "texture" || c.tag == "ref") && c.attr("name") == Some(name) {
                 self.used[k].set(true);
