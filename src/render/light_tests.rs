@@ -7,7 +7,7 @@
 //! when both are unbiased).
 use super::sun_tests::{blocks, ratio, rms};
 use crate::integrator::LightSampling;
-use crate::render::{render, RenderOptions, RenderSettings};
+use crate::render::{render, RenderOptions, RenderSettings, Rendered};
 use crate::scene::emitter::EmitterSampling;
 use crate::scene::{load_scene_str, BuildOptions, Light, RenderScene};
 use std::path::Path;
@@ -131,28 +131,31 @@ fn set_sampling(s: &mut RenderScene, sampling: EmitterSampling) {
     }
 }
 
-/// Block means of the renders of `s` at seeds 1 and 2.
-fn run(s: &RenderScene, light_sampling: LightSampling) -> [Vec<f64>; 2] {
+/// The render of `s` at `seed` (two threads, no AOVs).
+pub(super) fn render_at(s: &RenderScene, seed: u64, light_sampling: LightSampling) -> Rendered {
     let opts = RenderOptions {
         threads: Some(2),
         want_aovs: false,
         ..Default::default()
     };
-    [1, 2].map(|seed| {
-        let set = RenderSettings::from_scene(s)
-            .with_seed(seed)
-            .with_light_sampling(light_sampling);
-        blocks(&render(s, &set, &opts).expect("render"))
-    })
+    let set = RenderSettings::from_scene(s)
+        .with_seed(seed)
+        .with_light_sampling(light_sampling);
+    render(s, &set, &opts).expect("render")
 }
 
-fn pair(x: &[Vec<f64>; 2]) -> [&[f64]; 2] {
+/// Block means of the renders of `s` at seeds 1 and 2.
+pub(super) fn run(s: &RenderScene, light_sampling: LightSampling) -> [Vec<f64>; 2] {
+    [1, 2].map(|seed| blocks(&render_at(s, seed, light_sampling)))
+}
+
+pub(super) fn pair(x: &[Vec<f64>; 2]) -> [&[f64]; 2] {
     [&x[0], &x[1]]
 }
 
 /// The threshold of `sun_tests`: a ratio of RMS over 64 blocks has a
 /// spread of ~9 % when both images are unbiased, so 1.3 is over 3 spreads.
-const LIMIT: f64 = 1.3;
+pub(super) const LIMIT: f64 = 1.3;
 
 #[test]
 fn an_emitting_quad_by_nee_and_mis_matches_bsdf_sampling_alone_and_wrong_densities_do_not() {

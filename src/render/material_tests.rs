@@ -4,9 +4,10 @@
 //! tests' power; and a white furnace of a rough glass sphere. Images are
 //! compared by 16×16 block means against the seed-to-seed noise
 //! (`sun_tests::ratio`: about 1 when both are unbiased).
-use super::sun_tests::{blocks, ratio, rms};
+use super::light_tests::{pair, render_at, run, LIMIT};
+use super::sun_tests::{ratio, rms};
 use crate::integrator::LightSampling;
-use crate::render::{render, RenderOptions, RenderSettings, Rendered};
+use crate::render::Rendered;
 use crate::scene::model::BsdfVariant;
 use crate::scene::{load_scene_str, BuildOptions, RenderScene};
 use std::path::Path;
@@ -96,30 +97,6 @@ fn room(objects: &str, light_size: f64) -> RenderScene {
         .replace("LIGHT_SIZE", &format!("{light_size:?}"));
     load_scene_str("materials.toml", &text, Path::new("."), &BuildOptions::default()).expect("scene loads")
 }
-
-fn go(s: &RenderScene, seed: u64, light_sampling: LightSampling) -> Rendered {
-    let opts = RenderOptions {
-        threads: Some(2),
-        want_aovs: false,
-        ..Default::default()
-    };
-    let set = RenderSettings::from_scene(s)
-        .with_seed(seed)
-        .with_light_sampling(light_sampling);
-    render(s, &set, &opts).expect("render")
-}
-
-/// Block means of the renders of `s` at seeds 1 and 2.
-fn run(s: &RenderScene, light_sampling: LightSampling) -> [Vec<f64>; 2] {
-    [1, 2].map(|seed| blocks(&go(s, seed, light_sampling)))
-}
-
-fn pair(x: &[Vec<f64>; 2]) -> [&[f64]; 2] {
-    [&x[0], &x[1]]
-}
-
-/// `light_tests`' threshold: over 3 spreads of the ratio for unbiased images.
-const LIMIT: f64 = 1.3;
 
 /// NEE+MIS against BSDF sampling alone on `objects`, and each of `wrong`
 /// against the same threshold; NEE must also lower the noise (else MIS
@@ -227,7 +204,7 @@ fn a_rough_glass_sphere_in_a_white_furnace_stays_white_and_a_wrong_jacobian_does
         let mut s =
             load_scene_str("furnace.toml", &text, Path::new("."), &BuildOptions::default()).expect("loads");
         s.bsdf_variant = v;
-        mean_and_error(&go(&s, 1, LightSampling::Mis))
+        mean_and_error(&render_at(&s, 1, LightSampling::Mis))
     };
     let (near_smooth, e0) = furnace("0.01", BsdfVariant::Right);
     let (rough, e1) = furnace("0.1", BsdfVariant::Right);
