@@ -228,6 +228,9 @@ pub struct Medium {
     view: Option<(DVec3, f64)>,
     /// The scene's geometry as boxes.
     obstacles: Obstacles,
+    /// Those of them a ray just out through a face of the bounds may meet:
+    /// the ones not well inside the bounds.
+    obstacles_outside: Obstacles,
     /// What method `invariant`'s rays share (None for other methods).
     invariant: Option<InvariantSetup>,
     /// A lower bound on n in the bounds (curvature bounds divide by it).
@@ -359,6 +362,7 @@ impl Medium {
             view: None,
             invariant,
             obstacles: Obstacles::unknown(),
+            obstacles_outside: Obstacles::unknown(),
             n_floor: n_min,
             straight_scale: 1.0,
             flight_step,
@@ -403,6 +407,9 @@ impl Medium {
     }
 
     fn with_obstacle_set(mut self, obstacles: Obstacles) -> Medium {
+        // A ray leaves through a face when it is within `tolerance` of it
+        // (`Aabb::leaves_within`): boxes that far inside cannot be met.
+        self.obstacles_outside = obstacles.not_inside(&self.bounds, 2.0 * self.tolerance);
         self.obstacles = obstacles;
         if self.method == Method::Invariant {
             let known = (!self.obstacles.is_unknown()).then(|| self.obstacles.boxes());
@@ -496,7 +503,11 @@ impl Medium {
     /// Can the straight chord meet geometry? (False only when it misses
     /// every padded box of the scene's geometry: Embree would find nothing.)
     pub fn chord_may_hit(&self, c: &Chord) -> bool {
-        self.obstacles.segment_meets(c.origin, c.dir, c.length)
+        match c.start {
+            ChordStart::InBox => true,
+            ChordStart::LeftBounds => self.obstacles_outside.segment_meets(c.origin, c.dir, c.length),
+            ChordStart::Elsewhere => self.obstacles.segment_meets(c.origin, c.dir, c.length),
+        }
     }
 
     /// The world-space box the field fills, metres.
@@ -625,6 +636,21 @@ pub struct Chord {
     /// (it could meet no geometry), metres: the path's length to the chord's
     /// start grows by it.
     pub skipped: f64,
+    /// What is known of the boxes the chord may meet.
+    pub start: ChordStart,
+}
+
+/// Where a [`Chord`] starts, as far as it decides the boxes it may meet.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ChordStart {
+    /// Where the ray reaches a geometry's (padded) box, as the invariant cast
+    /// finds it: it may hit, no box test needed.
+    InBox,
+    /// Just out of the medium's bounds through a face, moving away: the box
+    /// being convex, the chord meets none of the geometry well inside it.
+    LeftBounds,
+    /// Anywhere else: every box is tested.
+    Elsewhere,
 }
 
 /// A ray being traced through a [`Medium`], chord by chord.
@@ -713,6 +739,7 @@ impl CurvedRay {
             dir: self.st.t,
             length: 0.0,
             skipped: 0.0,
+            start: ChordStart::Elsewhere,
         }
     }
 
@@ -780,20 +807,22 @@ impl CurvedRay {
                     dir: self.st.t,
                     length: 0.0,
                     skipped,
+                    start: ChordStart::Elsewhere,
                 };
             }
             if self.mode == Mode::Outside {
                 let r = self.st.r;
                 let t = self.st.t;
-                let straight = |length| Chord {
+                let straight = |length, start| Chord {
                     origin: r,
                     dir: t,
                     length,
                     skipped,
+                    start,
                 };
                 // Just out through a face: no slab test to see it go.
                 if exits > 0 && medium.bounds.leaves_within(r, t, tol) {
-                    return straight(f64::INFINITY);
+                    return straight(f64::INFINITY, ChordStart::LeftBounds);
                 }
                 match medium.bounds.clip(r, t) {
                     Some((t0, t1)) if t1 > tol => {
@@ -802,10 +831,10 @@ impl CurvedRay {
                             return self.fail(e);
                         }
                         if entry > 0.0 {
-                            return straight(entry);
+                            return straight(entry, ChordStart::Elsewhere);
                         }
                     }
-                    _ => return straight(f64::INFINITY),
+                    _ => return straight(f64::INFINITY, ChordStart::Elsewhere),
                 }
             }
             if let (true, Some(cast), Some(setup)) = (self.inv_live, &mut self.inv, &medium.invariant) {
@@ -834,6 +863,7 @@ impl CurvedRay {
                             dir: if len > 0.0 { c / len } else { tangent },
                             length: len,
                             skipped,
+                            start: ChordStart::InBox,
                         };
                     }
                     Step::Exit {
@@ -967,6 +997,7 @@ impl CurvedRay {
             dir,
             length: d,
             skipped: 0.0,
+            start: ChordStart::Elsewhere,
         }
     }
 
@@ -995,6 +1026,7 @@ impl CurvedRay {
                         dir,
                         length: len,
                         skipped: 0.0,
+                        start: ChordStart::Elsewhere,
                     })
                 } else {
                     Ok(self.exit_straight(medium, dir))
@@ -1088,6 +1120,7 @@ impl CurvedRay {
             dir: if len > 0.0 { c / len } else { st.t },
             length: len,
             skipped: 0.0,
+            start: ChordStart::Elsewhere,
         })
     }
 

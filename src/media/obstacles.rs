@@ -74,6 +74,21 @@ impl Obstacles {
         self.unknown
     }
 
+    /// The boxes not inside `bounds` shrunk by `margin` on every side (all of
+    /// them when unknown).
+    pub fn not_inside(&self, bounds: &Aabb, margin: f64) -> Obstacles {
+        let (lo, hi) = (bounds.min + margin, bounds.max - margin);
+        Obstacles {
+            boxes: self
+                .boxes
+                .iter()
+                .filter(|b| !(b.min.cmpgt(lo).all() && b.max.cmplt(hi).all()))
+                .copied()
+                .collect(),
+            unknown: self.unknown,
+        }
+    }
+
     /// Does the straight segment from `o` along unit `d` for `len` (may be
     /// infinite) meet a box?
     pub fn segment_meets(&self, o: DVec3, d: DVec3, len: f64) -> bool {

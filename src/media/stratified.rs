@@ -1050,15 +1050,15 @@ impl StratifiedRay {
                     let k = c.k2.sqrt();
                     let target = u_level.unwrap_or_else(|| (dh / hs).exp());
                     let e_lo = if t0 == 0.0 { 1.0 } else { (k * t0).exp() };
-                    let mut best: Option<(f64, f64)> = None;
+                    // τ = ln(E)/κ grows with E: only the smallest root past
+                    // the start can be the first crossing (one logarithm).
+                    let mut first: Option<f64> = None;
                     for e in quadratic_roots(alpha, beta - target, gamma) {
-                        if e >= e_lo * (1.0 - 1e-15) {
-                            let t = (e.ln() / k).max(t0);
-                            if t <= t1 && best.is_none_or(|b| t < b.0) {
-                                best = Some((t, e));
-                            }
+                        if e >= e_lo * (1.0 - 1e-15) && first.is_none_or(|f| e < f) {
+                            first = Some(e);
                         }
                     }
+                    let best = first.map(|e| ((e.ln() / k).max(t0), e)).filter(|&(t, _)| t <= t1);
                     return best.map(|(tau, e)| Point {
                         tau,
                         dh,
