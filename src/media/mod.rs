@@ -218,6 +218,10 @@ pub struct Medium {
     /// The field's chord limit, computed once.
     feature: FeatureScale,
     bounds: Aabb,
+    /// The bounds shrunk by twice the tolerance: a ray from a point in it
+    /// starts inside and runs longer than the tolerance in the bounds, as
+    /// their slab test would find (without its divisions).
+    deep_inside: Aabb,
     method: Method,
     tolerance: f64,
     step: f64,
@@ -355,6 +359,7 @@ impl Medium {
             feature: field.feature_scale(),
             field,
             bounds,
+            deep_inside: Aabb::new(bounds.min + 2.0 * tolerance, bounds.max - 2.0 * tolerance),
             method,
             tolerance,
             step,
@@ -776,10 +781,11 @@ impl CurvedRay {
         if medium.invariant.is_none() || self.mode != Mode::Outside || self.entered || self.flown.is_some() {
             return;
         }
-        let inside = medium
-            .bounds
-            .clip(self.st.r, self.st.t)
-            .is_some_and(|(t0, t1)| t0 <= 0.0 && t1 > medium.tolerance);
+        let inside = medium.deep_inside.contains(self.st.r)
+            || medium
+                .bounds
+                .clip(self.st.r, self.st.t)
+                .is_some_and(|(t0, t1)| t0 <= 0.0 && t1 > medium.tolerance);
         if inside {
             if let Err(e) = self.enter(medium, 0.0) {
                 self.fail(e);
@@ -824,7 +830,12 @@ impl CurvedRay {
                 if exits > 0 && medium.bounds.leaves_within(r, t, tol) {
                     return straight(f64::INFINITY, ChordStart::LeftBounds);
                 }
-                match medium.bounds.clip(r, t) {
+                let clip = if medium.deep_inside.contains(r) {
+                    Some((0.0, f64::INFINITY))
+                } else {
+                    medium.bounds.clip(r, t)
+                };
+                match clip {
                     Some((t0, t1)) if t1 > tol => {
                         let entry = t0.max(0.0);
                         if let Err(e) = self.enter(medium, entry) {
@@ -929,7 +940,9 @@ impl CurvedRay {
     /// very start beforehand ([`fly_camera_rays`]). Ok(true) when the ray
     /// has left the bounds (its arc length inside added to `skipped`),
     /// Ok(false) when geometry is too close for a step worth taking: the
-    /// caller casts chords from there.
+    /// caller casts chords from there. Not inlined: in `next_chord` its
+    /// set-up was hoisted ahead of the invariant cast, which never flies.
+    #[inline(never)]
     fn fly(&mut self, medium: &Medium, skipped: &mut f64) -> Result<bool, String> {
         self.last_curved = false;
         let (flight, end) = match self.flown.take() {
