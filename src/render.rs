@@ -686,6 +686,14 @@ impl TileJob<'_> {
                             for (c, &(o, d)) in camera_curved.iter_mut().zip(&rays[..lanes]) {
                                 let ray = Ray::new(o, d);
                                 med.restart_ray(c, ray.org.as_dvec3(), ray.dir.as_dvec3());
+                            }
+                            let mut quads = camera_curved[..lanes].chunks_exact_mut(4);
+                            for quad in &mut quads {
+                                if let Ok(quad) = <&mut [CurvedRay; 4]>::try_from(quad) {
+                                    CurvedRay::begin_lanes(quad, med);
+                                }
+                            }
+                            for c in quads.into_remainder() {
                                 c.begin(med);
                             }
                         }

@@ -14,7 +14,7 @@
 use glam::DVec3;
 
 use super::field::{Aabb, IndexField};
-use super::stratified::{Options, Point, StratifiedRay};
+use super::stratified::{KeptScale, LaneStart, Options, Point, StratifiedRay};
 
 /// How far (metres) the start must be from a height limit for a ray moving
 /// away from it to skip the search for its crossing: far beyond the rounding
@@ -192,6 +192,28 @@ impl InvariantCast {
                 })
             }
         };
+        cast.finish_start(setup);
+        Ok(())
+    }
+
+    /// Starts this cast (made before) with one lane of
+    /// [`StratifiedRay::restart_lanes`]: what [`InvariantCast::start_in`]
+    /// does with the ray that lane was computed for.
+    pub fn start_from(&mut self, lane: &LaneStart, setup: &InvariantSetup) {
+        self.ray.restart_from(lane);
+        self.finish_start(setup);
+    }
+
+    /// What this cast's ray keeps for its next start.
+    pub fn kept_scale(&self) -> KeptScale {
+        self.ray.kept_scale()
+    }
+
+    /// What a start sets besides the ray: its horizontal rates, where it
+    /// leaves through a side, and the cursor at τ = 0.
+    fn finish_start(&mut self, setup: &InvariantSetup) {
+        let (h_lo, h_hi) = setup.limits.h;
+        let cast = self;
         let ray = &cast.ray;
         let here = ray.start_point();
         let r0 = ray.origin();
@@ -227,7 +249,6 @@ impl InvariantCast {
         cast.h_inv_rate = h_inv_rate;
         cast.p_start = here.p;
         cast.last = (here, here);
-        Ok(())
     }
 
     /// Index evaluations so far.
@@ -237,6 +258,7 @@ impl InvariantCast {
 
     /// The τ where the arc leaves the box: through a side, or earlier
     /// through the top or bottom (a height crossing).
+    #[inline(always)]
     fn exit(&mut self, field: &IndexField, setup: &InvariantSetup) -> f64 {
         if let Some(t) = self.tau_exit {
             return t;

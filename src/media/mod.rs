@@ -33,6 +33,7 @@ pub use grin_trace::grin_trace_json;
 use invariant_cast::{InvariantCast, InvariantSetup, Step};
 pub use obstacles::Obstacles;
 use stepper::{State, Stepper};
+use stratified::{KeptScale, StratifiedRay};
 
 /// A user-facing error: the key (e.g. `medium.tolerance`) and what was expected.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -765,11 +766,17 @@ impl CurvedRay {
             s.s = self.st.s;
             self.st = s;
         }
+        self.now_inside(entry);
+        Ok(())
+    }
+
+    /// The bookkeeping of [`CurvedRay::enter`] once the method's state is set.
+    #[inline(always)]
+    fn now_inside(&mut self, entry: f64) {
         self.prev = self.st;
         self.mode = Mode::Inside;
         self.started_inside |= !self.entered && entry == 0.0;
         self.entered = true;
-        Ok(())
     }
 
     /// Sets up now what the first chord of a ray that starts inside the
@@ -790,6 +797,45 @@ impl CurvedRay {
             if let Err(e) = self.enter(medium, 0.0) {
                 self.fail(e);
             }
+        }
+    }
+
+    /// [`CurvedRay::begin`] for `N` rays (a pixel's camera rays): where
+    /// every one starts well inside the bounds with an invariant cast made
+    /// before, their casts start side by side ([`InvariantCast::start_lanes`]);
+    /// otherwise one by one. The same state as `begin` ray by ray.
+    pub fn begin_lanes<const N: usize>(rays: &mut [CurvedRay; N], medium: &Medium) {
+        let fresh = |c: &CurvedRay| {
+            c.mode == Mode::Outside
+                && !c.entered
+                && c.flown.is_none()
+                && c.inv.is_some()
+                && medium.deep_inside.contains(c.st.r)
+        };
+        if let (Some(setup), true) = (&medium.invariant, rays.iter().all(fresh)) {
+            // `enter` at 0: the start is r + t·0 (which is r but for the sign of a zero).
+            let p = rays.each_ref().map(|c| c.st.r + c.st.t * 0.0);
+            let t = rays.each_ref().map(|c| c.st.t);
+            let kept = rays
+                .each_ref()
+                .map(|c| c.inv.as_ref().map_or(KeptScale::NONE, InvariantCast::kept_scale));
+            if let Some(lanes) = StratifiedRay::restart_lanes(&medium.field, &p, &t, &kept) {
+                for ((c, lane), &p) in rays.iter_mut().zip(&lanes).zip(&p) {
+                    match &mut c.inv {
+                        Some(cast) => {
+                            cast.start_from(lane, setup);
+                            c.inv_live = true;
+                            c.st.r = p;
+                            c.now_inside(0.0);
+                        }
+                        None => c.begin(medium),
+                    }
+                }
+                return;
+            }
+        }
+        for c in rays.iter_mut() {
+            c.begin(medium);
         }
     }
 

@@ -110,6 +110,11 @@ struct Closed {
     /// asked for. A cast asks for the next turn at every chord and crossing,
     /// and each answer would cost a logarithm.
     mode_turn: Option<f64>,
+    /// With modes: κ = √κ², and γ/α ≤ 1 (the turn, if any, at τ ≤ 0),
+    /// taken once per ray rather than per question (a cast's questions
+    /// queue on the divider).
+    kappa: f64,
+    turn_behind: bool,
 }
 
 /// u = αe^{κτ} + β + γe^{−κτ} for an exponential profile with
@@ -131,6 +136,166 @@ fn exp_modes(a: f64, d0: f64, n0: f64, b: f64, p0: f64, c: f64) -> (f64, f64, f6
     } else {
         (small, beta, big)
     }
+}
+
+/// The closed form a field's rays have (None: the quadrature), before a
+/// start scales an exponential profile's deficit.
+fn closed_kind(field: &IndexField) -> Option<ClosedKind> {
+    match *field {
+        IndexField::Constant { .. } => Some(ClosedKind::Linear { m: 0.0 }),
+        IndexField::Linear { m, .. } => Some(ClosedKind::Linear { m }),
+        IndexField::HotGround {
+            n_inf, dn, h0: hs, ..
+        } => Some(ClosedKind::Exp { a: n_inf, d0: dn, hs }),
+        IndexField::Exponential {
+            n0: ns, scale_height, ..
+        } => Some(ClosedKind::Exp {
+            a: 1.0,
+            d0: -(ns - 1.0),
+            hs: scale_height,
+        }),
+        _ => None,
+    }
+}
+
+/// What a ray keeps of its last start for the next (see
+/// [`StratifiedRay::kept_scale`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct KeptScale {
+    h0: f64,
+    hs: f64,
+    u: f64,
+}
+
+impl KeptScale {
+    /// Nothing kept: the next start computes its scale.
+    pub const NONE: KeptScale = KeptScale {
+        h0: f64::NAN,
+        hs: f64::NAN,
+        u: f64::NAN,
+    };
+}
+
+/// One ray's start from [`StratifiedRay::restart_lanes`].
+#[derive(Debug, Clone, Copy)]
+pub struct LaneStart {
+    start: ExpStart,
+    r: DVec3,
+    up: DVec3,
+    a: f64,
+    hs: f64,
+    u_scale: f64,
+}
+
+/// What a start gives an exponential profile's closed form (see
+/// `StratifiedRay::restart`).
+#[derive(Debug, Clone, Copy)]
+struct ExpStart {
+    h0: f64,
+    e: DVec3,
+    /// The deficit at the start, D₀ = D·e^{−h₀/H}.
+    d0: f64,
+    n0: f64,
+    b: f64,
+    p0: f64,
+    g0: f64,
+    q1: f64,
+    q2: f64,
+    k2: f64,
+    modes: Option<(f64, f64, f64)>,
+    kappa: f64,
+    turn_behind: bool,
+}
+
+/// The closed-form starts of `N` rays of the profile n = a − d0·e^{−h/H}
+/// (`hs` = H): ray `i` along unit `t[i]` from height `h0[i]`, where
+/// e^{−h₀/H} = `u_scale[i]`. Each quantity for every ray before the next:
+/// one ray's set-up is a chain of roots and divisions, and several rays'
+/// chains side by side overlap instead of waiting one after the other.
+/// (The same operations in the same order as one ray alone: the results do
+/// not depend on N.)
+fn exp_starts<const N: usize>(
+    a: f64,
+    d0: f64,
+    hs: f64,
+    up: DVec3,
+    t: &[DVec3; N],
+    h0: &[f64; N],
+    u_scale: &[f64; N],
+) -> [ExpStart; N] {
+    // Plain loops over arrays (`array::from_fn`'s closures were not inlined).
+    let (mut w0, mut c0, mut horiz, mut e) = ([0.0; N], [0.0; N], [DVec3::ZERO; N], [DVec3::ZERO; N]);
+    for i in 0..N {
+        w0[i] = t[i].dot(up);
+        horiz[i] = t[i] - up * w0[i];
+        c0[i] = horiz[i].length();
+    }
+    for i in 0..N {
+        e[i] = if c0[i] > 0.0 {
+            horiz[i] / c0[i]
+        } else {
+            up.any_orthonormal_vector()
+        };
+    }
+    let (mut d0s, mut n0, mut b, mut p0, mut g0) = ([0.0; N], [0.0; N], [0.0; N], [0.0; N], [0.0; N]);
+    for i in 0..N {
+        d0s[i] = d0 * u_scale[i];
+        // The same formula the closed form uses (u₀ = 1).
+        n0[i] = a - d0s[i];
+        b[i] = n0[i] * c0[i];
+        p0[i] = n0[i] * w0[i];
+        g0[i] = n0[i] * w0[i] * w0[i] / (1.0 + c0[i]);
+    }
+    let (mut c, mut k2, mut q1, mut q2) = ([0.0; N], [0.0; N], [0.0; N], [0.0; N]);
+    for i in 0..N {
+        c[i] = (d0s[i] + g0[i]) * (a + b[i]);
+        k2[i] = c[i] / (hs * hs);
+        q1[i] = p0[i] / hs;
+        q2[i] = (p0[i] * p0[i] + n0[i] * d0s[i]) / (hs * hs);
+    }
+    let mut modes = [None; N];
+    for i in 0..N {
+        if c[i] > 0.0 {
+            modes[i] = Some(exp_modes(a, d0s[i], n0[i], b[i], p0[i], c[i]));
+        }
+    }
+    let mut out = [ExpStart {
+        h0: 0.0,
+        e: DVec3::ZERO,
+        d0: 0.0,
+        n0: 0.0,
+        b: 0.0,
+        p0: 0.0,
+        g0: 0.0,
+        q1: 0.0,
+        q2: 0.0,
+        k2: 0.0,
+        modes: None,
+        kappa: f64::NAN,
+        turn_behind: false,
+    }; N];
+    for i in 0..N {
+        out[i] = ExpStart {
+            h0: h0[i],
+            e: e[i],
+            d0: d0s[i],
+            n0: n0[i],
+            b: b[i],
+            p0: p0[i],
+            g0: g0[i],
+            q1: q1[i],
+            q2: q2[i],
+            k2: k2[i],
+            modes: modes[i],
+            kappa: if modes[i].is_some() {
+                k2[i].sqrt()
+            } else {
+                f64::NAN
+            },
+            turn_behind: modes[i].is_some_and(|(alpha, _, gamma)| gamma / alpha <= 1.0),
+        };
+    }
+    out
 }
 
 #[derive(Debug, Clone)]
@@ -415,6 +580,19 @@ impl StratifiedRay {
             )
         })?;
         let up = s.up;
+        let closed = if opts.quadrature || opts.branch == Branch::Paper {
+            None
+        } else {
+            closed_kind(field)
+        };
+        if let Some(ClosedKind::Exp { a, d0, hs }) = closed {
+            let h0 = r.dot(up) - s.base;
+            let u_scale = self.u_scale_at(h0, hs);
+            let [start] = exp_starts(a, d0, hs, up, &[t], &[h0], &[u_scale]);
+            super::state::check_n(start.n0, r)?;
+            self.set_exp(&start, r, up, a, hs, u_scale);
+            return Ok(());
+        }
         let h0 = r.dot(up) - s.base;
         let w0 = t.dot(up);
         let horiz = t - up * w0;
@@ -424,66 +602,16 @@ impl StratifiedRay {
         } else {
             up.any_orthonormal_vector()
         };
-        let closed = if opts.quadrature || opts.branch == Branch::Paper {
-            None
-        } else {
-            match *field {
-                IndexField::Constant { .. } => Some(ClosedKind::Linear { m: 0.0 }),
-                IndexField::Linear { m, .. } => Some(ClosedKind::Linear { m }),
-                IndexField::HotGround {
-                    n_inf, dn, h0: hs, ..
-                } => Some(ClosedKind::Exp { a: n_inf, d0: dn, hs }),
-                IndexField::Exponential {
-                    n0: ns, scale_height, ..
-                } => Some(ClosedKind::Exp {
-                    a: 1.0,
-                    d0: -(ns - 1.0),
-                    hs: scale_height,
-                }),
-                _ => None,
-            }
-        };
-        // The deficit D at h = 0 becomes D₀ = D·e^{−h₀/H} at the start.
-        let mut u_scale = 1.0;
-        let mut u_scale_hs = f64::NAN;
-        let closed = closed.map(|k| match k {
-            ClosedKind::Exp { a, d0, hs } => {
-                u_scale = if self.h0 == h0 && self.u_scale_hs == hs {
-                    self.u_scale
-                } else {
-                    (-h0 / hs).exp()
-                };
-                u_scale_hs = hs;
-                ClosedKind::Exp {
-                    a,
-                    d0: d0 * u_scale,
-                    hs,
-                }
-            }
-            other => other,
-        });
-        let n0 = match closed {
-            // The same formula the closed form uses (u₀ = 1).
-            Some(ClosedKind::Exp { a, d0, .. }) => a - d0,
-            _ => field.n_h(h0).map_or(f64::NAN, |v| v.0),
-        };
+        let u_scale = 1.0;
+        let u_scale_hs = f64::NAN;
+        let n0 = field.n_h(h0).map_or(f64::NAN, |v| v.0);
         super::state::check_n(n0, r)?;
         let b = n0 * c0;
         let p0 = n0 * w0;
         let g0 = n0 * w0 * w0 / (1.0 + c0);
-        if let Some(kind) = closed {
-            let (q1, q2, k2, modes) = match kind {
-                ClosedKind::Linear { m } => (p0, n0 * m, m * m, None),
-                ClosedKind::Exp { a, d0, hs } => {
-                    let c = (d0 + g0) * (a + b);
-                    (
-                        p0 / hs,
-                        (p0 * p0 + n0 * d0) / (hs * hs),
-                        c / (hs * hs),
-                        (c > 0.0).then(|| exp_modes(a, d0, n0, b, p0, c)),
-                    )
-                }
-            };
+        // (Exponential profiles returned above.)
+        if let Some(ClosedKind::Linear { m }) = closed {
+            let (q1, q2, k2) = (p0, n0 * m, m * m);
             *self = StratifiedRay {
                 r0: r,
                 up,
@@ -497,12 +625,14 @@ impl StratifiedRay {
                 u_scale,
                 u_scale_hs,
                 form: Form::Closed(Closed {
-                    kind,
+                    kind: ClosedKind::Linear { m },
                     q1,
                     q2,
                     k2,
-                    modes,
+                    modes: None,
                     mode_turn: None,
+                    kappa: f64::NAN,
+                    turn_behind: false,
                 }),
             };
             return Ok(());
@@ -535,6 +665,102 @@ impl StratifiedRay {
         q.legs.push(first);
         *self = ray;
         Ok(())
+    }
+
+    /// e^{−h₀/H} at the start height `h0` for scale height `hs`: kept from
+    /// the last start when that was at the same height (a camera's rays all
+    /// start at its height).
+    fn u_scale_at(&self, h0: f64, hs: f64) -> f64 {
+        if self.h0 == h0 && self.u_scale_hs == hs {
+            self.u_scale
+        } else {
+            (-h0 / hs).exp()
+        }
+    }
+
+    /// Makes this the closed-form ray of an exponential profile (n = a − d0·e^{−h/H}
+    /// at the profile's base) that `start` describes, from `r`.
+    fn set_exp(&mut self, start: &ExpStart, r: DVec3, up: DVec3, a: f64, hs: f64, u_scale: f64) {
+        self.r0 = r;
+        self.up = up;
+        self.e = start.e;
+        self.h0 = start.h0;
+        self.n0 = start.n0;
+        self.b = start.b;
+        self.p0 = start.p0;
+        self.g0 = start.g0;
+        self.evals.set(1);
+        self.u_scale = u_scale;
+        self.u_scale_hs = hs;
+        let closed = Closed {
+            kind: ClosedKind::Exp { a, d0: start.d0, hs },
+            q1: start.q1,
+            q2: start.q2,
+            k2: start.k2,
+            modes: start.modes,
+            mode_turn: None,
+            kappa: start.kappa,
+            turn_behind: start.turn_behind,
+        };
+        match &mut self.form {
+            Form::Closed(c) => *c = closed,
+            form => *form = Form::Closed(closed),
+        }
+    }
+
+    /// The start height, scale height and e^{−h₀/H} this ray keeps for the
+    /// next start at the same height (see [`StratifiedRay::restart_lanes`]).
+    pub fn kept_scale(&self) -> KeptScale {
+        KeptScale {
+            h0: self.h0,
+            hs: self.u_scale_hs,
+            u: self.u_scale,
+        }
+    }
+
+    /// What [`StratifiedRay::restart`] with default options computes for
+    /// `N` rays of a field whose rays have the exponential profile's closed
+    /// form, ray `i` from `r[i]` along unit `t[i]` (`kept[i]`: what the ray
+    /// to restart keeps). Computed lane by lane, so that the rays' chains of
+    /// roots and divisions overlap in the processor; each applied with
+    /// [`StratifiedRay::restart_from`]. None where that does not apply (no
+    /// such form, or a start's index not valid): restart them one by one.
+    pub fn restart_lanes<const N: usize>(
+        field: &IndexField,
+        r: &[DVec3; N],
+        t: &[DVec3; N],
+        kept: &[KeptScale; N],
+    ) -> Option<[LaneStart; N]> {
+        let (Some(s), Some(ClosedKind::Exp { a, d0, hs })) = (field.strata(), closed_kind(field)) else {
+            return None;
+        };
+        let (mut h0, mut u_scale) = ([0.0; N], [0.0; N]);
+        for i in 0..N {
+            h0[i] = r[i].dot(s.up) - s.base;
+            let k = kept[i];
+            u_scale[i] = if k.h0 == h0[i] && k.hs == hs {
+                k.u
+            } else {
+                (-h0[i] / hs).exp()
+            };
+        }
+        let starts = exp_starts(a, d0, hs, s.up, t, &h0, &u_scale);
+        if starts.iter().any(|st| !(st.n0.is_finite() && st.n0 > 0.0)) {
+            return None;
+        }
+        Some(std::array::from_fn(|i| LaneStart {
+            start: starts[i],
+            r: r[i],
+            up: s.up,
+            a,
+            hs,
+            u_scale: u_scale[i],
+        }))
+    }
+
+    /// Makes this the ray one lane of [`StratifiedRay::restart_lanes`] describes.
+    pub fn restart_from(&mut self, lane: &LaneStart) {
+        self.set_exp(&lane.start, lane.r, lane.up, lane.a, lane.hs, lane.u_scale);
     }
 
     /// Index evaluations so far (a closed-form point counts as one).
@@ -835,7 +1061,7 @@ impl StratifiedRay {
             }
             (&ClosedKind::Exp { a, d0, hs }, Some((alpha, beta, gamma))) if c.k2 * tau * tau > 1.0 => {
                 // u = αE + β + γ/E; u − 1 = α(E − 1) + γ(1/E − 1).
-                let k = c.k2.sqrt();
+                let k = c.kappa;
                 let z = k * tau;
                 let (log_u, ratio, u) = if z < 600.0 {
                     // All three modes are well scaled here (E ≥ e): u itself,
@@ -996,11 +1222,13 @@ impl StratifiedRay {
         match &mut self.form {
             Form::Closed(c) => {
                 if let Some((alpha, _, gamma)) = c.modes {
-                    if tau >= 0.0 && gamma / alpha <= 1.0 {
+                    if tau >= 0.0 && c.turn_behind {
                         // ln(γ/α) ≤ 0: the turn is at τ ≤ 0 (behind), if any.
                         return f64::INFINITY;
                     }
-                    let t = *c.mode_turn.get_or_insert_with(|| modes_turn(alpha, gamma, c.k2));
+                    let t = *c
+                        .mode_turn
+                        .get_or_insert_with(|| modes_turn(alpha, gamma, c.kappa));
                     return if t > tau { t } else { f64::INFINITY };
                 }
                 closed_next_turn(c, tau)
@@ -1047,7 +1275,7 @@ impl StratifiedRay {
                     // u = αE + β + γ/E = U: a quadratic in E; the point there
                     // needs no more exponentials (u = U, u' = κ(αE − γ/E)).
                     self.evals.set(self.evals.get() + 1);
-                    let k = c.k2.sqrt();
+                    let k = c.kappa;
                     let target = u_level.unwrap_or_else(|| (dh / hs).exp());
                     let e_lo = if t0 == 0.0 { 1.0 } else { (k * t0).exp() };
                     // τ = ln(E)/κ grows with E: only the smallest root past
@@ -1303,10 +1531,10 @@ fn closed_level_ill_conditioned(c: &Closed, level: f64) -> bool {
 /// The τ where u = αE + β + γ/E turns (∞ if it does not): u' = κ(αE − γ/E)
 /// = 0 at E² = γ/α (accurate where tanh κτ = ratio near 1 would round the
 /// turn away).
-fn modes_turn(alpha: f64, gamma: f64, k2: f64) -> f64 {
+fn modes_turn(alpha: f64, gamma: f64, kappa: f64) -> f64 {
     let r = gamma / alpha;
     if r > 0.0 {
-        r.ln() / (2.0 * k2.sqrt())
+        r.ln() / (2.0 * kappa)
     } else {
         f64::INFINITY
     }

@@ -698,3 +698,52 @@ fn invariant_rays_starting_on_the_faces_get_through() {
         assert!(worst < 50, "{}: {worst} chords for one ray", f.kind());
     }
 }
+
+/// Rays restarted side by side (`restart_lanes`, as a pixel's camera rays
+/// are) are the rays `restart` makes one by one, field for field; the
+/// comparison tells rays apart (a lane's start given to another ray fails).
+#[test]
+fn restarted_side_by_side_equals_one_by_one() {
+    let field = hot_ground();
+    let eye = DVec3::new(0.3, 1.2, -0.7);
+    let dirs = [
+        DVec3::new(0.0, -0.01, -1.0),
+        DVec3::new(0.2, 0.3, -1.0),
+        DVec3::new(0.0, 1.0, 0.0),
+        DVec3::new(-1.0, -0.002, 0.1),
+    ]
+    .map(DVec3::normalize);
+    let starts = [eye, eye, DVec3::new(5.0, 0.01, 3.0), eye];
+    let one = |r: DVec3, t: DVec3| StratifiedRay::new(&field, -1.0, 12.0, r, t, Options::default()).unwrap();
+    let expect: Vec<String> = (0..4).map(|i| format!("{:?}", one(starts[i], dirs[i]))).collect();
+    // Rays that last started elsewhere (no kept scale) and at these heights.
+    for reuse in [false, true] {
+        let mut rays: Vec<StratifiedRay> = (0..4)
+            .map(|i| {
+                one(
+                    if reuse {
+                        starts[i]
+                    } else {
+                        DVec3::new(0.0, 3.0, 0.0)
+                    },
+                    DVec3::X,
+                )
+            })
+            .collect();
+        let kept = std::array::from_fn(|i| rays[i].kept_scale());
+        let lanes =
+            StratifiedRay::restart_lanes(&field, &starts, &dirs, &kept).expect("a hot ground has lanes");
+        for (ray, lane) in rays.iter_mut().zip(&lanes) {
+            ray.restart_from(lane);
+        }
+        for i in 0..4 {
+            assert_eq!(format!("{:?}", rays[i]), expect[i], "lane {i}, reused {reuse}");
+        }
+        let mut swapped = rays[0].clone();
+        swapped.restart_from(&lanes[1]);
+        assert_ne!(format!("{:?}", swapped), expect[0]);
+    }
+    // Fields without the exponential closed form take no lanes.
+    let kept = [super::stratified::KeptScale::NONE; 4];
+    assert!(StratifiedRay::restart_lanes(&inversion(), &starts, &dirs, &kept).is_none());
+}
