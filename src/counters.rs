@@ -56,6 +56,20 @@ pub struct Counters {
     pub shadow_packet_slots: u64,
     /// Shadow rays those packets carried.
     pub shadow_packet_lanes: u64,
+    /// Light samples drawn for next-event estimation (at non-delta vertices
+    /// that reflect something, before the last depth); those facing away
+    /// from the surface or the light cast no shadow ray.
+    pub nee_draws: u64,
+    /// Paths of the path tracer that ended by leaving the scene.
+    pub ended_escaped: u64,
+    /// Paths that ended at a hit at the maximum depth.
+    pub ended_max_depth: u64,
+    /// Paths that Russian roulette ended.
+    pub ended_roulette: u64,
+    /// Paths that ended with nothing left to carry: a black surface (a
+    /// light's back, a black reflectance), zero throughput, or no sampled
+    /// direction.
+    pub ended_absorbed: u64,
 }
 
 impl Counters {
@@ -89,6 +103,11 @@ impl AddAssign for Counters {
             packet_lanes,
             shadow_packet_slots,
             shadow_packet_lanes,
+            nee_draws,
+            ended_escaped,
+            ended_max_depth,
+            ended_roulette,
+            ended_absorbed,
         } = o;
         self.samples += samples;
         self.queries += queries;
@@ -110,6 +129,11 @@ impl AddAssign for Counters {
         self.packet_lanes += packet_lanes;
         self.shadow_packet_slots += shadow_packet_slots;
         self.shadow_packet_lanes += shadow_packet_lanes;
+        self.nee_draws += nee_draws;
+        self.ended_escaped += ended_escaped;
+        self.ended_max_depth += ended_max_depth;
+        self.ended_roulette += ended_roulette;
+        self.ended_absorbed += ended_absorbed;
     }
 }
 

@@ -269,7 +269,7 @@ pub fn sum_stats<'a>(
     stats: impl Iterator<Item = Option<&'a serde_json::Value>>,
     parts: usize,
 ) -> serde_json::Value {
-    const SUMMED: [&str; 23] = [
+    const SUMMED: [&str; 28] = [
         "wall_s",
         "cpu_s",
         "samples",
@@ -292,6 +292,11 @@ pub fn sum_stats<'a>(
         "packet_lanes",
         "shadow_packet_slots",
         "shadow_packet_lanes",
+        "nee_draws",
+        "ended_escaped",
+        "ended_max_depth",
+        "ended_roulette",
+        "ended_absorbed",
         "load_s",
     ];
     let mut ints = std::collections::BTreeMap::<&str, u64>::new();

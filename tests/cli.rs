@@ -83,6 +83,17 @@ fn render_writes_exr_with_aovs_and_stats_json() {
         .unwrap()
         .starts_with('3'));
     assert!(s["false_hits_per_ray"].as_f64().unwrap() > 0.0);
+    // How Embree built it: nested solids that overlap need both flags.
+    let eb = &s["embree_scene"];
+    assert_eq!(
+        (&eb["robust"], &eb["context_filter"], &eb["build_quality"]),
+        (
+            &serde_json::json!(true),
+            &serde_json::json!(true),
+            &serde_json::json!("medium")
+        ),
+        "{eb}"
+    );
     // No temporary files are left behind.
     let left: Vec<_> = std::fs::read_dir(&d)
         .unwrap()

@@ -583,10 +583,17 @@ fn packet_counters_count_the_lanes_sent() {
         );
         assert!(c.packet_lanes <= c.packet_slots && c.shadow_packet_lanes <= c.shadow_packet_slots);
         assert!(c.shadow_packet_lanes <= c.shadow_rays, "{name}: {c:?}");
+        // Every path ends once, for one reason (a failed curved ray is
+        // counted as such).
+        let ends = c.ended_escaped + c.ended_max_depth + c.ended_roulette + c.ended_absorbed;
+        assert_eq!(ends + c.grin_failures, c.samples, "{name}: {c:?}");
+        assert!(c.ended_escaped > 0, "{name}: {c:?}");
         match name {
             "three_spheres" | "glass_of_water" => {
                 assert_eq!(c.packet_lanes, c.segments, "{name}: every segment in a packet");
                 assert!(c.shadow_packet_lanes > 0, "{name}: shadow rays in packets");
+                // Without a medium a shadow ray needs a light sample.
+                assert!(c.shadow_rays <= c.nee_draws, "{name}: {c:?}");
             }
             "glass_of_water_nested" => {
                 assert!(c.packet_lanes > 0 && c.packet_lanes < c.segments, "{name}: {c:?}");

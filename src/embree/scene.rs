@@ -26,6 +26,17 @@ pub enum BuildQuality {
     High,
 }
 
+impl BuildQuality {
+    /// Its name in stats (`low`, `medium`, `high`).
+    pub fn name(self) -> &'static str {
+        match self {
+            BuildQuality::Low => "low",
+            BuildQuality::Medium => "medium",
+            BuildQuality::High => "high",
+        }
+    }
+}
+
 /// Scene flags that matter to snell.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct SceneFlags {
@@ -50,6 +61,9 @@ pub struct SceneBuilder {
     #[allow(clippy::vec_box)]
     user: Vec<Box<UserGeom>>,
     context_filter: bool,
+    /// What it was made with, for [`Scene::flags`] and [`Scene::build_quality`].
+    flags: SceneFlags,
+    build_quality: BuildQuality,
 }
 
 // SAFETY: a scene under construction may be moved to another thread; it is not
@@ -102,6 +116,8 @@ impl SceneBuilder {
             quality: q,
             user: Vec::new(),
             context_filter: flags.context_filter,
+            flags,
+            build_quality: quality,
         };
         // SAFETY: valid scene handle; flags and quality are valid enum values.
         unsafe {
@@ -294,6 +310,8 @@ impl SceneBuilder {
             context_filter: self.context_filter,
             filter_table: std::sync::OnceLock::new(),
             user: std::mem::take(&mut self.user),
+            flags: self.flags,
+            build_quality: self.build_quality,
         })
     }
 }
@@ -316,6 +334,8 @@ pub struct Scene {
     /// addresses must not move), with the panics caught in them.
     #[allow(clippy::vec_box)]
     user: Vec<Box<UserGeom>>,
+    flags: SceneFlags,
+    build_quality: BuildQuality,
 }
 
 // SAFETY: a committed Embree scene is immutable and Embree documents concurrent
@@ -389,6 +409,21 @@ impl Scene {
         } else {
             self.meshes_only
         }
+    }
+
+    /// The flags the scene was built with.
+    pub fn flags(&self) -> SceneFlags {
+        self.flags
+    }
+
+    /// The build quality of its BVH (and of its meshes-only twin's).
+    pub fn build_quality(&self) -> BuildQuality {
+        self.build_quality
+    }
+
+    /// How many user geometries (analytic shapes behind callbacks) it holds.
+    pub fn user_geometries(&self) -> usize {
+        self.user.len()
     }
 
     /// The device this scene was built on.

@@ -110,6 +110,7 @@ impl PathState {
                 };
                 self.l += self.beta * scene.escaped_radiance(seg.dir, mis);
             }
+            st.ended_escaped += 1;
             return (None, false);
         };
         if let Some(s) = sigma {
@@ -140,6 +141,7 @@ impl PathState {
             }
         }
         if self.depth >= scene.max_depth {
+            st.ended_max_depth += 1;
             return (None, false);
         }
         let bsdf = Bsdf::at(
@@ -152,11 +154,15 @@ impl PathState {
             st,
         );
         match bsdf {
-            Bsdf::Black => return (None, false),
+            Bsdf::Black => {
+                st.ended_absorbed += 1;
+                return (None, false);
+            }
             Bsdf::Diffuse(lambert) => {
                 // Next-event estimation (none where the surface reflects
                 // nothing: its connections would all weigh 0).
                 let nee = tr.nee() && lambert.albedo != V3::ZERO;
+                st.nee_draws += nee as u64;
                 match nee
                     .then(|| next_event(scene, sp.p, lambert.n, lambert.ng, rng))
                     .flatten()
@@ -186,9 +192,11 @@ impl PathState {
                 // throughput (so that it becomes exactly 0) and no solids
                 // for the child ray to settle (which would count them).
                 if lambert.albedo == V3::ZERO && self.beta.is_finite() && coincident.near.is_empty() {
+                    st.ended_absorbed += 1;
                     return (shadow, false);
                 }
                 let Some(wi) = lambert.sample(rng) else {
+                    st.ended_absorbed += 1;
                     return (shadow, false);
                 };
                 self.beta *= lambert.albedo;
@@ -233,6 +241,7 @@ impl PathState {
             }
             Bsdf::Micro(micro) => {
                 if tr.nee() && !micro.is_delta() {
+                    st.nee_draws += 1;
                     if let Some(ls) = light_straight(scene, sp.p, rng) {
                         let (fc, pdf) = micro.eval(ls.wi);
                         #[cfg(test)]
@@ -258,6 +267,7 @@ impl PathState {
                     }
                 }
                 let Some(s) = micro.sample(rng) else {
+                    st.ended_absorbed += 1;
                     return (shadow, false);
                 };
                 #[cfg(test)]
@@ -292,11 +302,13 @@ impl PathState {
         // emitting plane) can add nothing more, and would still cost rays.
         // Same image: every later term would be multiplied by 0.
         if self.beta.max_element() <= 0.0 {
+            st.ended_absorbed += 1;
             return (shadow, false);
         }
         if self.depth > scene.rr_depth {
             let q = (self.beta.max_element() * self.eta_scale).min(0.95);
             if rng.uniform() >= q {
+                st.ended_roulette += 1;
                 return (shadow, false);
             }
             self.beta /= q;

@@ -68,7 +68,7 @@ pub fn render(mut a: RenderArgs) -> Result<()> {
     )?;
     let written = output::written_path(output, &r);
     let attrs = output::attributes(&r);
-    let st = render_stats(&r, &settings, load_s, &scene_id, &a.set);
+    let st = render_stats(&r, &s, &settings, load_s, &scene_id, &a.set);
     output::write_render(&written, &r, &plan, aov, &attrs, &st, quiet)?;
     if let Some(p) = &a.stats_json {
         write_json(p, &st)?;
@@ -128,9 +128,11 @@ fn stop_on_signals(cancel: &CancelToken) {
 }
 
 /// The stats JSON of a render: the render's own, plus the run's CPU and load
-/// time, the part it covers, the scene's identity and the overrides.
+/// time, the part it covers, the scene's identity, how Embree built it and
+/// the overrides.
 fn render_stats(
     r: &Rendered,
+    scene: &RenderScene,
     settings: &RenderSettings,
     load_s: f64,
     scene_id: &str,
@@ -142,6 +144,14 @@ fn render_stats(
     st["region"] = serde_json::json!(r.region.to_string());
     st["samples_range"] = serde_json::json!(format!("{}:{}", r.sample_start, r.sample_count));
     st["scene_id"] = serde_json::json!(scene_id);
+    let eb = &scene.embree;
+    st["embree_scene"] = serde_json::json!({
+        "robust": eb.flags().robust,
+        "context_filter": eb.flags().context_filter,
+        "build_quality": eb.build_quality().name(),
+        "user_geometries": eb.user_geometries(),
+        "analytic_set": scene.analytic_set.is_some(),
+    });
     st["overrides"] = serde_json::json!(set);
     st
 }
