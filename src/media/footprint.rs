@@ -32,3 +32,42 @@ impl Footprint {
         self.fraction * self.pixel_angle
     }
 }
+
+/// A chord tolerance in metres at each point: fixed, or a footprint's (with
+/// a floor).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ChordTolerance {
+    /// The same everywhere.
+    Fixed(f64),
+    /// [`Footprint::at`] with this floor.
+    Footprint(Footprint, f64),
+}
+
+impl ChordTolerance {
+    /// The tolerance at `p`, metres.
+    #[inline]
+    pub fn at(&self, p: DVec3) -> f64 {
+        match self {
+            ChordTolerance::Fixed(t) => *t,
+            ChordTolerance::Footprint(f, floor) => f.at(p, *floor),
+        }
+    }
+
+    /// The smaller of the tolerances at `a` and `b`, given `ta` = `at(a)`.
+    /// A footprint's grows with the distance from the eye, so where `b` is no
+    /// nearer than `a` it is `ta` without `b`'s square root (the same value:
+    /// the root and the products round monotonically).
+    #[inline]
+    pub fn min_of(&self, a: DVec3, ta: f64, b: DVec3) -> f64 {
+        match self {
+            ChordTolerance::Fixed(t) => *t,
+            ChordTolerance::Footprint(f, floor) => {
+                if (b - f.eye).length_squared() >= (a - f.eye).length_squared() {
+                    ta
+                } else {
+                    ta.min(f.at(b, *floor))
+                }
+            }
+        }
+    }
+}

@@ -14,6 +14,7 @@
 use glam::DVec3;
 
 use super::field::{Aabb, IndexField};
+use super::footprint::ChordTolerance;
 use super::stratified::{KeptScale, LaneStart, Options, Point, StratifiedRay};
 
 /// How far (metres) the start must be from a height limit for a ray moving
@@ -392,13 +393,8 @@ impl InvariantCast {
     }
 
     /// The next chord to cast (skipping what can meet nothing), or the exit;
-    /// `tol_at` gives the chord tolerance at a point.
-    pub fn next(
-        &mut self,
-        field: &IndexField,
-        setup: &InvariantSetup,
-        tol_at: impl Fn(DVec3) -> f64,
-    ) -> Step {
+    /// `tolerance` gives the chord tolerance at a point.
+    pub fn next(&mut self, field: &IndexField, setup: &InvariantSetup, tolerance: ChordTolerance) -> Step {
         let from = self.ray.position(&self.here);
         let mut skipped = 0.0;
         if self.tau_exit.is_some_and(|ex| self.tau >= ex) {
@@ -424,7 +420,7 @@ impl InvariantCast {
             skipped = (self.ray.position(&pc) - from).length();
         }
         let from = self.ray.position(&self.here);
-        let tol0 = tol_at(from);
+        let tol0 = tolerance.at(from);
         let mut tol = tol0;
         let bound = self.tau_exit.unwrap_or(self.tau_side);
         let rest = bound - self.tau;
@@ -438,7 +434,7 @@ impl InvariantCast {
         for _ in 0..8 {
             // The tolerance at the nearer end to the eye (a ray coming back
             // towards the camera, after a bounce, has it at its end).
-            tol = tol0.min(tol_at(self.ray.position(&end)));
+            tol = tolerance.min_of(from, tol0, self.ray.position(&end));
             if self.tau_exit.is_none() && !self.stays_in(field, setup, self.tau + dtau, &end) {
                 let exit = self.exit(field, setup);
                 if self.tau + dtau > exit {

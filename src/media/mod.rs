@@ -28,7 +28,7 @@ use serde::{Deserialize, Serialize};
 pub use atmosphere::Atmosphere;
 pub use field::{Aabb, FeatureScale, IndexField, Strata};
 use flight::{Flight, FlightAsk};
-pub use footprint::Footprint;
+pub use footprint::{ChordTolerance, Footprint};
 pub use grin_trace::grin_trace_json;
 use invariant_cast::{InvariantCast, InvariantSetup, Step};
 pub use obstacles::Obstacles;
@@ -474,8 +474,15 @@ impl Medium {
     /// The chord tolerance at `p`, metres: the footprint's (method
     /// `invariant` with a view), else `tolerance`.
     pub fn tolerance_at(&self, p: DVec3) -> f64 {
+        self.chord_tolerance().at(p)
+    }
+
+    /// The chord tolerance everywhere (see [`Medium::tolerance_at`]).
+    pub fn chord_tolerance(&self) -> ChordTolerance {
         self.footprint()
-            .map_or(self.tolerance, |f| f.at(p, MIN_CHORD_TOLERANCE))
+            .map_or(ChordTolerance::Fixed(self.tolerance), |f| {
+                ChordTolerance::Footprint(f, MIN_CHORD_TOLERANCE)
+            })
     }
 
     /// Does a ray inside the bounds fly (integrate without chords while no
@@ -896,7 +903,7 @@ impl CurvedRay {
             }
             if let (true, Some(cast), Some(setup)) = (self.inv_live, &mut self.inv, &medium.invariant) {
                 let before = cast.evaluations();
-                let step = cast.next(&medium.field, setup, |p| medium.tolerance_at(p));
+                let step = cast.next(&medium.field, setup, medium.chord_tolerance());
                 self.evals += cast.evaluations() - before;
                 match step {
                     Step::Chord {
