@@ -95,10 +95,19 @@ impl Obstacles {
         if self.unknown {
             return true;
         }
+        // A box wholly behind the start along an axis the segment moves on
+        // is never met: no division for it (rays leaving the bounds upward
+        // pass over the ground's box this way).
+        let ahead =
+            |b: &&Aabb| !(0..3).any(|k| (d[k] > 0.0 && b.max[k] < o[k]) || (d[k] < 0.0 && b.min[k] > o[k]));
+        let mut ahead = self.boxes.iter().filter(ahead).peekable();
+        if ahead.peek().is_none() {
+            return false;
+        }
         // Slabs with the inverse direction (±inf on a zero component: the
         // products then give ±inf or NaN, and NaN never narrows the interval).
         let inv = d.recip();
-        self.boxes.iter().any(|b| {
+        ahead.any(|b| {
             let t1 = (b.min - o) * inv;
             let t2 = (b.max - o) * inv;
             let lo = t1.min(t2);
