@@ -1218,21 +1218,33 @@ impl StratifiedRay {
     }
 
     /// The next turning point strictly after τ (p changes sign there), or ∞.
+    /// Inline for the exponential profile's modes: a cast asks at every
+    /// chord and crossing, and the answer is then a flag or a kept value.
+    #[inline(always)]
     pub fn next_turn(&mut self, field: &IndexField, tau: f64) -> f64 {
-        match &mut self.form {
-            Form::Closed(c) => {
-                if let Some((alpha, _, gamma)) = c.modes {
-                    if tau >= 0.0 && c.turn_behind {
-                        // ln(γ/α) ≤ 0: the turn is at τ ≤ 0 (behind), if any.
-                        return f64::INFINITY;
-                    }
-                    let t = *c
-                        .mode_turn
-                        .get_or_insert_with(|| modes_turn(alpha, gamma, c.kappa));
-                    return if t > tau { t } else { f64::INFINITY };
-                }
-                closed_next_turn(c, tau)
+        if let Form::Closed(Closed {
+            modes: Some((alpha, _, gamma)),
+            mode_turn,
+            kappa,
+            turn_behind,
+            ..
+        }) = &mut self.form
+        {
+            if tau >= 0.0 && *turn_behind {
+                // ln(γ/α) ≤ 0: the turn is at τ ≤ 0 (behind), if any.
+                return f64::INFINITY;
             }
+            let t = *mode_turn.get_or_insert_with(|| modes_turn(*alpha, *gamma, *kappa));
+            return if t > tau { t } else { f64::INFINITY };
+        }
+        self.next_turn_general(field, tau)
+    }
+
+    /// [`StratifiedRay::next_turn`] for the other forms.
+    #[inline(never)]
+    fn next_turn_general(&mut self, field: &IndexField, tau: f64) -> f64 {
+        match &mut self.form {
+            Form::Closed(c) => closed_next_turn(c, tau),
             Form::Quad(_) => loop {
                 let Form::Quad(q) = &self.form else { unreachable!() };
                 for leg in &q.legs {
