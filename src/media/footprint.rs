@@ -71,3 +71,38 @@ impl ChordTolerance {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `min_of` is the smaller of the two tolerances, bit for bit, with or
+    /// without its shortcut; taking `ta` whatever the order (the shortcut
+    /// without its test) is not.
+    #[test]
+    fn the_smaller_end_bit_for_bit() {
+        let f = Footprint {
+            eye: DVec3::new(0.3, 1.2, -0.5),
+            pixel_angle: 1.1e-4,
+            fraction: 0.1,
+        };
+        let tol = ChordTolerance::Footprint(f, 1e-6);
+        let mut rng = crate::sampling::Rng::new(3);
+        let mut u = || 2.0 * rng.uniform_f64() - 1.0;
+        let mut nearer = 0;
+        for i in 0..10_000 {
+            let s = if i % 3 == 0 { 1e-4 } else { 300.0 };
+            let a = f.eye + DVec3::new(u(), u(), u()) * s;
+            let b = a + DVec3::new(u(), u(), u()) * s * 0.5;
+            let ta = tol.at(a);
+            let exact = ta.min(tol.at(b));
+            assert_eq!(tol.min_of(a, ta, b).to_bits(), exact.to_bits(), "{a} {b}");
+            nearer += usize::from(ta != exact);
+        }
+        assert!(nearer > 1_000, "{nearer}");
+        assert_eq!(
+            ChordTolerance::Fixed(0.5).min_of(DVec3::ZERO, 0.5, DVec3::ONE),
+            0.5
+        );
+    }
+}

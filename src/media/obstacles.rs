@@ -152,4 +152,84 @@ mod tests {
         let bad = Obstacles::new([Aabb::new(DVec3::ZERO, DVec3::splat(f64::INFINITY))]);
         assert!(bad.is_unknown() && bad.segment_meets(DVec3::splat(9.0), DVec3::X, 1.0));
     }
+
+    /// The slab test alone (no cull of boxes behind), as `segment_meets`
+    /// was: the reference its cull must agree with.
+    fn slabs_only(o: &Obstacles, p: DVec3, d: DVec3, len: f64) -> bool {
+        let inv = d.recip();
+        o.boxes.iter().any(|b| {
+            let (t1, t2) = ((b.min - p) * inv, (b.max - p) * inv);
+            let (lo, hi) = (t1.min(t2), t1.max(t2));
+            lo.x.max(lo.y).max(lo.z).max(0.0) <= hi.x.min(hi.y).min(hi.z).min(len)
+        })
+    }
+
+    #[test]
+    fn culling_boxes_behind_changes_no_answer() {
+        let boxes = [
+            Aabb::new(DVec3::new(-3.0, -0.1, -3.0), DVec3::new(3.0, 0.0, 3.0)),
+            Aabb::new(DVec3::new(1.0, 0.0, -2.0), DVec3::new(2.0, 1.0, -1.0)),
+            Aabb::new(DVec3::new(-0.5, 2.0, 0.5), DVec3::new(0.5, 2.5, 1.0)),
+        ];
+        let o = Obstacles::new(boxes);
+        let mut rng = crate::sampling::Rng::new(7);
+        let mut u = || 2.0 * rng.uniform_f64() - 1.0;
+        let (mut met, mut same) = (0, 0);
+        // A cull that also drops boxes the segment starts beside (a wrong
+        // comparison) must disagree somewhere.
+        let wrong = |p: DVec3, d: DVec3, len: f64| {
+            let ahead: Vec<Aabb> = o
+                .boxes
+                .iter()
+                .filter(|b| {
+                    !(0..3).any(|k| {
+                        (d[k] > 0.0 && b.max[k] <= p[k] + 0.5) || (d[k] < 0.0 && b.min[k] >= p[k] - 0.5)
+                    })
+                })
+                .copied()
+                .collect();
+            slabs_only(
+                &Obstacles {
+                    boxes: ahead,
+                    unknown: false,
+                },
+                p,
+                d,
+                len,
+            )
+        };
+        let mut wrong_differs = 0;
+        for i in 0..20_000 {
+            let p = DVec3::new(4.0 * u(), 3.0 * u(), 4.0 * u());
+            let mut d = DVec3::new(u(), u(), u());
+            if i % 5 == 0 {
+                d[i % 3] = 0.0;
+            }
+            let d = d.normalize_or(DVec3::Z);
+            let len = if i % 2 == 0 {
+                f64::INFINITY
+            } else {
+                3.0 * u().abs()
+            };
+            let fast = o.segment_meets(p, d, len);
+            same += usize::from(fast == slabs_only(&o, p, d, len));
+            met += usize::from(fast);
+            wrong_differs += usize::from(wrong(p, d, len) != fast);
+        }
+        assert_eq!(same, 20_000);
+        assert!(met > 2_000 && met < 18_000, "{met}");
+        assert!(wrong_differs > 100, "{wrong_differs}");
+    }
+
+    #[test]
+    fn boxes_well_inside_are_left_out_of_those_outside() {
+        let bounds = Aabb::new(DVec3::splat(-10.0), DVec3::splat(10.0));
+        let inside = Aabb::new(DVec3::splat(-1.0), DVec3::splat(1.0));
+        let near_face = Aabb::new(DVec3::new(-1.0, -1.0, 9.95), DVec3::new(1.0, 1.0, 9.99));
+        let across = Aabb::new(DVec3::new(-20.0, -1.0, -1.0), DVec3::new(20.0, 1.0, 1.0));
+        let o = Obstacles::new([inside, near_face, across]).not_inside(&bounds, 0.1);
+        assert_eq!(o.boxes().len(), 2);
+        assert!(o.boxes().iter().all(|b| b.max.z > 9.0 || b.max.x > 10.0));
+        assert!(Obstacles::unknown().not_inside(&bounds, 0.1).is_unknown());
+    }
 }
