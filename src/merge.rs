@@ -269,9 +269,10 @@ pub fn sum_stats<'a>(
     stats: impl Iterator<Item = Option<&'a serde_json::Value>>,
     parts: usize,
 ) -> serde_json::Value {
-    const SUMMED: [&str; 28] = [
+    const SUMMED: [&str; 29] = [
         "wall_s",
         "cpu_s",
+        "tiles_cpu_s",
         "samples",
         "rays",
         "queries",

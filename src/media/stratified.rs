@@ -1009,8 +1009,13 @@ impl StratifiedRay {
 
     /// The point at optical parameter τ ≥ 0 (past the last leg of a
     /// quadrature ray: its end).
+    #[inline]
     pub fn point(&mut self, field: &IndexField, tau: f64) -> Point {
-        self.point_and_arc(field, tau, false).0
+        // The closed forms directly (a cast asks for points all the time).
+        match &self.form {
+            Form::Closed(c) if tau != 0.0 => self.closed_point(c, tau),
+            _ => self.point_and_arc(field, tau, false).0,
+        }
     }
 
     /// The point at τ = 0 (what [`StratifiedRay::point`] gives there,

@@ -139,6 +139,10 @@ fn render_stats(
     set: &[String],
 ) -> serde_json::Value {
     let mut st = r.stats.to_json(settings, r.spp_done);
+    // The tiles' CPU time (the render pool's, as `wall_s` times the tiles)
+    // before `cpu_s` becomes the whole run's: on a loaded machine it
+    // measures the render where the wall clock does not.
+    st["tiles_cpu_s"] = serde_json::json!(r.stats.cpu_s);
     st["cpu_s"] = serde_json::json!(snell::timing::process_cpu_s());
     st["load_s"] = serde_json::json!(load_s);
     st["region"] = serde_json::json!(r.region.to_string());
