@@ -1413,11 +1413,14 @@ impl StratifiedRay {
     /// m), from the field over the heights otherwise.
     pub fn curvature_bound_at(&self, field: &IndexField, pts: &[Point]) -> f64 {
         if let Form::Closed(c) = &self.form {
-            let f = |p: &Point| match c.kind {
-                ClosedKind::Linear { m } => m.abs() * p.n,
-                ClosedKind::Exp { a, hs, .. } => p.n * (a - p.n).abs() / hs,
+            return match c.kind {
+                ClosedKind::Linear { m } => pts.iter().map(|p| m.abs() * p.n).fold(0.0, f64::max),
+                // One division after the maximum: dividing by H > 0 rounds
+                // monotonically, so the result is the largest quotient's.
+                ClosedKind::Exp { a, hs, .. } => {
+                    pts.iter().map(|p| p.n * (a - p.n).abs()).fold(0.0, f64::max) / hs
+                }
             };
-            return pts.iter().map(f).fold(0.0, f64::max);
         }
         let lo = pts.iter().map(|p| p.dh).fold(f64::INFINITY, f64::min);
         let hi = pts.iter().map(|p| p.dh).fold(f64::NEG_INFINITY, f64::max);
