@@ -119,6 +119,16 @@ pub(crate) type LaneOut = Option<([f64; 2], [[f64; 2]; 2])>;
 pub(crate) struct Consts {
     cyl: HollowCylinder,
     e: DVec2,
+    /// The eye's and the radii's terms of `resid_jac` (|e|, −e/|e|, its
+    /// perpendicular, −1/|e|, 1/R, 1/r), computed as it computes them: in
+    /// the vector loop they would be a chain of a square root and four
+    /// divisions per evaluation, which the compiler does not hoist.
+    rho: f64,
+    inward: DVec2,
+    perp_i: DVec2,
+    neg_inv_rho: f64,
+    inv_big: f64,
+    inv_small: f64,
     isa: Isa,
     /// The tests' deliberately wrong variant: one multiply-add of the
     /// vector code fused, which the bit-for-bit tests must catch.
@@ -135,9 +145,17 @@ impl Consts {
     /// The widest level up to `max` that the CPU has (the tests and the
     /// bench compare the levels).
     pub fn with_level(c: &HollowCylinder, e: DVec2, max: SimdLevel) -> Consts {
+        let rho = e.length();
+        let inward = -e / rho;
         Consts {
             cyl: *c,
             e,
+            rho,
+            inward,
+            perp_i: DVec2::new(-inward.y, inward.x),
+            neg_inv_rho: -1.0 / rho,
+            inv_big: 1.0 / c.outer_radius,
+            inv_small: 1.0 / c.inner_radius,
             isa: Isa::new(max),
             #[cfg(test)]
             fused: false,
@@ -390,7 +408,6 @@ pub(crate) fn resid_jac_rows(k: &Consts, rows: &Rows) -> Vec<LaneOut> {
 #[cfg(target_arch = "x86_64")]
 mod vector {
     use super::{Consts, Rows, FAIL, NEXT, ROOT};
-    use glam::DVec2;
     use pulp::{Simd, WithSimd};
     use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Not, Range, Sub};
 
@@ -692,11 +709,10 @@ mod vector {
         let hollow = fam.eq(sp(3.0));
         let c = &k.cyl;
         let (big, small) = (sp(c.outer_radius), sp(c.inner_radius));
-        let (inv_big, inv_small) = (sp(1.0 / c.outer_radius), sp(1.0 / c.inner_radius));
+        let (inv_big, inv_small) = (sp(k.inv_big), sp(k.inv_small));
         let (one, two, zero) = (sp(1.0), sp(2.0), sp(0.0));
         let ab = b.abs();
-        let rho = k.e.length();
-        let mut ok = !ab.ge(big) & !ab.ge(sp(rho));
+        let mut ok = !ab.ge(big) & !ab.ge(sp(k.rho));
         let bb = beta * beta;
         let ma = (one - bb).sqrt();
         let mg = (sp(c.ior * c.ior) - bb).sqrt();
@@ -707,9 +723,8 @@ mod vector {
         let al = ab * kk;
         let sg = b.lt(zero).sel(sp(-1.0), one);
         let (al_b, al_beta) = (sg * kk, ab * k_beta);
-        let inward = -k.e / rho;
-        let perp_i = DVec2::new(-inward.y, inward.x);
-        let x = b * sp(-1.0 / rho);
+        let (inward, perp_i) = (k.inward, k.perp_i);
+        let x = b * sp(k.neg_inv_rho);
         let cx = (one - x * x).sqrt();
         let h0 = (
             sp(inward.x) * cx + sp(perp_i.x) * x,
@@ -723,7 +738,7 @@ mod vector {
         let r_c = one / (cx_c1 * c2);
         let (icx, ic1, ic2) = (c1 * c2 * r_c, cx * c2 * r_c, cx_c1 * r_c);
         let q = -x * icx;
-        let m_rho = sp(-1.0 / rho);
+        let m_rho = sp(k.neg_inv_rho);
         let h0_b = (
             (sp(inward.x) * q + sp(perp_i.x)) * m_rho,
             (sp(inward.y) * q + sp(perp_i.y)) * m_rho,
