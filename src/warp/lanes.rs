@@ -8,9 +8,11 @@
 //! lane gives the scalar functions' bits (tested at every level; only a
 //! NaN's sign and payload, which Rust leaves unspecified, may differ). The
 //! four families are computed in every lane and the lane's own is selected
-//! (blends instead of branches). The dozen square roots and divisions of an
-//! evaluation, a dependent chain in the scalar code, then run four or eight
-//! lanes per instruction.
+//! (blends instead of branches). The seven square roots and five divisions
+//! of an evaluation, a dependent chain in the scalar code, then run four or
+//! eight lanes per instruction; they bound its time (AMD's Zen 4 splits a
+//! 512-bit square root or division in two halves), hence reciprocals
+//! shared by products wherever the formulas divide.
 //!
 //! The vector code is written once, generic over `pulp::Simd`, and
 //! monomorphised for AVX-512 (`pulp::x86::V4`, eight lanes) and AVX2 with
@@ -117,6 +119,16 @@ pub(crate) type LaneOut = Option<([f64; 2], [[f64; 2]; 2])>;
 pub(crate) struct Consts {
     cyl: HollowCylinder,
     e: DVec2,
+    /// The eye's and the radii's terms of `resid_jac` (|e|, −e/|e|, its
+    /// perpendicular, −1/|e|, 1/R, 1/r), computed as it computes them: in
+    /// the vector loop they would be a chain of a square root and four
+    /// divisions per evaluation, which the compiler does not hoist.
+    rho: f64,
+    inward: DVec2,
+    perp_i: DVec2,
+    neg_inv_rho: f64,
+    inv_big: f64,
+    inv_small: f64,
     isa: Isa,
     /// The tests' deliberately wrong variant: one multiply-add of the
     /// vector code fused, which the bit-for-bit tests must catch.
@@ -133,9 +145,17 @@ impl Consts {
     /// The widest level up to `max` that the CPU has (the tests and the
     /// bench compare the levels).
     pub fn with_level(c: &HollowCylinder, e: DVec2, max: SimdLevel) -> Consts {
+        let rho = e.length();
+        let inward = -e / rho;
         Consts {
             cyl: *c,
             e,
+            rho,
+            inward,
+            perp_i: DVec2::new(-inward.y, inward.x),
+            neg_inv_rho: -1.0 / rho,
+            inv_big: 1.0 / c.outer_radius,
+            inv_small: 1.0 / c.inner_radius,
             isa: Isa::new(max),
             #[cfg(test)]
             fused: false,
@@ -181,8 +201,10 @@ pub(crate) fn step(ev: LaneOut, b: f64, beta: f64, tol: f64) -> Step {
     if det == 0.0 || !det.is_finite() {
         return Step::Fail;
     }
-    let nb = b - (r[0] * j[1][1] - r[1] * j[0][1]) / det;
-    let nbeta = beta - (j[0][0] * r[1] - j[1][0] * r[0]) / det;
+    // One division (the vector lanes' scarcest unit) for both components.
+    let idet = 1.0 / det;
+    let nb = b - (r[0] * j[1][1] - r[1] * j[0][1]) * idet;
+    let nbeta = beta - (j[0][0] * r[1] - j[1][0] * r[0]) * idet;
     if nbeta.is_nan() || nbeta.abs() >= 0.999_999 {
         return Step::Fail;
     }
@@ -386,7 +408,6 @@ pub(crate) fn resid_jac_rows(k: &Consts, rows: &Rows) -> Vec<LaneOut> {
 #[cfg(target_arch = "x86_64")]
 mod vector {
     use super::{Consts, Rows, FAIL, NEXT, ROOT};
-    use glam::DVec2;
     use pulp::{Simd, WithSimd};
     use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Not, Range, Sub};
 
@@ -658,8 +679,9 @@ mod vector {
         let det = v.g_b * v.climb_beta - v.g_beta * v.climb_b;
         // det == 0 or not finite (a NaN or an infinity).
         let bad_det = det.eq(sp(0.0)) | !det.abs().lt(sp(f64::INFINITY));
-        let nb = b - (v.g * v.climb_beta - v.r1 * v.g_beta) / det;
-        let nbeta = beta - (v.g_b * v.r1 - v.climb_b * v.g) / det;
+        let idet = sp(1.0) / det;
+        let nb = b - (v.g * v.climb_beta - v.r1 * v.g_beta) * idet;
+        let nbeta = beta - (v.g_b * v.r1 - v.climb_b * v.g) * idet;
         // A NaN or |β| ≥ 0.999999.
         let bad_beta = !nbeta.abs().lt(sp(0.999_999));
         let (next, root_c, fail) = (sp(f64::from(NEXT)), sp(f64::from(ROOT)), sp(f64::from(FAIL)));
@@ -687,59 +709,65 @@ mod vector {
         let hollow = fam.eq(sp(3.0));
         let c = &k.cyl;
         let (big, small) = (sp(c.outer_radius), sp(c.inner_radius));
+        let (inv_big, inv_small) = (sp(k.inv_big), sp(k.inv_small));
         let (one, two, zero) = (sp(1.0), sp(2.0), sp(0.0));
         let ab = b.abs();
-        let rho = k.e.length();
-        let mut ok = !ab.ge(big) & !ab.ge(sp(rho));
+        let mut ok = !ab.ge(big) & !ab.ge(sp(k.rho));
         let bb = beta * beta;
         let ma = (one - bb).sqrt();
         let mg = (sp(c.ior * c.ior) - bb).sqrt();
-        let kk = ma / mg;
-        let k_beta = kk * beta * (one / (mg * mg) - one / (ma * ma));
+        let r_m = one / (ma * mg);
+        let (ima, img) = (mg * r_m, ma * r_m);
+        let kk = ma * img;
+        let k_beta = kk * beta * (img * img - ima * ima);
         let al = ab * kk;
         let sg = b.lt(zero).sel(sp(-1.0), one);
         let (al_b, al_beta) = (sg * kk, ab * k_beta);
-        let inward = -k.e / rho;
-        let perp_i = DVec2::new(-inward.y, inward.x);
-        let x = -(b / sp(rho));
+        let (inward, perp_i) = (k.inward, k.perp_i);
+        let x = b * sp(k.neg_inv_rho);
         let cx = (one - x * x).sqrt();
         let h0 = (
             sp(inward.x) * cx + sp(perp_i.x) * x,
             sp(inward.y) * cx + sp(perp_i.y) * x,
         );
-        let q = -x / cx;
-        let m_rho = sp(-1.0 / rho);
+        let s1 = ab * inv_big;
+        let c1 = (one - s1 * s1).sqrt();
+        let s2 = al * inv_big;
+        let c2 = (one - s2 * s2).sqrt();
+        let cx_c1 = cx * c1;
+        let r_c = one / (cx_c1 * c2);
+        let (icx, ic1, ic2) = (c1 * c2 * r_c, cx * c2 * r_c, cx_c1 * r_c);
+        let q = -x * icx;
+        let m_rho = sp(k.neg_inv_rho);
         let h0_b = (
             (sp(inward.x) * q + sp(perp_i.x)) * m_rho,
             (sp(inward.y) * q + sp(perp_i.y)) * m_rho,
         );
         let psi0_b = h0_b.0 * -h0.1 + h0_b.1 * h0.0;
-        let s1 = ab / big;
-        let c1 = (one - s1 * s1).sqrt();
-        let s2 = al / big;
-        let c2 = (one - s2 * s2).sqrt();
         let rot12 = (c1 * c2 + s1 * s2, s1 * c2 - c1 * s2);
         let (ex, ey) = (sp(k.e.x), sp(k.e.y));
         let air0 = -(ex * h0.0 + ey * h0.1) - big * c1;
         ok = ok & !air0.le(zero);
-        let air0_b = -(ex * h0_b.0 + ey * h0_b.1) + sg * s1 / c1;
-        let t1 = one / (big * c1);
-        let t2 = one / (big * c2);
+        let air0_b = -(ex * h0_b.0 + ey * h0_b.1) + sg * s1 * ic1;
+        let t1 = inv_big * ic1;
+        let t2 = inv_big * ic2;
         // Every family's terms in every lane (NaN where the lane's own
         // family does not need them), then the lane's own selected.
-        let s3 = al / small;
+        let s3 = al * inv_small;
         let c3 = (one - s3 * s3).sqrt();
-        let t3 = one / (small * c3);
-        let s4 = ab / small;
+        let ic3 = one / c3;
+        let t3 = inv_small * ic3;
+        let s4 = ab * inv_small;
         let c4 = (one - s4 * s4).sqrt();
-        let t4 = one / (small * c4);
+        let ic4 = one / c4;
+        let t4 = inv_small * ic4;
         let r2 = cmul(rot12, rot12);
-        let s2c2 = s2 / c2;
-        let s3c3 = s3 / c3;
+        let s2c2 = s2 * ic2;
+        let s3c3 = s3 * ic3;
         // wall2
         let w_ok = !al.lt(small);
         let w_glass = sp(2.0 * c.outer_radius) * c2;
-        let w_glass_al = sp(-2.0) * s2 / c2;
+        let w_glass_al = sp(-2.0) * s2 * ic2;
         let w_tb = two * t1;
         let w_tl = sp(-2.0) * t2;
         // tir2
@@ -759,7 +787,7 @@ mod vector {
         let h_tl = -t2 + t3;
         let f_turn = cmul(half, half);
         let f_air = air0 + sp(2.0 * c.inner_radius) * c4;
-        let f_air_b = air0_b - two * sg * s4 / c4;
+        let f_air_b = air0_b - two * sg * s4 * ic4;
         // The lane's own family: wall2, tir2, hollow2, else through4 (the
         // codes exclude each other).
         let pick = |w: F<S>, t: F<S>, h: F<S>, f: F<S>| wall.sel(w, tir.sel(t, hollow.sel(h, f)));
@@ -768,7 +796,6 @@ mod vector {
             pick(r2.0, t_turn.0, half.0, f_turn.0),
             pick(r2.1, t_turn.1, half.1, f_turn.1),
         );
-        let final_radius = hollow.sel(small, big);
         let air = pick(air0, air0, air0, f_air);
         let air_b = pick(air0_b, air0_b, air0_b, f_air_b);
         let glass = pick(w_glass, t_glass, g1, two * g1);
@@ -780,15 +807,15 @@ mod vector {
         let perp = (-hf.1, hf.0);
         let psi_b = psi0_b + tb + tl * kk;
         let psi_beta = sg * tl * al_beta;
-        // `(ρ_f² − b²).max(0.0)`: the same as `max` for a NaN (0) and for
-        // ±0 (never −0 here: ρ_f > 0).
-        let hc = (final_radius * final_radius - b * b).max(zero).sqrt();
+        // hc = ρ_f·cos θ of the final circle, and 1/hc.
+        let hc = hollow.sel(small * c4, big * c1);
+        let ihc = hollow.sel(t4, t1);
         let sigma = hollow.sel(sp(-1.0), one);
         let shc = sigma * hc;
         let nb = -b;
         let origin = (perp.0 * nb + hf.0 * shc, perp.1 * nb + hf.1 * shc);
         let swing = (hf.0 * b + perp.0 * shc, hf.1 * b + perp.1 * shc);
-        let sbh = sigma * b / hc;
+        let sbh = sigma * b * ihc;
         let o_b = (
             swing.0 * psi_b - perp.0 - hf.0 * sbh,
             swing.1 * psi_b - perp.1 - hf.1 * sbh,
@@ -814,15 +841,15 @@ mod vector {
         let glass_b = glass_al * al_b;
         let glass_beta = glass_al * al_beta;
         let aa = air + along;
-        let run = aa / ma + glass / mg;
+        let run = aa * ima + glass * img;
         let climb = beta * run;
-        let climb_b = beta * ((air_b + along_b) / ma + glass_b / mg);
+        let climb_b = beta * ((air_b + along_b) * ima + glass_b * img);
         let climb_beta = run
             + beta
-                * (along_beta / ma
-                    + aa * beta / (ma * ma * ma)
-                    + glass_beta / mg
-                    + glass * beta / (mg * mg * mg));
+                * (along_beta * ima
+                    + aa * beta * (ima * ima * ima)
+                    + glass_beta * img
+                    + glass * beta * (img * img * img));
         Eval {
             ok,
             g,

@@ -23,10 +23,16 @@ pub(crate) fn shade(
     let [a, b, c] = o.mesh.indices[tri as usize].map(|i| d3(o.mesh.positions[i as usize]));
     let (u64_, v64) = (u.clamp(0.0, 1.0) as f64, v.clamp(0.0, 1.0) as f64);
     let p = a * (1.0 - u64_ - v64).max(0.0) + b * u64_ + c * v64;
-    // Texture coordinates always; the normal only for the lights, the one
-    // thing that reads it (its normalisation is a fifth of `shade`, and the
-    // tube's scene is lit by its emitting plane alone).
-    let uv = o.mesh.shading_uv(tri, u, v);
+    // Texture coordinates only for an image texture (a checker reads the
+    // point; the uv array's loads are a tenth of `shade`), the normal only
+    // for the lights, the one thing that reads it (its normalisation is a
+    // fifth of `shade`, and the tube's scene is lit by its emitting plane
+    // alone).
+    let uv = if g.needs_uv() {
+        o.mesh.shading_uv(tri, u, v)
+    } else {
+        [u, v]
+    };
     let pf = V3::new(p.x as f32, p.y as f32, p.z as f32);
     let mut col = g.emission.as_ref().map(|e| e.eval(pf, uv)).unwrap_or(V3::ZERO);
     if let Material::Diffuse { reflectance, .. } = &g.material {

@@ -57,12 +57,14 @@ impl EyeTerms {
     }
 
     /// The image of a solved (b, β) without its parity (the renderer's
-    /// path): one normalisation, the frame and the eye's terms from `self`.
+    /// path), the frame and the eye's terms from `self`. The direction is
+    /// unit as built (`h` unit across an orthonormal frame, scaled by
+    /// √(1 − β²), plus β along the axis), to a few ulps: two independent
+    /// square roots and no normalisation.
     #[inline]
     pub(crate) fn image(&self, fam: Family, eye: DVec3, dist: f64, b: f64, beta: f64) -> CylImage {
-        let h = self.rays.dir_for(b);
-        let dir = (self.u * h.x + self.w * h.y) * (1.0 - beta * beta).sqrt() + self.a * beta;
-        let direction = dir.normalize();
+        let h = self.rays.unit_dir_for(b);
+        let direction = (self.u * h.x + self.w * h.y) * (1.0 - beta * beta).max(0.0).sqrt() + self.a * beta;
         CylImage {
             family: fam,
             direction,

@@ -34,16 +34,24 @@ impl HollowCylinder {
         beta: f64,
     ) -> Option<([f64; 2], [[f64; 2]; 2])> {
         let (big, small) = (self.outer_radius, self.inner_radius);
+        // Divisions and square roots are most of an evaluation's time in
+        // vector lanes: radii divide as products with their reciprocals,
+        // and the reciprocals of m_a, m_g, cx, c1 and c2 come from two
+        // divisions (1/(x·y) times the other factors).
+        let (inv_big, inv_small) = (1.0 / big, 1.0 / small);
         let ab = b.abs();
         let rho = e.length();
         if ab >= big || ab >= rho {
             return None;
         }
-        let ma = (1.0 - beta * beta).sqrt();
-        let mg = (self.ior * self.ior - beta * beta).sqrt();
-        let k = ma / mg;
+        let bb = beta * beta;
+        let ma = (1.0 - bb).sqrt();
+        let mg = (self.ior * self.ior - bb).sqrt();
+        let r_m = 1.0 / (ma * mg);
+        let (ima, img) = (mg * r_m, ma * r_m);
+        let k = ma * img;
         // dk/dβ = k·β·(1/m_g² − 1/m_a²).
-        let k_beta = k * beta * (1.0 / (mg * mg) - 1.0 / (ma * ma));
+        let k_beta = k * beta * (img * img - ima * ima);
         let al = ab * k;
         let sg = if b < 0.0 { -1.0 } else { 1.0 };
         // |L| = |b|·k: derivatives with respect to b and β.
@@ -51,42 +59,46 @@ impl HollowCylinder {
         // h0 (as `dir_for`) and its derivative in b.
         let inward = -e / rho;
         let perp_i = DVec2::new(-inward.y, inward.x);
-        let x = -(b / rho);
+        let x = b * (-1.0 / rho);
         let cx = (1.0 - x * x).sqrt();
         let h0 = inward * cx + perp_i * x;
-        let h0_b = (inward * (-x / cx) + perp_i) * (-1.0 / rho);
+        let s1 = ab * inv_big;
+        let c1 = (1.0 - s1 * s1).sqrt();
+        let s2 = al * inv_big;
+        let c2 = (1.0 - s2 * s2).sqrt();
+        let cx_c1 = cx * c1;
+        let r_c = 1.0 / (cx_c1 * c2);
+        let (icx, ic1, ic2) = (c1 * c2 * r_c, cx * c2 * r_c, cx_c1 * r_c);
+        let h0_b = (inward * (-x * icx) + perp_i) * (-1.0 / rho);
         // ψ0' = h0' · h0⊥ (h0 is unit).
         let psi0_b = h0_b.dot(DVec2::new(-h0.y, h0.x));
-        let s1 = ab / big;
-        let c1 = (1.0 - s1 * s1).sqrt();
-        let s2 = al / big;
-        let c2 = (1.0 - s2 * s2).sqrt();
         let rot12 = DVec2::new(c1 * c2 + s1 * s2, s1 * c2 - c1 * s2);
         let air0 = -e.dot(h0) - big * c1;
         if air0 <= 0.0 {
             return None;
         }
         // d(air0)/db = −e·h0' + sg·s1/c1.
-        let air0_b = -e.dot(h0_b) + sg * s1 / c1;
+        let air0_b = -e.dot(h0_b) + sg * s1 * ic1;
         // dθ1/d|b|, dθ2/d|L|.
-        let t1 = 1.0 / (big * c1);
-        let t2 = 1.0 / (big * c2);
+        let t1 = inv_big * ic1;
+        let t2 = inv_big * ic2;
         let mul = |a: DVec2, b: DVec2| DVec2::new(a.x * b.x - a.y * b.y, a.x * b.y + a.y * b.x);
-        // (turn, final radius, first, air, ∂air/∂b, glass, ∂glass/∂|L|,
-        //  ∂T/∂|b| at fixed |L|, ∂T/∂|L|)
-        let (turn, final_radius, first, air, air_b, glass, glass_al, tb, tl) = match fam {
+        // (turn, final radius and 1/(its cosine·radius), first, air,
+        //  ∂air/∂b, glass, ∂glass/∂|L|, ∂T/∂|b| at fixed |L|, ∂T/∂|L|)
+        let (turn, hc, ihc, first, air, air_b, glass, glass_al, tb, tl) = match fam {
             Family::Wall2 => {
                 if al < small {
                     return None;
                 }
                 (
                     mul(rot12, rot12),
-                    big,
+                    big * c1,
+                    t1,
                     false,
                     air0,
                     air0_b,
                     2.0 * big * c2,
-                    -2.0 * s2 / c2,
+                    -2.0 * s2 * ic2,
                     2.0 * t1,
                     -2.0 * t2,
                 )
@@ -95,18 +107,20 @@ impl HollowCylinder {
                 if ab <= small || al >= small {
                     return None;
                 }
-                let s3 = al / small;
+                let s3 = al * inv_small;
                 let c3 = (1.0 - s3 * s3).sqrt();
+                let ic3 = 1.0 / c3;
                 let refl = DVec2::new(-(1.0 - 2.0 * s3 * s3), -2.0 * s3 * c3);
-                let t3 = 1.0 / (small * c3);
+                let t3 = inv_small * ic3;
                 (
                     mul(mul(rot12, rot12), refl),
-                    big,
+                    big * c1,
+                    t1,
                     false,
                     air0,
                     air0_b,
                     2.0 * (big * c2 - small * c3),
-                    2.0 * (-s2 / c2 + s3 / c3),
+                    2.0 * (-(s2 * ic2) + s3 * ic3),
                     2.0 * t1,
                     -2.0 * t2 + 2.0 * t3,
                 )
@@ -115,24 +129,38 @@ impl HollowCylinder {
                 if ab >= small {
                     return None;
                 }
-                let s3 = al / small;
+                let s3 = al * inv_small;
                 let c3 = (1.0 - s3 * s3).sqrt();
-                let s4 = ab / small;
+                let ic3 = 1.0 / c3;
+                let s4 = ab * inv_small;
                 let c4 = (1.0 - s4 * s4).sqrt();
+                let ic4 = 1.0 / c4;
                 let rot43 = DVec2::new(c4 * c3 + s4 * s3, -(s4 * c3 - c4 * s3));
                 let half = mul(rot12, rot43);
                 let g1 = big * c2 - small * c3;
-                let g1_al = -s2 / c2 + s3 / c3;
-                let (t3, t4) = (1.0 / (small * c3), 1.0 / (small * c4));
+                let g1_al = -(s2 * ic2) + s3 * ic3;
+                let (t3, t4) = (inv_small * ic3, inv_small * ic4);
                 if fam == Family::Hollow2 {
-                    (half, small, true, air0, air0_b, g1, g1_al, t1 - t4, -t2 + t3)
+                    (
+                        half,
+                        small * c4,
+                        t4,
+                        true,
+                        air0,
+                        air0_b,
+                        g1,
+                        g1_al,
+                        t1 - t4,
+                        -t2 + t3,
+                    )
                 } else {
                     (
                         mul(half, half),
-                        big,
+                        big * c1,
+                        t1,
                         false,
                         air0 + 2.0 * small * c4,
-                        air0_b - 2.0 * sg * s4 / c4,
+                        air0_b - 2.0 * sg * s4 * ic4,
                         2.0 * g1,
                         2.0 * g1_al,
                         2.0 * (t1 - t4),
@@ -148,12 +176,12 @@ impl HollowCylinder {
         // ψ = ψ0 + sg·T(|b|, |L|): d/db = ψ0' + T_|b| + T_|L|·k, d/dβ = sg·T_|L|·|b|·k'.
         let psi_b = psi0_b + tb + tl * k;
         let psi_beta = sg * tl * al_beta;
-        let hc = (final_radius * final_radius - b * b).max(0.0).sqrt();
+        // hc = √(ρ_f² − b²) = ρ_f·cos θ of the final circle.
         let sigma = if first { -1.0 } else { 1.0 };
         let origin = -perp * b + hf * (sigma * hc);
         // do/db = hf·b·ψ_b − h⊥ + h⊥·ψ_b·σ·hc − hf·σ·b/hc; do/dβ = (hf·b + h⊥·σ·hc)·ψ_β.
         let swing = hf * b + perp * (sigma * hc);
-        let o_b = swing * psi_b - perp - hf * (sigma * b / hc);
+        let o_b = swing * psi_b - perp - hf * (sigma * b * ihc);
         let o_beta = swing * psi_beta;
         let rel = p - origin;
         let along = rel.dot(hf);
@@ -168,15 +196,16 @@ impl HollowCylinder {
         let glass_b = glass_al * al_b;
         let glass_beta = glass_al * al_beta;
         // climb = β·((air + along)/m_a + glass/m_g); dm/dβ = −β/m.
-        let run = (air + along) / ma + glass / mg;
+        let aa = air + along;
+        let run = aa * ima + glass * img;
         let climb = beta * run;
-        let climb_b = beta * ((air_b + along_b) / ma + glass_b / mg);
+        let climb_b = beta * ((air_b + along_b) * ima + glass_b * img);
         let climb_beta = run
             + beta
-                * (along_beta / ma
-                    + (air + along) * beta / (ma * ma * ma)
-                    + glass_beta / mg
-                    + glass * beta / (mg * mg * mg));
+                * (along_beta * ima
+                    + aa * beta * (ima * ima * ima)
+                    + glass_beta * img
+                    + glass * beta * (img * img * img));
         Some(([g, climb - dv], [[g_b, g_beta], [climb_b, climb_beta]]))
     }
 }

@@ -338,7 +338,7 @@ impl CylinderWarper {
             };
             if let Some(img) = img {
                 if !out.iter().any(|o: &CylImage| {
-                    o.family == img.family && (o.direction - img.direction).length() < 1e-9
+                    o.family == img.family && (o.direction - img.direction).length_squared() < 1e-18
                 }) {
                     out.push(img);
                 }
