@@ -168,6 +168,17 @@ pub struct KeptScale {
 }
 
 impl KeptScale {
+    /// e^{−h₀/H} at start height `h0` for scale height `hs`: the kept value
+    /// when it was taken there, else computed.
+    #[inline]
+    fn scale_at(self, h0: f64, hs: f64) -> f64 {
+        if self.h0 == h0 && self.hs == hs {
+            self.u
+        } else {
+            (-h0 / hs).exp()
+        }
+    }
+
     /// Nothing kept: the next start computes its scale.
     pub const NONE: KeptScale = KeptScale {
         h0: f64::NAN,
@@ -672,11 +683,7 @@ impl StratifiedRay {
     /// the last start when that was at the same height (a camera's rays all
     /// start at its height).
     fn u_scale_at(&self, h0: f64, hs: f64) -> f64 {
-        if self.h0 == h0 && self.u_scale_hs == hs {
-            self.u_scale
-        } else {
-            (-h0 / hs).exp()
-        }
+        self.kept_scale().scale_at(h0, hs)
     }
 
     /// Makes this the closed-form ray of an exponential profile (n = a − d0·e^{−h/H}
@@ -741,12 +748,7 @@ impl StratifiedRay {
         let (mut h0, mut u_scale) = ([0.0; N], [0.0; N]);
         for i in 0..N {
             h0[i] = r[i].dot(s.up) - s.base;
-            let k = kept[i];
-            u_scale[i] = if k.h0 == h0[i] && k.hs == hs {
-                k.u
-            } else {
-                (-h0[i] / hs).exp()
-            };
+            u_scale[i] = kept[i].scale_at(h0[i], hs);
         }
         let starts = exp_starts(a, d0, hs, s.up, t, &h0, &u_scale);
         if starts.iter().any(|st| !(st.n0.is_finite() && st.n0 > 0.0)) {
