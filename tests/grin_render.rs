@@ -299,7 +299,8 @@ fn road_variant(extra: &str, w: u32, h: u32, spp: u32, seed: u64) -> snell::rend
 #[test]
 fn invariant_renders_match_a_fine_render_within_noise() {
     let (w, h, spp, k) = (240, 80, 8, 16);
-    let fine = "pixel_tolerance = 0.001";
+    // Rays after a diffuse bounce held as tightly as camera rays too.
+    let fine = "pixel_tolerance = 0.001\nindirect_tolerance_scale = 1.0";
     let (r1, r2) = (road_variant(fine, w, h, spp, 1), road_variant(fine, w, h, spp, 2));
     let noise = snell::report::image_errors(&r1.pixels, &r2.pixels, w, h, k).1;
     let score =
@@ -316,6 +317,24 @@ fn invariant_renders_match_a_fine_render_within_noise() {
     assert!(d <= 1.3 && r <= 1.3, "default {d:.2}, rk45 {r:.2}");
     assert!(x > 1.3, "no power: pixel tolerance x100 scores {x:.2}");
     assert_eq!(default.stats.counters.grin_failures, 0);
+}
+
+/// `medium.indirect_tolerance_scale` below 1 (holding indirect rays tighter
+/// than camera rays) or not finite is refused, naming the key.
+#[test]
+fn indirect_tolerance_scale_out_of_range_is_located() {
+    let text = std::fs::read_to_string("scenes/mirage_road.toml").unwrap();
+    for bad in ["0.5", "nan", "1e9"] {
+        let t = text.replacen("[medium]\n", &format!("[medium]\nindirect_tolerance_scale = {bad}\n"), 1);
+        let e = match snell::scene::load_scene_str("road.toml", &t, Path::new("scenes"), &BuildOptions::default()) {
+            Ok(_) => panic!("{bad} accepted"),
+            Err(e) => e.to_string(),
+        };
+        assert!(e.contains("medium.indirect_tolerance_scale") && e.contains("[1, 1000]"), "{bad}: {e}");
+    }
+    let t = text.replacen("[medium]\n", "[medium]\nindirect_tolerance_scale = 4.0\n", 1);
+    let s = snell::scene::load_scene_str("road.toml", &t, Path::new("scenes"), &BuildOptions::default()).unwrap();
+    assert_eq!(s.medium.as_ref().map(|m| m.indirect_tolerance_scale()), Some(4.0));
 }
 
 /// A `[medium] atmosphere` loads as the profile of Ciddor's index over the

@@ -369,6 +369,9 @@ pub(super) fn path(
         }
         if let (Some(c), Some(m)) = (curved.as_deref_mut(), &tr.scene.medium) {
             m.restart_ray(c, p.ray.org.as_dvec3(), p.ray.dir.as_dvec3());
+            if !p.only_specular {
+                c.after_diffuse(m);
+            }
         }
     }
     Ok(p.radiance(st))

@@ -52,6 +52,9 @@ pub(crate) struct Flight {
     /// Field evaluations answered.
     pub(crate) evals: u64,
     cap: f64,
+    /// What the medium's flight tolerances are multiplied by for this ray
+    /// (1 for camera rays; see [`Medium::indirect_tolerance_scale`]).
+    tol_scale: f64,
     first: bool,
     rounds: u32,
     pending: Option<Pending>,
@@ -62,8 +65,9 @@ const MAX_ROUNDS: u32 = 1_000_000;
 
 impl Flight {
     /// A flight from `st` (inside the bounds) with the suggested step
-    /// `h_next` (not finite: the field's flight step).
-    pub(crate) fn new(st: State, h_next: f64, medium: &Medium) -> Flight {
+    /// `h_next` (not finite: the field's flight step), held to the medium's
+    /// flight tolerances times `tol_scale`.
+    pub(crate) fn new(st: State, h_next: f64, tol_scale: f64, medium: &Medium) -> Flight {
         let h_next = if h_next.is_finite() {
             h_next
         } else {
@@ -75,6 +79,7 @@ impl Flight {
             skipped: 0.0,
             evals: 0,
             cap: f64::INFINITY,
+            tol_scale,
             first: true,
             rounds: 0,
             pending: None,
@@ -113,7 +118,8 @@ impl Flight {
         let b = medium.bounds;
         let st = self.st;
         let (tol_pos, tol_ang) = medium.flight_tolerances(st.r);
-        let gap = b.clip(st.r, st.t).map_or(0.0, |(_, t1)| t1.max(0.0));
+        let (tol_pos, tol_ang) = (tol_pos * self.tol_scale, tol_ang * self.tol_scale);
+        let gap = b.exit_distance(st.r, st.t);
         // The bound is worth its exponentials where a ray starts (it may
         // miss the plume altogether) and within a few steps of the exit.
         let check = self.first || gap <= 2.0 * medium.flight_step;

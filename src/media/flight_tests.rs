@@ -227,3 +227,35 @@ fn rays_flown_side_by_side_cast_as_rays_alone() {
     std::mem::swap(&mut a.flown, &mut b.flown);
     assert_eq!(chords_of(&m, &mut a), alone);
 }
+
+/// A ray after a diffuse bounce (`CurvedRay::after_diffuse`) flies as a
+/// camera ray of a medium whose pixel tolerance is the indirect scale times
+/// larger, bit for bit; a restart makes it a camera ray again. The two
+/// tolerances give different flights (steps up to 20 wavelengths, so that
+/// the tolerance, not the cap, sets them), and the looser one fewer
+/// evaluations.
+#[test]
+fn rays_after_a_diffuse_bounce_fly_at_the_indirect_tolerance() {
+    let step = 20.0 * plume().flight_step() / crate::media::field::FLIGHT_WAVELENGTHS;
+    let m = flying(0.05).with_flight_step(step);
+    let k = m.indirect_tolerance_scale();
+    let loose = flying(0.05 * k).with_flight_step(step);
+    let (mut differ, mut evals) = (0, [0u64; 2]);
+    for d in rays() {
+        let mut after = m.start_ray(EYE, d);
+        after.after_diffuse(&m);
+        let (a, _) = chords_of(&m, &mut after);
+        let (b, eb) = chords_of(&loose, &mut loose.start_ray(EYE, d));
+        assert_eq!(format!("{a:?}"), format!("{b:?}"), "{d:?}");
+        let mut camera = m.start_ray(EYE, d);
+        after.after_diffuse(&m);
+        m.restart_ray(&mut after, EYE, d);
+        let (c, ec) = chords_of(&m, &mut camera);
+        let (c2, _) = chords_of(&m, &mut after);
+        assert_eq!(format!("{c:?}"), format!("{c2:?}"), "{d:?}");
+        differ += usize::from(format!("{a:?}") != format!("{c:?}"));
+        evals[0] += eb;
+        evals[1] += ec;
+    }
+    assert!(differ > 0 && evals[0] < evals[1], "{differ} {evals:?}");
+}

@@ -44,6 +44,22 @@ pub enum ChordTolerance {
 }
 
 impl ChordTolerance {
+    /// This tolerance times `k` (a footprint's fraction of a pixel, or the
+    /// fixed metres).
+    #[inline]
+    pub fn scaled(self, k: f64) -> ChordTolerance {
+        match self {
+            ChordTolerance::Fixed(t) => ChordTolerance::Fixed(t * k),
+            ChordTolerance::Footprint(f, floor) => ChordTolerance::Footprint(
+                Footprint {
+                    fraction: f.fraction * k,
+                    ..f
+                },
+                floor,
+            ),
+        }
+    }
+
     /// The tolerance at `p`, metres.
     #[inline]
     pub fn at(&self, p: DVec3) -> f64 {

@@ -94,6 +94,14 @@ pub const DEFAULT_PIXEL_TOLERANCE: f64 = 0.1;
 /// `flight_step`, which is what holds the error (docs/grin.md, "Flights").
 pub const DEFAULT_FLIGHT_PIXEL_TOLERANCE: f64 = 1.0;
 
+/// What the image tolerances of flights and invariant chords are multiplied
+/// by for a ray after a diffuse or glossy bounce when the scene does not say
+/// (`medium.indirect_tolerance_scale`). Such a ray's error moves what it
+/// brings back within the bounce's lobe, which the image sees averaged, not
+/// a point seen through one pixel. Measured against a fine render in
+/// docs/grin.md ("Rays after a diffuse bounce").
+pub const DEFAULT_INDIRECT_TOLERANCE_SCALE: f64 = 16.0;
+
 /// Below this a chord tolerance means nothing to Embree's f32 chords (a
 /// micrometre; the footprint goes to 0 at the eye).
 const MIN_CHORD_TOLERANCE: f64 = 1e-6;
@@ -229,6 +237,8 @@ pub struct Medium {
     /// Chord tolerance as a fraction of the pixel footprint (None: `tolerance`
     /// metres everywhere).
     pixel_tolerance: Option<f64>,
+    /// The tolerances' multiple for rays after a diffuse bounce.
+    indirect_scale: f64,
     /// The eye and the pixel angle of the scene's camera.
     view: Option<(DVec3, f64)>,
     /// The scene's geometry as boxes.
@@ -365,6 +375,7 @@ impl Medium {
             tolerance,
             step,
             pixel_tolerance: None,
+            indirect_scale: DEFAULT_INDIRECT_TOLERANCE_SCALE,
             view: None,
             invariant,
             obstacles: Obstacles::unknown(),
@@ -396,6 +407,32 @@ impl Medium {
         }
         self.pixel_tolerance = fraction;
         Ok(self)
+    }
+
+    /// Holds rays after a diffuse or glossy bounce to `scale` times the
+    /// image tolerances of camera rays (flights and invariant chords;
+    /// [`CurvedRay::after_diffuse`]). None:
+    /// [`DEFAULT_INDIRECT_TOLERANCE_SCALE`]; 1 holds them as camera rays.
+    ///
+    /// # Errors
+    ///
+    /// [`MediumError::Invalid`] at `medium.indirect_tolerance_scale` unless
+    /// the scale is finite and in [1, 1000].
+    pub fn with_indirect_tolerance_scale(mut self, scale: Option<f64>) -> Result<Medium, MediumError> {
+        let s = scale.unwrap_or(DEFAULT_INDIRECT_TOLERANCE_SCALE);
+        if !(s.is_finite() && (1.0..=1000.0).contains(&s)) {
+            return Err(MediumError::invalid(
+                "medium.indirect_tolerance_scale",
+                format!("expected a multiple in [1, 1000], got {s}"),
+            ));
+        }
+        self.indirect_scale = s;
+        Ok(self)
+    }
+
+    /// The multiple of the image tolerances for rays after a diffuse bounce.
+    pub fn indirect_tolerance_scale(&self) -> f64 {
+        self.indirect_scale
     }
 
     /// The camera's eye and the angle one of its pixels subtends (radians):
@@ -454,7 +491,8 @@ impl Medium {
     /// As [`Medium::try_new`].
     pub fn retuned(&self, method: Method, tolerance: f64) -> Result<Medium, MediumError> {
         let mut m = Medium::try_new(self.field.clone(), self.bounds, method, tolerance, self.step)?
-            .with_pixel_tolerance(self.pixel_tolerance)?;
+            .with_pixel_tolerance(self.pixel_tolerance)?
+            .with_indirect_tolerance_scale(Some(self.indirect_scale))?;
         if let Some((eye, angle)) = self.view {
             m = m.with_view(eye, angle);
         }
@@ -579,6 +617,7 @@ impl Medium {
             inv: None,
             inv_live: false,
             flown: None,
+            tol_scale: 1.0,
         };
         self.restart_ray(&mut ray, p, d);
         ray
@@ -613,6 +652,7 @@ impl Medium {
         ray.started_inside = false;
         ray.inv_live = false;
         ray.flown = None;
+        ray.tol_scale = 1.0;
     }
 }
 
@@ -689,6 +729,10 @@ pub struct CurvedRay {
     inv_live: bool,
     /// A flight flown beforehand ([`fly_camera_rays`]).
     flown: Option<Box<Flown>>,
+    /// What its flights' and invariant chords' tolerances are multiplied by:
+    /// 1, or the medium's indirect scale after a diffuse bounce
+    /// ([`CurvedRay::after_diffuse`]).
+    tol_scale: f64,
 }
 
 /// Distance from q to the segment a–b.
@@ -846,6 +890,14 @@ impl CurvedRay {
         }
     }
 
+    /// Hold the rest of this ray (started by [`Medium::restart_ray`]) to
+    /// the medium's tolerances for rays after a diffuse or glossy bounce
+    /// ([`Medium::indirect_tolerance_scale`]): what such a ray brings back
+    /// is spread over the bounce's lobe, not seen through one pixel.
+    pub fn after_diffuse(&mut self, medium: &Medium) {
+        self.tol_scale = medium.indirect_scale;
+    }
+
     /// The next straight chord to cast: outside the bounds one chord to the entry (or
     /// of infinite length); inside, a chord whose deviation from the arc is at most the
     /// tolerance (ray-equation methods) or one native piece (the paper's methods);
@@ -903,7 +955,12 @@ impl CurvedRay {
             }
             if let (true, Some(cast), Some(setup)) = (self.inv_live, &mut self.inv, &medium.invariant) {
                 let before = cast.evaluations();
-                let step = cast.next(&medium.field, setup, medium.chord_tolerance());
+                let tolerance = if self.tol_scale == 1.0 {
+                    medium.chord_tolerance()
+                } else {
+                    medium.chord_tolerance().scaled(self.tol_scale)
+                };
+                let step = cast.next(&medium.field, setup, tolerance);
                 self.evals += cast.evaluations() - before;
                 match step {
                     Step::Chord {
@@ -1001,7 +1058,7 @@ impl CurvedRay {
         let (flight, end) = match self.flown.take() {
             Some(f) if f.start == (self.st, self.h_next) => (f.flight, f.end),
             _ => {
-                let mut f = Flight::new(self.st, self.h_next, medium);
+                let mut f = Flight::new(self.st, self.h_next, self.tol_scale, medium);
                 let end = f.run(medium);
                 (f, end)
             }
@@ -1029,7 +1086,7 @@ impl CurvedRay {
             return None;
         }
         let st = self.entry_state(medium, &mut 0)?.ok()?;
-        Some(Flight::new(st, self.h_next, medium))
+        Some(Flight::new(st, self.h_next, self.tol_scale, medium))
     }
 
     /// Where this ray (outside the bounds) enters them and its state there,

@@ -143,6 +143,12 @@ pub struct MediumDesc {
     /// (default 1; docs/grin.md). Ignored by the other methods.
     #[serde(default)]
     pub pixel_tolerance: Option<f64>,
+    /// Methods invariant and rk45's flights: rays after a diffuse or glossy
+    /// bounce are held to this multiple of `pixel_tolerance` (default 16;
+    /// 1 holds them as camera rays). What such a ray brings back is spread
+    /// over the bounce's lobe (docs/grin.md).
+    #[serde(default)]
+    pub indirect_tolerance_scale: Option<f64>,
 }
 
 /// An axis-aligned world-space box, `{ min = [..], max = [..] }`, metres.

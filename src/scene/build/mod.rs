@@ -449,6 +449,7 @@ impl Builder<'_> {
                 Some(
                     crate::media::Medium::try_new(field, bounds, method, m.tolerance, m.step)
                         .and_then(|x| x.with_pixel_tolerance(m.pixel_tolerance))
+                        .and_then(|x| x.with_indirect_tolerance_scale(m.indirect_tolerance_scale))
                         .map_err(|e| self.medium_err(e))?,
                 )
             }
