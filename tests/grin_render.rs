@@ -325,15 +325,28 @@ fn invariant_renders_match_a_fine_render_within_noise() {
 fn indirect_tolerance_scale_out_of_range_is_located() {
     let text = std::fs::read_to_string("scenes/mirage_road.toml").unwrap();
     for bad in ["0.5", "nan", "1e9"] {
-        let t = text.replacen("[medium]\n", &format!("[medium]\nindirect_tolerance_scale = {bad}\n"), 1);
-        let e = match snell::scene::load_scene_str("road.toml", &t, Path::new("scenes"), &BuildOptions::default()) {
+        let t = text.replacen(
+            "[medium]\n",
+            &format!("[medium]\nindirect_tolerance_scale = {bad}\n"),
+            1,
+        );
+        let e = match snell::scene::load_scene_str(
+            "road.toml",
+            &t,
+            Path::new("scenes"),
+            &BuildOptions::default(),
+        ) {
             Ok(_) => panic!("{bad} accepted"),
             Err(e) => e.to_string(),
         };
-        assert!(e.contains("medium.indirect_tolerance_scale") && e.contains("[1, 1000]"), "{bad}: {e}");
+        assert!(
+            e.contains("medium.indirect_tolerance_scale") && e.contains("[1, 1000]"),
+            "{bad}: {e}"
+        );
     }
     let t = text.replacen("[medium]\n", "[medium]\nindirect_tolerance_scale = 4.0\n", 1);
-    let s = snell::scene::load_scene_str("road.toml", &t, Path::new("scenes"), &BuildOptions::default()).unwrap();
+    let s =
+        snell::scene::load_scene_str("road.toml", &t, Path::new("scenes"), &BuildOptions::default()).unwrap();
     assert_eq!(s.medium.as_ref().map(|m| m.indirect_tolerance_scale()), Some(4.0));
 }
 
