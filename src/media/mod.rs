@@ -955,12 +955,12 @@ impl CurvedRay {
             }
             if let (true, Some(cast), Some(setup)) = (self.inv_live, &mut self.inv, &medium.invariant) {
                 let before = cast.evaluations();
-                let tolerance = if self.tol_scale == 1.0 {
-                    medium.chord_tolerance()
-                } else {
-                    medium.chord_tolerance().scaled(self.tol_scale)
-                };
-                let step = cast.next(&medium.field, setup, tolerance);
+                // (× 1 is exact: camera rays keep their tolerance bit for bit.)
+                let step = cast.next(
+                    &medium.field,
+                    setup,
+                    medium.chord_tolerance().scaled(self.tol_scale),
+                );
                 self.evals += cast.evaluations() - before;
                 match step {
                     Step::Chord {
