@@ -6,7 +6,7 @@ use crate::counters::Counters;
 use crate::dielectric::{InteriorList, NestedStrategy};
 use crate::error::{Error, Result};
 use crate::integrator::{
-    path_lanes, path_lanes_apply, radiance_after, LanePackets, LightSampling, RayObserver, Tracer,
+    path_lanes_apply, path_stream, radiance_after, LanePackets, LightSampling, PathStart, RayObserver, Tracer,
 };
 use crate::media::CurvedRay;
 use crate::ray::Ray;
@@ -313,8 +313,7 @@ pub enum Flights {
 }
 
 /// The width of the path tracer's packets ([`RenderOptions::packet_width`]):
-/// a pixel's samples go in groups of this many, one Embree packet query per
-/// segment of the group.
+/// a wavefront's live paths go to Embree this many at a time.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub enum PacketWidth {
     /// Sixteen where Embree's 16-wide packets are native (a CPU with
@@ -456,11 +455,40 @@ impl Rendered {
     }
 }
 
-/// The most paths traced side by side ([`path_lanes`]): a pixel's samples go
-/// in groups of [`PacketWidth::lanes`] (8 or 16). Ended lanes are not
-/// refilled with other samples: Embree's packets pay for the coherence of
-/// one pixel's rays at one depth (docs/peers.md).
+/// The most paths traced side by side: [`PacketWidth::lanes`] (8 or 16).
 const MAX_PATHS_PER_PACKET: usize = 16;
+
+/// Samples a tile streams through its packets at a time ([`path_stream`]):
+/// their radiance waits in a buffer of this many until all have ended, then
+/// goes to the pixels in sample order, as a pixel-by-pixel render adds them.
+const STREAM_WINDOW: usize = 1024;
+
+/// A pixel's samples as a tile adds them up: the exact fixed-point sum
+/// (what the image holds) and the f32 sums its variance comes from.
+#[derive(Clone, Copy)]
+struct PixelSum {
+    acc: [i128; 3],
+    sum: V3,
+    sumsq: V3,
+}
+
+impl PixelSum {
+    fn new(acc: [i128; 3]) -> Self {
+        PixelSum {
+            acc,
+            sum: V3::ZERO,
+            sumsq: V3::ZERO,
+        }
+    }
+
+    fn add(&mut self, l: V3) {
+        for (a, v) in self.acc.iter_mut().zip(l.to_array()) {
+            *a = a.wrapping_add(to_fixed(v));
+        }
+        self.sum += l;
+        self.sumsq += l * l;
+    }
+}
 
 /// A thread's packets for [`path_lanes`], of the render's width.
 enum Lanes {
@@ -476,28 +504,20 @@ impl Lanes {
         }
     }
 
-    fn width(&self) -> usize {
-        match self {
-            Lanes::Eight(_) => 8,
-            Lanes::Sixteen(_) => 16,
-        }
-    }
-
-    /// [`path_lanes`] at this width.
-    fn trace(
+    /// [`path_stream`] at this width.
+    fn stream(
         &mut self,
         tr: Tracer<'_>,
-        cams: &[(V3, V3)],
         list: &InteriorList,
-        rngs: &mut [Rng],
-        sts: &mut [Counters],
-    ) -> Result<[V3; MAX_PATHS_PER_PACKET]> {
-        let mut out = [V3::ZERO; MAX_PATHS_PER_PACKET];
+        next: impl FnMut() -> Option<PathStart>,
+        done: impl FnMut(u32, V3, &Counters),
+        per_path: bool,
+        stats: &mut Counters,
+    ) -> Result<()> {
         match self {
-            Lanes::Eight(p) => out[..8].copy_from_slice(&path_lanes::<8, _>(tr, cams, list, rngs, sts, p)?),
-            Lanes::Sixteen(p) => out = path_lanes::<16, _>(tr, cams, list, rngs, sts, p)?,
+            Lanes::Eight(p) => path_stream::<8, _>(tr, list, next, done, per_path, stats, p),
+            Lanes::Sixteen(p) => path_stream::<16, _>(tr, list, next, done, per_path, stats, p),
         }
-        Ok(out)
     }
 
     fn take_occupancy(&mut self) -> Counters {
@@ -606,144 +626,47 @@ impl TileJob<'_> {
         let mut counts = vec![0u32; n];
         let mut aov = (self.want_aovs && !skip).then(|| Aovs::new(n));
         let mut stats = Counters::default();
-        let tracer = Tracer {
-            scene,
-            strategy: self.settings.strategy,
-            light_sampling: self.settings.light_sampling,
-            observer: self.observer,
-        };
-        let start_list = InteriorList::from_solids(&scene.solids, &scene.camera_interior);
-        let packets = path_lanes_apply(tracer);
-        let mut lane_packets = Lanes::of_width(self.packet_lanes);
-        // A group's counters (reset per group, as far as it uses them).
-        let mut sts = [Counters::default(); MAX_PATHS_PER_PACKET];
-        let width = lane_packets.width();
-        // Without flights, the camera rays' curved rays are started in
-        // these, one per sample of a group (see `Medium::restart_ray`).
-        let mut camera_curved: Vec<CurvedRay> = match (&scene.medium, self.fly_rows || skip) {
-            (Some(med), false) => (0..width).map(|_| med.start_ray(DVec3::ZERO, DVec3::X)).collect(),
-            _ => Vec::new(),
-        };
+        // Each pixel's sums so far (from the samples already held), their
+        // number and the number of samples it takes here.
+        let mut pix = Vec::with_capacity(n);
+        let mut held = Vec::with_capacity(n);
         for j in 0..h {
-            // A row at a time: a whole tile's flights at once stay in flight
-            // longer than the caches hold them.
-            let mut flown = match (&scene.medium, self.fly_rows && !skip) {
-                (Some(med), true) => self.flown_rays(med, (x0, y0 + j), (w, 1)),
-                _ => Vec::new(),
-            };
-            let mut next_flown = flown.iter_mut();
             for i in 0..w {
-                let (x, y) = (x0 + i, y0 + j);
-                let k = (j * w + i) as usize;
-                let (mut acc, held) = self.base_at(x, y);
-                if skip {
-                    sums[k] = acc;
-                    counts[k] = held;
-                    px[k] = mean_of(acc, held);
-                    continue;
-                }
-                let pixel = y as u64 * self.settings.width as u64 + x as u64;
-                let mut sum = V3::ZERO;
-                let mut sumsq = V3::ZERO;
-                let taken = self.count - held;
-                let inv = 1.0 / taken.max(1) as f32;
-                // The pixel's samples in groups of up to `width`, traced
-                // side by side (without a medium): their camera rays (jittered
-                // within one pixel, nearly parallel) go to Embree as one packet,
-                // and so do their later plain-query segments and shadow rays.
-                let mut s = self.start + held;
-                while s < self.start + self.count {
-                    let lanes = (self.start + self.count - s).min(width as u32) as usize;
-                    // Lanes past `lanes` are never read: they hold a copy of the
-                    // first generator instead of seeding one each.
-                    let first = Rng::for_sample(self.settings.seed, pixel, s as u64);
-                    let mut rngs: [Rng; MAX_PATHS_PER_PACKET] = std::array::from_fn(|i| {
-                        if i == 0 || i >= lanes {
-                            first.clone()
-                        } else {
-                            Rng::for_sample(self.settings.seed, pixel, s as u64 + i as u64)
-                        }
-                    });
-                    let mut rays = [(V3::ZERO, V3::ZERO); MAX_PATHS_PER_PACKET];
-                    for (rng, ray) in rngs.iter_mut().zip(&mut rays).take(lanes) {
-                        *ray = self.camera_ray_from(x, y, rng);
-                    }
-                    // Each sample's own counts only where a layer reads them.
-                    let per_sample = if aov.is_some() { lanes } else { 1 };
-                    sts[..per_sample].fill(Counters::default());
-                    let ls = if packets {
-                        lane_packets.trace(
-                            tracer,
-                            &rays[..lanes],
-                            &start_list,
-                            &mut rngs,
-                            &mut sts[..per_sample],
-                        )?
-                    } else {
-                        let mut ls = [V3::ZERO; MAX_PATHS_PER_PACKET];
-                        // The group's curved rays begun together (`CurvedRay::begin`).
-                        if let (Some(med), false) = (&scene.medium, camera_curved.is_empty()) {
-                            for (c, &(o, d)) in camera_curved.iter_mut().zip(&rays[..lanes]) {
-                                let ray = Ray::new(o, d);
-                                med.restart_ray(c, ray.org.as_dvec3(), ray.dir.as_dvec3());
-                            }
-                            let mut quads = camera_curved[..lanes].chunks_exact_mut(4);
-                            for quad in &mut quads {
-                                if let Ok(quad) = <&mut [CurvedRay; 4]>::try_from(quad) {
-                                    CurvedRay::begin_lanes(quad, med);
-                                }
-                            }
-                            for c in quads.into_remainder() {
-                                c.begin(med);
-                            }
-                        }
-                        let mut group_curved = camera_curved.iter_mut();
-                        for i in 0..lanes {
-                            let (o, d) = rays[i];
-                            let first = match next_flown.next() {
-                                Some(f) => Some(f),
-                                None => group_curved.next(),
-                            };
-                            ls[i] = radiance_after(
-                                tracer,
-                                o,
-                                d,
-                                start_list.clone(),
-                                &mut rngs[i],
-                                &mut sts[i.min(per_sample - 1)],
-                                first,
-                            )?;
-                        }
-                        ls
-                    };
-                    for st in &sts[..per_sample] {
-                        stats += *st;
-                    }
-                    for (&l, st) in ls.iter().zip(&sts).take(lanes) {
-                        for (a, v) in acc.iter_mut().zip(l.to_array()) {
-                            *a = a.wrapping_add(to_fixed(v));
-                        }
-                        sum += l;
-                        sumsq += l * l;
-                        if let Some(a) = &mut aov {
-                            for (layer, kind) in a.layers.iter_mut().zip(Aov::ALL) {
-                                kind.add_sample(&mut layer[k], st, inv);
-                            }
-                        }
-                    }
-                    s += lanes as u32;
-                }
-                stats.samples += taken as u64;
-                sums[k] = acc;
-                counts[k] = self.count;
-                px[k] = mean_of(acc, self.count);
-                if taken > 1 {
-                    let s2 = ((sumsq - sum * sum * inv) / (taken - 1) as f32).max(V3::ZERO);
-                    var[k] = s2 * inv;
-                }
+                let (acc, k) = self.base_at(x0 + i, y0 + j);
+                pix.push(PixelSum::new(acc));
+                held.push(k);
             }
         }
-        stats += lane_packets.take_occupancy();
+        let taken: Vec<u32> = held
+            .iter()
+            .map(|&k| if skip { 0 } else { self.count - k })
+            .collect();
+        if !skip {
+            let tracer = Tracer {
+                scene,
+                strategy: self.settings.strategy,
+                light_sampling: self.settings.light_sampling,
+                observer: self.observer,
+            };
+            if path_lanes_apply(tracer) {
+                self.stream_tile(tracer, (x0, y0), (w, h), &taken, &mut pix, &mut aov, &mut stats)?;
+            } else {
+                self.trace_tile(tracer, (x0, y0), (w, h), &taken, &mut pix, &mut aov, &mut stats)?;
+            }
+        }
+        for k in 0..n {
+            let p = &pix[k];
+            let count = held[k] + taken[k];
+            stats.samples += taken[k] as u64;
+            sums[k] = p.acc;
+            counts[k] = count;
+            px[k] = mean_of(p.acc, count);
+            if taken[k] > 1 {
+                let inv = 1.0 / taken[k] as f32;
+                let s2 = ((p.sumsq - p.sum * p.sum * inv) / (taken[k] - 1) as f32).max(V3::ZERO);
+                var[k] = s2 * inv;
+            }
+        }
         // Embree errors and panics in analytic shapes (which made queries miss)
         // surface here instead of as a silently wrong tile.
         scene.embree.check()?;
@@ -760,6 +683,173 @@ impl TileJob<'_> {
             stats,
             done: !skip,
         })
+    }
+
+    /// The samples of a w × h tile at (x0, y0) (`taken[k]` of pixel `k`, row
+    /// by row) streamed through packets of paths ([`path_stream`]): a lane
+    /// whose path ends takes the next sample of the tile, the same pixel's
+    /// while it has any, so packets stay full however the paths' lengths
+    /// differ. Each sample's radiance is added to its pixel in sample order.
+    #[allow(clippy::too_many_arguments)]
+    fn stream_tile(
+        &self,
+        tracer: Tracer<'_>,
+        (x0, y0): (u32, u32),
+        (w, h): (u32, u32),
+        taken: &[u32],
+        pix: &mut [PixelSum],
+        aov: &mut Option<Aovs>,
+        stats: &mut Counters,
+    ) -> Result<()> {
+        let list = InteriorList::from_solids(&tracer.scene.solids, &tracer.scene.camera_interior);
+        let mut lanes = Lanes::of_width(self.packet_lanes);
+        // Each sample's own counts only where a layer reads them.
+        let per_path = aov.is_some();
+        // The tile's samples in order: (pixel index in the tile, sample index).
+        let mut samples = (0..(w * h) as usize)
+            .flat_map(|k| (self.start + self.count - taken[k]..self.start + self.count).map(move |s| (k, s)));
+        let mut window = Vec::with_capacity(STREAM_WINDOW);
+        let mut ls = vec![V3::ZERO; STREAM_WINDOW];
+        let mut own = vec![Counters::default(); if per_path { STREAM_WINDOW } else { 0 }];
+        loop {
+            window.clear();
+            window.extend(samples.by_ref().take(STREAM_WINDOW));
+            if window.is_empty() {
+                break;
+            }
+            let mut starts = window.iter().enumerate();
+            let next = || {
+                starts.next().map(|(tag, &(k, s))| {
+                    let (x, y) = (x0 + k as u32 % w, y0 + k as u32 / w);
+                    let pixel = y as u64 * self.settings.width as u64 + x as u64;
+                    let (rng, ray) = self.camera_ray(x, y, pixel, s);
+                    PathStart {
+                        tag: tag as u32,
+                        ray,
+                        rng,
+                    }
+                })
+            };
+            let done = |tag: u32, l: V3, st: &Counters| {
+                ls[tag as usize] = l;
+                if per_path {
+                    own[tag as usize] = *st;
+                }
+            };
+            lanes.stream(tracer, &list, next, done, per_path, stats)?;
+            for (t, &(k, _)) in window.iter().enumerate() {
+                pix[k].add(ls[t]);
+                if let Some(a) = aov.as_mut() {
+                    let inv = 1.0 / taken[k] as f32;
+                    for (layer, kind) in a.layers.iter_mut().zip(Aov::ALL) {
+                        kind.add_sample(&mut layer[k], &own[t], inv);
+                    }
+                }
+            }
+        }
+        *stats += lanes.take_occupancy();
+        Ok(())
+    }
+
+    /// The samples of a w × h tile at (x0, y0) traced path by path (through
+    /// a gradient-index medium, or by the Whitted tracer), as
+    /// [`Self::stream_tile`] takes and adds them.
+    #[allow(clippy::too_many_arguments)]
+    fn trace_tile(
+        &self,
+        tracer: Tracer<'_>,
+        (x0, y0): (u32, u32),
+        (w, h): (u32, u32),
+        taken: &[u32],
+        pix: &mut [PixelSum],
+        aov: &mut Option<Aovs>,
+        stats: &mut Counters,
+    ) -> Result<()> {
+        let scene = tracer.scene;
+        let start_list = InteriorList::from_solids(&scene.solids, &scene.camera_interior);
+        // A group's counters (reset per group, as far as it uses them).
+        let mut sts = [Counters::default(); MAX_PATHS_PER_PACKET];
+        let width = if self.packet_lanes == 16 { 16 } else { 8 };
+        // Without flights, the camera rays' curved rays are started in
+        // these, one per sample of a group (see `Medium::restart_ray`).
+        let mut camera_curved: Vec<CurvedRay> = match (&scene.medium, self.fly_rows) {
+            (Some(med), false) => (0..width).map(|_| med.start_ray(DVec3::ZERO, DVec3::X)).collect(),
+            _ => Vec::new(),
+        };
+        for j in 0..h {
+            // A row at a time: a whole tile's flights at once stay in flight
+            // longer than the caches hold them.
+            let mut flown = match (&scene.medium, self.fly_rows) {
+                (Some(med), true) => self.flown_rays(med, (x0, y0 + j), (w, 1)),
+                _ => Vec::new(),
+            };
+            let mut next_flown = flown.iter_mut();
+            for i in 0..w {
+                let (x, y) = (x0 + i, y0 + j);
+                let k = (j * w + i) as usize;
+                let pixel = y as u64 * self.settings.width as u64 + x as u64;
+                let inv = 1.0 / taken[k].max(1) as f32;
+                // The pixel's samples in groups of up to `width`, whose curved
+                // camera rays are begun together.
+                let mut s = self.start + self.count - taken[k];
+                while s < self.start + self.count {
+                    let lanes = (self.start + self.count - s).min(width as u32) as usize;
+                    let mut rngs: [Rng; MAX_PATHS_PER_PACKET] = std::array::from_fn(|i| {
+                        Rng::for_sample(self.settings.seed, pixel, s as u64 + i as u64)
+                    });
+                    let mut rays = [(V3::ZERO, V3::ZERO); MAX_PATHS_PER_PACKET];
+                    for (rng, ray) in rngs.iter_mut().zip(&mut rays).take(lanes) {
+                        *ray = self.camera_ray_from(x, y, rng);
+                    }
+                    let per_sample = if aov.is_some() { lanes } else { 1 };
+                    sts[..per_sample].fill(Counters::default());
+                    // The group's curved rays begun together (`CurvedRay::begin`).
+                    if let (Some(med), false) = (&scene.medium, camera_curved.is_empty()) {
+                        for (c, &(o, d)) in camera_curved.iter_mut().zip(&rays[..lanes]) {
+                            let ray = Ray::new(o, d);
+                            med.restart_ray(c, ray.org.as_dvec3(), ray.dir.as_dvec3());
+                        }
+                        let mut quads = camera_curved[..lanes].chunks_exact_mut(4);
+                        for quad in &mut quads {
+                            if let Ok(quad) = <&mut [CurvedRay; 4]>::try_from(quad) {
+                                CurvedRay::begin_lanes(quad, med);
+                            }
+                        }
+                        for c in quads.into_remainder() {
+                            c.begin(med);
+                        }
+                    }
+                    let mut group_curved = camera_curved.iter_mut();
+                    for i in 0..lanes {
+                        let (o, d) = rays[i];
+                        let first = match next_flown.next() {
+                            Some(f) => Some(f),
+                            None => group_curved.next(),
+                        };
+                        let l = radiance_after(
+                            tracer,
+                            o,
+                            d,
+                            start_list.clone(),
+                            &mut rngs[i],
+                            &mut sts[i.min(per_sample - 1)],
+                            first,
+                        )?;
+                        pix[k].add(l);
+                        if let Some(a) = aov.as_mut() {
+                            for (layer, kind) in a.layers.iter_mut().zip(Aov::ALL) {
+                                kind.add_sample(&mut layer[k], &sts[i], inv);
+                            }
+                        }
+                    }
+                    for st in &sts[..per_sample] {
+                        *stats += *st;
+                    }
+                    s += lanes as u32;
+                }
+            }
+        }
+        Ok(())
     }
 }
 

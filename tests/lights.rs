@@ -284,7 +284,7 @@ fn packet_lanes_trace_the_new_lights_as_single_rays_do() {
         let mut scalar = rngs.clone();
         let mut sts = [Counters::default(); 8];
         let lanes =
-            path_lanes::<8, Packet8>(tr, &cams, &list, &mut rngs, &mut sts, &mut Default::default()).unwrap();
+            path_lanes::<8, Packet8>(tr, &cams, &list, &rngs, &mut sts, &mut Default::default()).unwrap();
         for i in 0..8 {
             let mut st = Counters::default();
             let l = radiance(tr, cams[i].0, cams[i].1, list.clone(), &mut scalar[i], &mut st).unwrap();
@@ -295,11 +295,10 @@ fn packet_lanes_trace_the_new_lights_as_single_rays_do() {
             );
             lit += (l.max_element() > 0.0) as u32;
         }
-        let mut other = rngs_at(8);
+        let other = rngs_at(8);
         let mut sts2 = [Counters::default(); 8];
         let shifted =
-            path_lanes::<8, Packet8>(tr, &cams, &list, &mut other, &mut sts2, &mut Default::default())
-                .unwrap();
+            path_lanes::<8, Packet8>(tr, &cams, &list, &other, &mut sts2, &mut Default::default()).unwrap();
         differs += (shifted != lanes) as u32;
     }
     assert!(lit > 2000, "{lit} lit paths");

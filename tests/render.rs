@@ -490,20 +490,14 @@ fn packet_lanes_trace_the_same_paths_as_single_rays() {
                 .collect();
             let mut scalar_rngs = rngs.clone();
             // The renderer's width (16) on all of them, and 8 on the first half.
-            let mut rngs8 = rngs.clone();
+            let rngs8 = rngs.clone();
             let mut sts8 = [Counters::default(); 8];
-            let lanes8 = path_lanes::<8, Packet8>(
-                tr,
-                &cams[..8],
-                &list,
-                &mut rngs8,
-                &mut sts8,
-                &mut Default::default(),
-            )
-            .unwrap();
+            let lanes8 =
+                path_lanes::<8, Packet8>(tr, &cams[..8], &list, &rngs8, &mut sts8, &mut Default::default())
+                    .unwrap();
             let mut sts = [Counters::default(); 16];
             let lanes =
-                path_lanes::<16, Packet16>(tr, &cams, &list, &mut rngs, &mut sts, &mut Default::default())
+                path_lanes::<16, Packet16>(tr, &cams, &list, &rngs, &mut sts, &mut Default::default())
                     .unwrap();
             assert_eq!(lanes8[..], lanes[..8], "{name}: 8 and 16 lanes");
             assert_eq!(sts8[..], sts[..8], "{name}: 8 and 16 lanes, counters");
@@ -531,10 +525,10 @@ fn packet_lanes_trace_the_same_paths_as_single_rays() {
                 lit += (l.max_element() > 0.0) as u32;
             }
             // Power: other random numbers give other paths.
-            let mut other = rngs_at(1);
+            let other = rngs_at(1);
             let mut sts2 = [Counters::default(); 16];
             let shifted =
-                path_lanes::<16, Packet16>(tr, &cams, &list, &mut other, &mut sts2, &mut Default::default())
+                path_lanes::<16, Packet16>(tr, &cams, &list, &other, &mut sts2, &mut Default::default())
                     .unwrap();
             shifted_differs += (shifted != lanes) as u32;
         }
@@ -542,6 +536,132 @@ fn packet_lanes_trace_the_same_paths_as_single_rays() {
         assert!(
             shifted_differs > 40,
             "{name}: shifted random numbers changed only {shifted_differs} groups"
+        );
+    }
+}
+
+/// The wavefront (`path_stream`, what renders use without a gradient-index
+/// medium): hundreds of paths from many pixels, compacted into full packets
+/// at every step, each give the radiance and counters of the scalar path
+/// (`radiance`) with the same random numbers, bit for bit, at 16 and 8
+/// lanes, with both nested strategies. Power: the same paths with each
+/// one's random numbers shifted by one sample give different radiance, and
+/// the packets the wavefront sent are full where fixed groups of a pixel's
+/// samples were not.
+#[test]
+fn the_wavefront_traces_the_same_paths_as_single_rays() {
+    use snell::counters::Counters;
+    use snell::dielectric::{InteriorList, NestedStrategy};
+    use snell::embree::{Packet16, Packet8};
+    use snell::integrator::{path_lanes, path_stream, radiance, LanePackets, PathStart, Tracer};
+    use snell::sampling::Rng;
+    let cases = [
+        ("three_spheres", NestedStrategy::Filter),
+        ("glass_of_water", NestedStrategy::Filter),
+        ("glass_of_water_nested", NestedStrategy::Recast),
+        ("deep_nesting", NestedStrategy::Filter),
+    ];
+    for (name, strategy) in cases {
+        let scene = load_scene(
+            Path::new(&format!("scenes/{name}.toml")),
+            &BuildOptions::default(),
+        )
+        .unwrap();
+        let tr = Tracer::new(&scene).with_strategy(strategy);
+        let settings = RenderSettings::from_scene(&scene)
+            .with_resolution(64, 48)
+            .unwrap();
+        let cam = settings.camera(&scene);
+        let list = InteriorList::from_solids(&scene.solids, &scene.camera_interior);
+        // Seven samples of each of 60 pixels: groups that do not fill a packet.
+        let starts = |shift: u64| -> Vec<(usize, (V3, V3), Rng)> {
+            (0..60u64)
+                .flat_map(|p| (0..7u64).map(move |s| (p * 51 % 3072, s)))
+                .enumerate()
+                .map(|(i, (pixel, s))| {
+                    let mut r = Rng::for_sample(11, pixel, s + shift);
+                    let (x, y) = ((pixel % 64) as f32, (pixel / 64) as f32);
+                    let ray = cam.ray(x + r.uniform(), y + r.uniform(), (r.uniform(), r.uniform()));
+                    (i, ray, r)
+                })
+                .collect()
+        };
+        let stream = |shift: u64, wide: bool| {
+            let all = starts(shift);
+            let mut next = all.iter().map(|(i, ray, rng)| PathStart {
+                tag: *i as u32,
+                ray: *ray,
+                rng: rng.clone(),
+            });
+            let mut out = vec![(V3::splat(f32::NAN), Counters::default()); all.len()];
+            let mut total = Counters::default();
+            let done = |tag: u32, l: V3, st: &Counters| out[tag as usize] = (l, *st);
+            if wide {
+                let mut packets = LanePackets::<Packet16>::default();
+                path_stream::<16, _>(tr, &list, || next.next(), done, true, &mut total, &mut packets)
+                    .unwrap();
+                total += packets.take_occupancy();
+            } else {
+                let mut packets = LanePackets::<Packet8>::default();
+                path_stream::<8, _>(tr, &list, || next.next(), done, true, &mut total, &mut packets).unwrap();
+                total += packets.take_occupancy();
+            }
+            (out, total)
+        };
+        let (wide, total) = stream(0, true);
+        let (narrow, _) = stream(0, false);
+        let mut lit = 0;
+        for (i, _, rng) in starts(0) {
+            let (o, d) = starts(0)[i].1;
+            let mut st = Counters::default();
+            let l = radiance(tr, o, d, list.clone(), &mut rng.clone(), &mut st).unwrap();
+            for (got, what) in [(&wide[i], "16 lanes"), (&narrow[i], "8 lanes")] {
+                let what = format!("{name} {strategy:?} path {i}, {what}");
+                assert_eq!(
+                    l.to_array().map(f32::to_bits),
+                    got.0.to_array().map(f32::to_bits),
+                    "{what}"
+                );
+                // A packet hit that only touches a mesh solid is re-traced.
+                assert_eq!(
+                    Counters {
+                        queries: st.queries,
+                        ..got.1
+                    },
+                    st,
+                    "{what}: counters"
+                );
+            }
+            lit += (l.max_element() > 0.0) as u32;
+        }
+        assert!(lit > 60, "{name}: {lit} lit paths, too few to compare");
+        let (shifted, _) = stream(1, true);
+        let differs = shifted.iter().zip(&wide).filter(|(a, b)| a.0 != b.0).count();
+        assert!(
+            differs > 60,
+            "{name}: shifted random numbers changed only {differs} paths"
+        );
+        // Fuller packets than the same paths in fixed groups of a pixel's 7
+        // (at most 7/16 full; with nested solids, lanes inside a solid go
+        // one by one and count in neither).
+        let mut grouped = Counters::default();
+        let mut packets = LanePackets::<Packet16>::default();
+        for group in starts(0).chunks(7) {
+            let cams: Vec<_> = group.iter().map(|g| g.1).collect();
+            let rngs: Vec<_> = group.iter().map(|g| g.2.clone()).collect();
+            path_lanes::<16, _>(tr, &cams, &list, &rngs, &mut [Counters::default()], &mut packets).unwrap();
+        }
+        grouped += packets.take_occupancy();
+        let share = |c: &Counters| c.packet_lanes as f64 / c.packet_slots as f64;
+        assert_eq!(
+            total.packet_lanes, grouped.packet_lanes,
+            "{name}: the same queries"
+        );
+        assert!(
+            share(&total) > 1.5 * share(&grouped),
+            "{name}: lane share {:.2} streamed, {:.2} in groups",
+            share(&total),
+            share(&grouped)
         );
     }
 }

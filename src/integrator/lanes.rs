@@ -2,7 +2,7 @@
 //! to Embree (or to the scene's analytic set) in packets, and each path is
 //! shaded by the same step as a single ray ([`PathState::advance`]).
 use super::cast::{cast, known_segment, NO_COINCIDENT};
-use super::path::PathState;
+use super::path::{PathState, PendingShadow};
 use super::Tracer;
 use crate::counters::Counters;
 use crate::dielectric::{self, InteriorList};
@@ -29,6 +29,10 @@ pub struct LanePackets<P> {
     near: P,
     shadow: P,
     occupancy: Counters,
+    /// The live paths of [`path_stream`] and their counters, kept for
+    /// their allocations.
+    front: Vec<Lane>,
+    own: Vec<Counters>,
 }
 
 impl<P> LanePackets<P> {
@@ -39,16 +43,33 @@ impl<P> LanePackets<P> {
     }
 }
 
-/// Up to `N` paths of the path tracer traced side by side (renders use 8):
-/// the segments of the live paths that a plain query answers
-/// ([`dielectric::plain_query_suffices`]) go to Embree as one packet of `N`
-/// rays (a coherent one while no path has met a diffuse surface), the others through
-/// [`dielectric::trace`]; every batch of shadow rays is one packet. Each path
-/// gives the same radiance, bit for bit, as [`radiance`](super::radiance) with its own `rng`:
-/// the shading is `PathState::advance` in both, and each path's random
-/// numbers are its own. Only where [`path_lanes_apply`] holds; `cams` and
-/// `rngs` have one entry per path (at most `N`, the width of the packet
-/// type `P`), `sts` one per path (each path's own counts) or one for all.
+/// One path for [`path_stream`] to start.
+pub struct PathStart {
+    /// The caller's name for the path, handed back with its radiance.
+    pub tag: u32,
+    /// The camera ray: origin and unit direction.
+    pub ray: (V3, V3),
+    /// The path's generator, after drawing `ray`.
+    pub rng: Rng,
+}
+
+/// A path of [`path_stream`]'s wavefront.
+struct Lane {
+    path: PathState,
+    rng: Rng,
+    tag: u32,
+    /// Its place in the front as it started: where its own counts are.
+    slot: u32,
+    /// The shadow ray of its last segment, to resolve before the next one.
+    pending: Option<PendingShadow>,
+    /// Its last segment ended it.
+    ended: bool,
+}
+
+/// Up to `N` paths of the path tracer traced side by side (a fixed set):
+/// [`path_stream`] over `cams`, with the radiance of path `i` at `i`.
+/// `cams` and `rngs` have one entry per path (at most `N`), `sts` one per
+/// path (each path's own counts) or one for all.
 ///
 /// # Errors
 /// As [`radiance`](super::radiance).
@@ -56,118 +77,226 @@ pub fn path_lanes<const N: usize, P: RayPacket<N>>(
     tr: Tracer<'_>,
     cams: &[(V3, V3)],
     list: &InteriorList,
-    rngs: &mut [Rng],
+    rngs: &[Rng],
     sts: &mut [Counters],
     packets: &mut LanePackets<P>,
 ) -> Result<[V3; N]> {
     let n = cams.len().min(N);
-    let per_lane = sts.len() > 1;
-    debug_assert!(path_lanes_apply(tr) && rngs.len() >= n && (sts.len() == 1 || sts.len() >= n));
-    // Lane `i < n` indexes these without a bounds check.
-    let rngs = &mut rngs[..n];
-    let sts = &mut sts[..if per_lane { n } else { 1 }];
-    // The counters of lane `i`.
-    let lane = |i: usize| if per_lane { i } else { 0 };
-    let scene = tr.scene;
-    let mut paths: [Option<PathState>; N] = std::array::from_fn(|_| None);
-    for (slot, &(o, d)) in paths.iter_mut().zip(cams) {
-        *slot = Some(PathState::new(o, d, list.clone()));
-    }
+    debug_assert!(rngs.len() >= n && (sts.len() == 1 || sts.len() >= n));
+    let per_path = sts.len() > 1;
     let mut out = [V3::ZERO; N];
+    let mut starts = cams[..n].iter().zip(rngs.iter()).enumerate();
+    let next = || {
+        starts.next().map(|(i, (&ray, rng))| PathStart {
+            tag: i as u32,
+            ray,
+            rng: rng.clone(),
+        })
+    };
+    let mut total = Counters::default();
+    let mut own = [Counters::default(); N];
+    path_stream(
+        tr,
+        list,
+        next,
+        |tag, l, st| {
+            out[tag as usize] = l;
+            own[tag as usize] = *st;
+        },
+        per_path,
+        &mut total,
+        packets,
+    )?;
+    if per_path {
+        for (s, o) in sts.iter_mut().zip(&own) {
+            *s += *o;
+        }
+    } else {
+        sts[0] += total;
+    }
+    Ok(out)
+}
+
+/// Paths of the path tracer traced as one wavefront, `N` side by side: all
+/// the paths `next` gives start together, and each step takes the segment
+/// of every live path, in packets of `N` made of the live paths in order
+/// (a pixel's camera rays fill packets as before; later the survivors of
+/// many pixels, so packets stay full however the paths' lengths differ).
+/// The segments that a plain query answers
+/// ([`dielectric::plain_query_suffices`]) go to Embree in those packets (a
+/// coherent one while each of its paths has only met smooth surfaces), the
+/// others through [`dielectric::trace`]; the step's shadow rays follow, in
+/// packets of `N` of their own. Each path gives the same radiance, bit for
+/// bit, as [`radiance`](super::radiance) with its own generator: the shading
+/// is `PathState::advance` in both, each path's random numbers are its own,
+/// and a path's shadow ray is resolved before its next segment. Every ended
+/// path goes to `done` with its tag and radiance, and (`per_path`) its own
+/// counters, else zeros; all counts also add to `stats`. Only where
+/// [`path_lanes_apply`] holds.
+///
+/// # Errors
+/// As [`radiance`](super::radiance).
+pub fn path_stream<const N: usize, P: RayPacket<N>>(
+    tr: Tracer<'_>,
+    list: &InteriorList,
+    mut next: impl FnMut() -> Option<PathStart>,
+    mut done: impl FnMut(u32, V3, &Counters),
+    per_path: bool,
+    stats: &mut Counters,
+    packets: &mut LanePackets<P>,
+) -> Result<()> {
+    debug_assert!(path_lanes_apply(tr));
+    let scene = tr.scene;
     let LanePackets {
         near,
         shadow,
         occupancy,
+        front,
+        own,
     } = packets;
-    while paths.iter().any(Option::is_some) {
-        near.clear();
-        let mut plain: [Option<bool>; N] = [None; N];
-        for (i, p) in paths.iter().enumerate() {
-            if let Some(p) = p {
-                plain[i] = dielectric::plain_query_suffices(scene, tr.strategy, &p.list);
-                if plain[i].is_some() {
-                    near.set_ray(i, &p.ray);
-                }
-            }
-        }
-        // Embree's coherent mode while every live path has only met smooth
-        // surfaces (a pixel's camera rays and their refractions stay nearly
-        // parallel), not only for the camera rays: it paid on refractive
-        // scenes. Shadow rays go without: they are slower in it (docs/peers.md).
-        let coherent = paths.iter().flatten().all(|p| p.only_specular);
-        // (A packet without a lane is not sent: `RayPacket::intersect`.)
-        let lanes = plain.iter().flatten().count() as u64;
-        occupancy.packet_slots += if lanes > 0 { N as u64 } else { 0 };
-        occupancy.packet_lanes += lanes;
-        intersect_packet(scene, near, coherent);
-        shadow.clear();
-        // Which lanes the packet answered (the others are cast one by one
-        // below), and the surface points of their hits, every lane's before
-        // any lane is shaded: independent f64 square roots and divisions
-        // (an analytic hit's projection and normal) the processor overlaps,
-        // where each lane's shading waited on its own.
-        let mut known = [false; N];
-        let mut sps: [Option<SurfacePoint>; N] = [None; N];
-        for i in 0..n {
-            let Some(p) = &paths[i] else { continue };
-            let Some(check) = plain[i] else { continue };
-            let hit = near.hit(i);
-            if check && !dielectric::plain_hit_is_true(scene, tr.strategy, &p.ray, hit.as_ref(), &p.list) {
-                // A touch at a mesh edge or a leaked entry: the packet's
-                // query was made (counted); `trace` redoes it and continues
-                // past.
-                sts[lane(i)].queries += 1;
-                continue;
-            }
-            if let Some(h) = &hit {
-                sps[i] = Some(scene.surface_point(&p.ray, h));
-            }
-            known[i] = true;
-        }
-        let mut pending: [Option<V3>; N] = [None; N];
-        let mut ended = [false; N];
-        for i in 0..n {
-            let Some(p) = &mut paths[i] else { continue };
-            let st = &mut sts[lane(i)];
-            st.segments += 1;
-            let sigma = tr.medium(&p.list);
-            // The segment is built in place and shaded right here (a
-            // segment moved out of a `match` was copied twice per lane).
-            let (seg, cast_coincident, coincident);
-            if known[i] {
-                seg = known_segment(tr, &p.ray, near.hit(i), st);
-                coincident = &NO_COINCIDENT;
-            } else {
-                (seg, cast_coincident) = cast(tr, &p.ray, &mut p.list, st, None)?;
-                coincident = &cast_coincident;
-            }
-            let (sh, go) = p.advance(tr, sigma, &seg, coincident, sps[i].as_ref(), &mut rngs[i], st);
-            if let Some(sh) = sh {
-                shadow.set_ray(i, &sh.ray);
-                pending[i] = Some(sh.contrib);
-            }
-            ended[i] = !go;
-        }
-        if pending.iter().any(Option::is_some) {
-            occupancy.shadow_packet_slots += N as u64;
-            occupancy.shadow_packet_lanes += pending.iter().flatten().count() as u64;
-            occlude_packet(scene, shadow);
-        }
-        // In each path's order: its shadow ray before its next segment.
-        for i in 0..n {
-            let Some(p) = &mut paths[i] else { continue };
-            if let Some(c) = pending[i] {
-                if !shadow.occluded(i) {
-                    p.l += c;
-                }
-            }
-            if ended[i] {
-                out[i] = p.radiance(&mut sts[lane(i)]);
-                paths[i] = None;
-            }
-        }
+    front.clear();
+    while let Some(PathStart {
+        tag,
+        ray: (o, d),
+        rng,
+    }) = next()
+    {
+        front.push(Lane {
+            path: PathState::new(o, d, list.clone()),
+            rng,
+            tag,
+            slot: front.len() as u32,
+            pending: None,
+            ended: false,
+        });
     }
-    Ok(out)
+    // The counters of a path: its own (in the order the paths started),
+    // or the shared ones.
+    let mut shared = Counters::default();
+    own.clear();
+    if per_path {
+        own.resize(front.len(), Counters::default());
+    }
+    macro_rules! counts {
+        ($lane:expr) => {
+            if per_path {
+                &mut own[$lane.slot as usize]
+            } else {
+                &mut shared
+            }
+        };
+    }
+    while !front.is_empty() {
+        for chunk in front.chunks_mut(N) {
+            near.clear();
+            let mut plain: [Option<bool>; N] = [None; N];
+            for (i, p) in chunk.iter().enumerate() {
+                plain[i] = dielectric::plain_query_suffices(scene, tr.strategy, &p.path.list);
+                if plain[i].is_some() {
+                    near.set_ray(i, &p.path.ray);
+                }
+            }
+            // Embree's coherent mode while every path of the packet has only
+            // met smooth surfaces (a pixel's camera rays and their
+            // refractions stay nearly parallel), not only for the camera
+            // rays: it paid on refractive scenes. Shadow rays go without:
+            // they are slower in it (docs/peers.md).
+            let coherent = chunk.iter().all(|l| l.path.only_specular);
+            // (A packet without a lane is not sent: `RayPacket::intersect`.)
+            let sent = plain.iter().flatten().count() as u64;
+            occupancy.packet_slots += if sent > 0 { N as u64 } else { 0 };
+            occupancy.packet_lanes += sent;
+            intersect_packet(scene, near, coherent);
+            // Which lanes the packet answered (the others are cast one by one
+            // below), and the surface points of their hits, every lane's
+            // before any lane is shaded: independent f64 square roots and
+            // divisions (an analytic hit's projection and normal) the
+            // processor overlaps, where each lane's shading waited on its own.
+            let mut known = [false; N];
+            let mut sps: [Option<SurfacePoint>; N] = [None; N];
+            for (i, lane) in chunk.iter_mut().enumerate() {
+                let Some(check) = plain[i] else { continue };
+                let p = &lane.path;
+                let hit = near.hit(i);
+                if check && !dielectric::plain_hit_is_true(scene, tr.strategy, &p.ray, hit.as_ref(), &p.list)
+                {
+                    // A touch at a mesh edge or a leaked entry: the packet's
+                    // query was made (counted); `trace` redoes it and
+                    // continues past.
+                    counts!(lane).queries += 1;
+                    continue;
+                }
+                if let Some(h) = &hit {
+                    sps[i] = Some(scene.surface_point(&p.ray, h));
+                }
+                known[i] = true;
+            }
+            for (i, lane) in chunk.iter_mut().enumerate() {
+                let st = counts!(lane);
+                let p = &mut lane.path;
+                st.segments += 1;
+                let sigma = tr.medium(&p.list);
+                // The segment is built in place and shaded right here (a
+                // segment moved out of a `match` was copied twice per lane).
+                let (seg, cast_coincident, coincident);
+                if known[i] {
+                    seg = known_segment(tr, &p.ray, near.hit(i), st);
+                    coincident = &NO_COINCIDENT;
+                } else {
+                    (seg, cast_coincident) = cast(tr, &p.ray, &mut p.list, st, None)?;
+                    coincident = &cast_coincident;
+                }
+                let (sh, go) = p.advance(tr, sigma, &seg, coincident, sps[i].as_ref(), &mut lane.rng, st);
+                lane.pending = sh;
+                lane.ended = !go;
+            }
+        }
+        // The step's shadow rays, packed: each path's before its next segment.
+        let mut waiting = front.iter_mut().filter(|l| l.pending.is_some()).peekable();
+        while waiting.peek().is_some() {
+            shadow.clear();
+            let mut group: [Option<&mut Lane>; N] = std::array::from_fn(|_| None);
+            for (i, lane) in waiting.by_ref().take(N).enumerate() {
+                if let Some(sh) = &lane.pending {
+                    shadow.set_ray(i, &sh.ray);
+                }
+                group[i] = Some(lane);
+            }
+            occupancy.shadow_packet_slots += N as u64;
+            occupancy.shadow_packet_lanes += group.iter().flatten().count() as u64;
+            occlude_packet(scene, shadow);
+            for (i, lane) in group.into_iter().enumerate() {
+                let Some(lane) = lane else { break };
+                if let Some(sh) = lane.pending.take() {
+                    if !shadow.occluded(i) {
+                        lane.path.l += sh.contrib;
+                    }
+                }
+            }
+        }
+        // Ended paths leave the front, the others keep their order (and
+        // stay side by side in memory: a step's packets read them in turn).
+        let mut ended = |lane: &mut Lane| {
+            let l = lane.path.radiance(counts!(lane));
+            if per_path {
+                let st = &own[lane.slot as usize];
+                done(lane.tag, l, st);
+                *stats += *st;
+            } else {
+                done(lane.tag, l, &Counters::default());
+            }
+        };
+        front.retain_mut(|lane| {
+            if lane.ended {
+                ended(lane);
+                false
+            } else {
+                true
+            }
+        });
+    }
+    *stats += shared;
+    Ok(())
 }
 
 /// Nearest hits of the active lanes of `packet` in `scene`: Embree's, or

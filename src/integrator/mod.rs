@@ -32,7 +32,7 @@ mod scatter;
 mod whitted;
 
 pub use cast::MAX_CHORDS_PER_SEGMENT;
-pub use lanes::{path_lanes, path_lanes_apply, LanePackets};
+pub use lanes::{path_lanes, path_lanes_apply, path_stream, LanePackets, PathStart};
 pub use observer::{RayObserver, RayQuery, RayRecorder};
 pub use refraction_path::{refraction_path, PathEvent, RefractionPath};
 
