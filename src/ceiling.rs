@@ -1,19 +1,24 @@
 //! `snell bench render`: the renderer against the Embree ceiling of its own
 //! rays. A render's queries (every path segment or chord, every shadow ray;
 //! see [`crate::integrator::RayRecorder`]) are recorded on a smaller render of the
-//! same scene, then replayed through bare `rtcIntersect1` / `rtcOccluded1`
-//! with no shading, on the same threads. The share of the ceiling is the
-//! render's rate of those rays over the replay's rate:
+//! same scene, each thread's in its order, then replayed through bare
+//! Embree with no shading, on the same threads, in the fastest mode for
+//! each: the coherent rays (a pixel's camera rays and their smooth
+//! continuations, [`RayQuery::Coherent`]) in coherent packets of the native
+//! width (`rtcIntersect16` with AVX-512, else `8`), the others through
+//! `rtcIntersect1` / `rtcOccluded1` (incoherent packets are slower than
+//! single rays). The share of the ceiling is the render's rate of those
+//! rays over the replay's rate:
 //!
-//! share = (samples/s × recorded rays per sample) ÷ replay rays/s.
+//! share = (samples/s × recorded rays per sample) ÷ ceiling rays/s.
 //!
 //! 1 would mean all the render's time is Embree's; the rest is snell's own
 //! work (shading, sampling, the nested rule's bookkeeping, re-casts).
-//! The same rays are also replayed in packets of eight (`rtcIntersect8` /
-//! `rtcOccluded8`, incoherent): how much packets alone could buy.
+//! The share of an all-single-ray replay is reported beside it. Both
+//! replays must find the same hits, or the bench fails.
 //! Renders and replays are interleaved and each ratio is the median over
 //! repetitions, with its range.
-use crate::embree::{Packet8, RayPacket};
+use crate::embree::{Packet16, Packet8, RayPacket};
 use crate::error::Result;
 use crate::integrator::{RayQuery, RayRecorder};
 use crate::render::{render, RenderOptions, RenderSettings};
@@ -52,91 +57,94 @@ pub struct CeilingRun {
     pub render_queries_per_s: f64,
     /// Recorded rays (segments, chords, shadow rays) per sample.
     pub rays_per_sample: f64,
-    /// Bare-Embree replay rays per second (median).
+    /// The share of them that are coherent ([`RayQuery::Coherent`]).
+    pub coherent_share: f64,
+    /// Bare-Embree replay, one ray at a time: rays per second (median).
     pub replay_rays_per_s: f64,
-    /// The same rays replayed in incoherent packets of eight (median): what
-    /// packets alone could buy.
-    pub packet_replay_rays_per_s: f64,
-    /// samples/s × rays per sample ÷ replay rays/s, per repetition: median, min, max.
+    /// Bare-Embree replay in the fastest mode for each ray (coherent rays in
+    /// coherent packets of the native width, the others one at a time):
+    /// rays per second (median). The ceiling.
+    pub best_replay_rays_per_s: f64,
+    /// samples/s × rays per sample ÷ single-ray replay rays/s, per
+    /// repetition: median, min, max.
+    pub share_single: [f64; 3],
+    /// samples/s × rays per sample ÷ the ceiling's rays/s (the fastest
+    /// mode), per repetition: median, min, max.
     pub share: [f64; 3],
-    /// The same share from CPU times (render and replay threads), steadier
-    /// on a shared machine; `None` where the kernel does not report them.
+    /// `share` from CPU times (render and replay threads), steadier on a
+    /// shared machine; `None` where the kernel does not report them.
     pub share_cpu: Option<[f64; 3]>,
 }
 
-/// Replay `rays` through bare Embree on `pool`, one query per ray
-/// (`rtcIntersect1` / `rtcOccluded1`, what the renderer does) or (`packets`)
-/// in packets of eight consecutive rays of one kind (`rtcIntersect8` /
-/// `rtcOccluded8`, incoherent: the log's order interleaves paths); returns
-/// the wall time (s) and the CPU time of the pool's threads (s, if known).
+/// How a replay sends the recorded rays to Embree.
+#[derive(Debug, Clone, Copy)]
+enum Replay {
+    /// One query per ray (`rtcIntersect1` / `rtcOccluded1`).
+    Single,
+    /// The fastest mode for each ray: the coherent ones
+    /// ([`RayQuery::Coherent`]) in coherent packets of `lanes` (the native
+    /// width), in the order a thread asked them; the others one by one.
+    Best { lanes: usize },
+}
+
+/// Replay `rays` through bare Embree on `pool` as `mode` says; returns the
+/// rays that hit, the wall time (s) and the CPU time of the pool's threads
+/// (s, if known).
 fn replay(
     scene: &RenderScene,
     rays: &[RayQuery],
     pool: &rayon::ThreadPool,
-    packets: bool,
-) -> (f64, Option<f64>) {
+    mode: Replay,
+) -> (u64, f64, Option<f64>) {
     let t = Instant::now();
     let run = || -> u64 {
         rays.par_chunks(4096)
-            .map(|chunk| {
-                if packets {
-                    return replay_packets(scene, chunk);
-                }
-                let mut n = 0u64;
-                for q in chunk {
-                    n += match q {
-                        RayQuery::Nearest(r) => scene.embree.intersect(r).is_some() as u64,
-                        RayQuery::Shadow(r) => scene.embree.occluded(r) as u64,
-                    };
-                }
-                n
+            .map(|chunk| match mode {
+                Replay::Single => chunk.iter().map(|q| replay_one(scene, q)).sum(),
+                Replay::Best { lanes: 16 } => replay_best::<16, Packet16>(scene, chunk),
+                Replay::Best { .. } => replay_best::<8, Packet8>(scene, chunk),
             })
             .sum()
     };
     let (hits, cpu) = crate::timing::on_pool(pool, || pool.install(run));
-    std::hint::black_box(hits);
-    (t.elapsed().as_secs_f64(), cpu)
+    (hits, t.elapsed().as_secs_f64(), cpu)
 }
 
-/// The packet replay of one chunk: nearest and shadow rays gathered into two
-/// packets of eight, each sent when full (and at the end).
-fn replay_packets(scene: &RenderScene, chunk: &[RayQuery]) -> u64 {
-    let (mut near, mut shadow) = (Packet8::new(), Packet8::new());
-    let (mut nn, mut ns, mut hits) = (0usize, 0usize, 0u64);
-    let mut flush = |p: &mut Packet8, k: &mut usize, occlusion: bool| {
-        if occlusion {
-            p.occlude(&scene.embree, false);
-            hits += (0..*k).filter(|&i| p.occluded(i)).count() as u64;
-        } else {
-            p.intersect(&scene.embree, false);
-            hits += (0..*k).filter(|&i| p.hit(i).is_some()).count() as u64;
-        }
+/// One ray by itself: 1 if it hit (or is occluded).
+fn replay_one(scene: &RenderScene, q: &RayQuery) -> u64 {
+    match q {
+        RayQuery::Nearest(r) | RayQuery::Coherent(r) => scene.embree.intersect(r).is_some() as u64,
+        RayQuery::Shadow(r) => scene.embree.occluded(r) as u64,
+    }
+}
+
+/// [`Replay::Best`] of one chunk: its coherent rays gathered into coherent
+/// packets of `N`, each sent when full (and at the end), the others one by
+/// one; returns the rays that hit.
+fn replay_best<const N: usize, P: RayPacket<N> + Default>(scene: &RenderScene, chunk: &[RayQuery]) -> u64 {
+    let mut packet = P::default();
+    let (mut k, mut hits) = (0usize, 0u64);
+    let flush = |p: &mut P, k: &mut usize| {
+        p.intersect(&scene.embree, true);
+        let h = (0..*k).filter(|&i| p.hit(i).is_some()).count() as u64;
         p.clear();
         *k = 0;
+        h
     };
     for q in chunk {
         match q {
-            RayQuery::Nearest(r) => {
-                near.set_ray(nn, r);
-                nn += 1;
-                if nn == 8 {
-                    flush(&mut near, &mut nn, false);
+            RayQuery::Coherent(r) => {
+                packet.set_ray(k, r);
+                k += 1;
+                if k == N {
+                    hits += flush(&mut packet, &mut k);
                 }
             }
-            RayQuery::Shadow(r) => {
-                shadow.set_ray(ns, r);
-                ns += 1;
-                if ns == 8 {
-                    flush(&mut shadow, &mut ns, true);
-                }
-            }
+            other => hits += replay_one(scene, other),
         }
     }
-    if nn > 0 {
-        flush(&mut near, &mut nn, false);
-    }
-    if ns > 0 {
-        flush(&mut shadow, &mut ns, true);
+    if k > 0 {
+        hits += flush(&mut packet, &mut k);
     }
     hits
 }
@@ -178,23 +186,36 @@ pub fn ceiling(opts: &CeilingOptions, mut progress: impl FnMut(&str)) -> Result<
             "{name}: {} rays recorded ({rays_per_sample:.2} per sample)",
             rays.len()
         ));
-        let (mut sps, mut qps, mut rps, mut share) = (vec![], vec![], vec![], vec![]);
-        let mut pps = vec![];
+        let best = Replay::Best {
+            lanes: crate::render::PacketWidth::Auto.lanes(scene.embree.device()),
+        };
+        let coherent = rays.iter().filter(|q| matches!(q, RayQuery::Coherent(_))).count();
+        let (mut sps, mut qps, mut rps, mut bps) = (vec![], vec![], vec![], vec![]);
+        let (mut share, mut share_best) = (vec![], vec![]);
         let mut share_cpu = Some(vec![]);
         for _ in 0..opts.reps.max(1) {
             let r = render(&scene, &settings, &ropts)?;
             let wall = r.stats.wall_s.max(1e-9);
             let s = r.stats.counters.samples as f64 / wall;
-            let (replay_s, replay_cpu) = replay(&scene, &rays, &pool, false);
-            pps.push(rays.len() as f64 / replay(&scene, &rays, &pool, true).0.max(1e-9));
+            let (single_hits, replay_s, _) = replay(&scene, &rays, &pool, Replay::Single);
+            let (best_hits, best_s, best_cpu) = replay(&scene, &rays, &pool, best);
+            // Both modes ask the same queries of the same scene.
+            if single_hits != best_hits {
+                return Err(crate::Error::Invalid(format!(
+                    "{name}: the replays disagree: {single_hits} hits one by one, {best_hits} with packets"
+                )));
+            }
             let rr = rays.len() as f64 / replay_s.max(1e-9);
+            let br = rays.len() as f64 / best_s.max(1e-9);
             sps.push(s);
             qps.push(r.stats.counters.rays() as f64 / wall);
             rps.push(rr);
+            bps.push(br);
             share.push(s * rays_per_sample / rr);
+            share_best.push(s * rays_per_sample / br);
             // Per CPU second: samples × rays per sample of the render ÷ rays of the replay.
             share_cpu = share_cpu
-                .zip(r.stats.cpu_s.zip(replay_cpu))
+                .zip(r.stats.cpu_s.zip(best_cpu))
                 .map(|(mut v, (rc, pc))| {
                     let render_rays_per_cpu_s =
                         r.stats.counters.samples as f64 * rays_per_sample / rc.max(1e-9);
@@ -207,9 +228,11 @@ pub fn ceiling(opts: &CeilingOptions, mut progress: impl FnMut(&str)) -> Result<
             samples_per_s: median(&sps),
             render_queries_per_s: median(&qps),
             rays_per_sample,
+            coherent_share: coherent as f64 / rays.len().max(1) as f64,
             replay_rays_per_s: median(&rps),
-            packet_replay_rays_per_s: median(&pps),
-            share: median_min_max(&share),
+            best_replay_rays_per_s: median(&bps),
+            share_single: median_min_max(&share),
+            share: median_min_max(&share_best),
             share_cpu: share_cpu.map(|v| median_min_max(&v)),
         };
         progress(&format!("{name}: share of the ceiling {:.2}", run.share[0]));
@@ -222,26 +245,29 @@ pub fn ceiling(opts: &CeilingOptions, mut progress: impl FnMut(&str)) -> Result<
 pub fn table(runs: &[CeilingRun], opts: &CeilingOptions) -> String {
     let (w, h, spp) = opts.render;
     let mut s = format!(
-        "render vs the Embree ceiling of its own rays ({w}x{h}, {spp} spp, {} threads, {} reps; rays recorded at {} spp; share = samples/s x rays per sample / bare-Embree replay rays/s, median (min-max))\n",
+        "render vs the Embree ceiling of its own rays ({w}x{h}, {spp} spp, {} threads, {} reps; rays recorded at {} spp; ceiling = bare-Embree replay of those rays, the coherent ones in coherent native-width packets, the others one by one; share = samples/s x rays per sample / ceiling rays/s, median (min-max))\n",
         opts.threads, opts.reps, opts.record_spp
     );
-    s.push_str("| scene | samples/s | Embree queries/s (render) | rays/sample | replay rays/s | share of ceiling | share, CPU times | 8-packet replay rays/s |\n|---|---|---|---|---|---|---|---|\n");
+    s.push_str("| scene | samples/s | Embree queries/s (render) | rays/sample | coherent | ceiling rays/s (packets + single) | share of ceiling | share, CPU times | single-ray replay rays/s | share of single-ray replay |\n|---|---|---|---|---|---|---|---|---|---|\n");
     for r in runs {
         let cpu = r
             .share_cpu
             .map_or("-".into(), |c| format!("{:.2} ({:.2}-{:.2})", c[0], c[1], c[2]));
         s.push_str(&format!(
-            "| {} | {:.3e} | {:.3e} | {:.2} | {:.3e} | {:.2} ({:.2}-{:.2}) | {cpu} | {:.3e} ({:.2}x) |\n",
+            "| {} | {:.3e} | {:.3e} | {:.2} | {:.2} | {:.3e} | {:.2} ({:.2}-{:.2}) | {cpu} | {:.3e} | {:.2} ({:.2}-{:.2}) |\n",
             r.scene,
             r.samples_per_s,
             r.render_queries_per_s,
             r.rays_per_sample,
-            r.replay_rays_per_s,
+            r.coherent_share,
+            r.best_replay_rays_per_s,
             r.share[0],
             r.share[1],
             r.share[2],
-            r.packet_replay_rays_per_s,
-            r.packet_replay_rays_per_s / r.replay_rays_per_s
+            r.replay_rays_per_s,
+            r.share_single[0],
+            r.share_single[1],
+            r.share_single[2],
         ));
     }
     s

@@ -41,7 +41,10 @@ fn recorded(s: &RenderScene, spp: u32) -> (Rendered, Vec<RayQuery>) {
 /// The recorded queries match the render's counters: one nearest-hit query
 /// per path segment and one per shadow ray.
 fn assert_matches_counters(name: &str, r: &Rendered, log: &[RayQuery]) {
-    let nearest = log.iter().filter(|q| matches!(q, RayQuery::Nearest(_))).count() as u64;
+    let nearest = log
+        .iter()
+        .filter(|q| matches!(q, RayQuery::Nearest(_) | RayQuery::Coherent(_)))
+        .count() as u64;
     let shadow = log.len() as u64 - nearest;
     let c = r.stats.counters;
     assert_eq!(nearest, c.segments, "{name}: one nearest-hit query per segment");
@@ -84,4 +87,67 @@ fn two_renders_at_once_record_independently() {
     assert_matches_counters("three_spheres", &ra, &la);
     assert_matches_counters("glass_of_water", &rb, &lb);
     assert_ne!(la.len(), lb.len(), "two different renders");
+}
+
+/// The coherent queries are the camera rays and their smooth continuations:
+/// on three_spheres (no solids, so every segment is a packet query) at
+/// least one per sample, each thread's in its order, so a pixel's camera
+/// rays come one after another; a diffuse scene's later segments are not
+/// coherent. And `snell bench render` replays them in packets and one by
+/// one with the same hits (it fails otherwise), with a share in (0, 1.5).
+#[test]
+fn coherent_queries_are_the_camera_rays_and_the_ceiling_replays_them() {
+    let s = scene("three_spheres");
+    let (r, log) = recorded(&s, 2);
+    let coherent: Vec<_> = log
+        .iter()
+        .filter_map(|q| match q {
+            RayQuery::Coherent(ray) => Some(*ray),
+            _ => None,
+        })
+        .collect();
+    let c = r.stats.counters;
+    assert!(
+        coherent.len() as u64 >= c.samples,
+        "three_spheres: every camera ray is coherent"
+    );
+    assert!(
+        (coherent.len() as u64) < c.segments,
+        "three_spheres: bounces off the floor are not"
+    );
+    // A pixel's two camera rays (from the pinhole) are next to each other
+    // in the log: one thread's order, not the two threads' interleaved.
+    let cam = settings(&s, 2).camera(&s);
+    let eye = coherent[0].org;
+    let pixel = |r: &snell::ray::Ray| {
+        (r.org == eye)
+            .then(|| cam.project(r.org + r.dir))
+            .flatten()
+            .map(|(x, y)| (x.floor() as i32, y.floor() as i32))
+    };
+    let pairs = coherent
+        .windows(2)
+        .filter(|w| pixel(&w[0]).is_some() && pixel(&w[0]) == pixel(&w[1]))
+        .count() as u64;
+    assert!(
+        pairs * 100 >= c.samples / 2 * 95,
+        "{pairs} of {} pixels' pairs",
+        c.samples / 2
+    );
+    let opts = snell::ceiling::CeilingOptions {
+        scenes: vec!["three_spheres".into(), "glass_of_water_nested".into()],
+        render: (32, 24, 2),
+        record_spp: 1,
+        reps: 1,
+        ..Default::default()
+    };
+    for run in snell::ceiling::ceiling(&opts, |_| {}).unwrap() {
+        assert!(run.coherent_share > 0.05, "{}: {}", run.scene, run.coherent_share);
+        assert!(
+            run.share[0] > 0.0 && run.share[0] < 1.5,
+            "{}: {:?}",
+            run.scene,
+            run.share
+        );
+    }
 }

@@ -265,15 +265,23 @@ pub(super) fn curved_escape(
 }
 
 /// The segment of `ray` whose plain query answered `hit`, counted and
-/// observed as `cast` would have.
+/// observed as `cast` would have (`coherent`: as a path's that has met only
+/// smooth surfaces, [`RayQuery::Coherent`]).
 #[inline]
 pub(super) fn known_segment(
     tr: Tracer<'_>,
     ray: &Ray,
     hit: Option<crate::ray::Hit>,
+    coherent: bool,
     st: &mut Counters,
 ) -> Segment {
-    tr.observe(|| RayQuery::Nearest(*ray));
+    tr.observe(|| {
+        if coherent {
+            RayQuery::Coherent(*ray)
+        } else {
+            RayQuery::Nearest(*ray)
+        }
+    });
     st.queries += 1;
     Segment::straight(ray, hit)
 }

@@ -240,7 +240,7 @@ pub fn path_stream<const N: usize, P: RayPacket<N>>(
                 // segment moved out of a `match` was copied twice per lane).
                 let (seg, cast_coincident, coincident);
                 if known[i] {
-                    seg = known_segment(tr, &p.ray, near.hit(i), st);
+                    seg = known_segment(tr, &p.ray, near.hit(i), p.only_specular, st);
                     coincident = &NO_COINCIDENT;
                 } else {
                     (seg, cast_coincident) = cast(tr, &p.ray, &mut p.list, st, None)?;
