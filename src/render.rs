@@ -463,6 +463,14 @@ const MAX_PATHS_PER_PACKET: usize = 16;
 /// goes to the pixels in sample order, as a pixel-by-pixel render adds them.
 const STREAM_WINDOW: usize = 1024;
 
+/// Where a tile's samples go: each pixel's sums, the diagnostic layers
+/// (if asked for) and the counters.
+struct TileSums<'a> {
+    pix: &'a mut [PixelSum],
+    aov: &'a mut Option<Aovs>,
+    stats: &'a mut Counters,
+}
+
 /// A pixel's samples as a tile adds them up: the exact fixed-point sum
 /// (what the image holds) and the f32 sums its variance comes from.
 #[derive(Clone, Copy)]
@@ -648,10 +656,15 @@ impl TileJob<'_> {
                 light_sampling: self.settings.light_sampling,
                 observer: self.observer,
             };
+            let sums = TileSums {
+                pix: &mut pix,
+                aov: &mut aov,
+                stats: &mut stats,
+            };
             if path_lanes_apply(tracer) {
-                self.stream_tile(tracer, (x0, y0), (w, h), &taken, &mut pix, &mut aov, &mut stats)?;
+                self.stream_tile(tracer, (x0, y0), (w, h), &taken, sums)?;
             } else {
-                self.trace_tile(tracer, (x0, y0), (w, h), &taken, &mut pix, &mut aov, &mut stats)?;
+                self.trace_tile(tracer, (x0, y0), (w, h), &taken, sums)?;
             }
         }
         for k in 0..n {
@@ -686,20 +699,16 @@ impl TileJob<'_> {
     }
 
     /// The samples of a w × h tile at (x0, y0) (`taken[k]` of pixel `k`, row
-    /// by row) streamed through packets of paths ([`path_stream`]): a lane
-    /// whose path ends takes the next sample of the tile, the same pixel's
-    /// while it has any, so packets stay full however the paths' lengths
-    /// differ. Each sample's radiance is added to its pixel in sample order.
-    #[allow(clippy::too_many_arguments)]
+    /// by row) traced as wavefronts of up to [`STREAM_WINDOW`] paths
+    /// ([`path_stream`]), the tile's samples in order, a pixel's side by side.
+    /// Each sample's radiance is added to its pixel in sample order.
     fn stream_tile(
         &self,
         tracer: Tracer<'_>,
         (x0, y0): (u32, u32),
         (w, h): (u32, u32),
         taken: &[u32],
-        pix: &mut [PixelSum],
-        aov: &mut Option<Aovs>,
-        stats: &mut Counters,
+        TileSums { pix, aov, stats }: TileSums<'_>,
     ) -> Result<()> {
         let list = InteriorList::from_solids(&tracer.scene.solids, &tracer.scene.camera_interior);
         let mut lanes = Lanes::of_width(self.packet_lanes);
@@ -754,16 +763,13 @@ impl TileJob<'_> {
     /// The samples of a w × h tile at (x0, y0) traced path by path (through
     /// a gradient-index medium, or by the Whitted tracer), as
     /// [`Self::stream_tile`] takes and adds them.
-    #[allow(clippy::too_many_arguments)]
     fn trace_tile(
         &self,
         tracer: Tracer<'_>,
         (x0, y0): (u32, u32),
         (w, h): (u32, u32),
         taken: &[u32],
-        pix: &mut [PixelSum],
-        aov: &mut Option<Aovs>,
-        stats: &mut Counters,
+        TileSums { pix, aov, stats }: TileSums<'_>,
     ) -> Result<()> {
         let scene = tracer.scene;
         let start_list = InteriorList::from_solids(&scene.solids, &scene.camera_interior);

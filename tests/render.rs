@@ -20,6 +20,15 @@ fn render_str(text: &str, threads: usize) -> Rendered {
     .expect("render")
 }
 
+/// The shipped scene `scenes/NAME.toml`.
+fn shipped_scene(name: &str) -> snell::RenderScene {
+    load_scene(
+        Path::new(&format!("scenes/{name}.toml")),
+        &BuildOptions::default(),
+    )
+    .unwrap()
+}
+
 /// Image mean and Monte Carlo standard error of one channel.
 fn mean_se(r: &Rendered, ch: usize) -> (f64, f64) {
     r.mean_and_se(ch)
@@ -460,11 +469,7 @@ fn packet_lanes_trace_the_same_paths_as_single_rays() {
         ("deep_nesting", NestedStrategy::Filter),
     ];
     for (name, strategy) in cases {
-        let scene = load_scene(
-            Path::new(&format!("scenes/{name}.toml")),
-            &BuildOptions::default(),
-        )
-        .unwrap();
+        let scene = shipped_scene(name);
         let tr = Tracer::new(&scene).with_strategy(strategy);
         assert!(path_lanes_apply(tr), "{name}: no medium, the packet path applies");
         // The scenes of few analytic shapes intersect them outside Embree
@@ -562,11 +567,7 @@ fn the_wavefront_traces_the_same_paths_as_single_rays() {
         ("deep_nesting", NestedStrategy::Filter),
     ];
     for (name, strategy) in cases {
-        let scene = load_scene(
-            Path::new(&format!("scenes/{name}.toml")),
-            &BuildOptions::default(),
-        )
-        .unwrap();
+        let scene = shipped_scene(name);
         let tr = Tracer::new(&scene).with_strategy(strategy);
         let settings = RenderSettings::from_scene(&scene)
             .with_resolution(64, 48)
