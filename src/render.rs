@@ -588,6 +588,42 @@ impl TileJob<'_> {
         (rng, ray)
     }
 
+    /// The paths of up to 16 samples `(k, s)` (pixel `k` of the w-wide tile
+    /// at (x0, y0), sample `s`) onto `out`, tagged by their place after
+    /// those already there: each one's generator after drawing its camera
+    /// ray, as [`Self::camera_ray`] gives them (a pinhole's directions
+    /// computed sixteen at once, the same bits).
+    fn camera_rays(&self, group: &[(usize, u32)], (x0, y0): (u32, u32), w: u32, out: &mut Vec<PathStart>) {
+        let first = out.len();
+        let (mut xs, mut ys) = ([0.0f32; 16], [0.0f32; 16]);
+        for (i, &(k, s)) in group.iter().enumerate() {
+            let (x, y) = (x0 + k as u32 % w, y0 + k as u32 / w);
+            let pixel = y as u64 * self.settings.width as u64 + x as u64;
+            let mut rng = Rng::for_sample(self.settings.seed, pixel, s as u64);
+            let ray = if self.camera.is_pinhole() {
+                // The same draws as `camera_ray_from`; the lens's two are unused.
+                xs[i] = x as f32 + rng.uniform();
+                ys[i] = y as f32 + rng.uniform();
+                rng.uniform();
+                rng.uniform();
+                (self.camera.position, V3::ZERO)
+            } else {
+                self.camera_ray_from(x, y, &mut rng)
+            };
+            out.push(PathStart {
+                tag: (first + i) as u32,
+                ray,
+                rng,
+            });
+        }
+        if self.camera.is_pinhole() {
+            let dirs = self.camera.pinhole_dirs(&xs, &ys);
+            for (p, d) in out[first..].iter_mut().zip(dirs) {
+                p.ray.1 = d;
+            }
+        }
+    }
+
     /// A camera ray through pixel (x, y) from the next four numbers of `rng`.
     fn camera_ray_from(&self, x: u32, y: u32, rng: &mut Rng) -> (V3, V3) {
         let fx = x as f32 + rng.uniform();
@@ -718,6 +754,7 @@ impl TileJob<'_> {
         let mut samples = (0..(w * h) as usize)
             .flat_map(|k| (self.start + self.count - taken[k]..self.start + self.count).map(move |s| (k, s)));
         let mut window = Vec::with_capacity(STREAM_WINDOW);
+        let mut starts = Vec::with_capacity(STREAM_WINDOW);
         let mut ls = vec![V3::ZERO; STREAM_WINDOW];
         let mut own = vec![Counters::default(); if per_path { STREAM_WINDOW } else { 0 }];
         loop {
@@ -726,19 +763,12 @@ impl TileJob<'_> {
             if window.is_empty() {
                 break;
             }
-            let mut starts = window.iter().enumerate();
-            let next = || {
-                starts.next().map(|(tag, &(k, s))| {
-                    let (x, y) = (x0 + k as u32 % w, y0 + k as u32 / w);
-                    let pixel = y as u64 * self.settings.width as u64 + x as u64;
-                    let (rng, ray) = self.camera_ray(x, y, pixel, s);
-                    PathStart {
-                        tag: tag as u32,
-                        ray,
-                        rng,
-                    }
-                })
-            };
+            starts.clear();
+            for group in window.chunks(16) {
+                self.camera_rays(group, (x0, y0), w, &mut starts);
+            }
+            let mut next_start = starts.drain(..);
+            let next = || next_start.next();
             let done = |tag: u32, l: V3, st: &Counters| {
                 ls[tag as usize] = l;
                 if per_path {
