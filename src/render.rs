@@ -658,8 +658,9 @@ impl TileJob<'_> {
         rays
     }
 
-    /// Render the tile at (x0, y0), or (`skip`) only carry over the samples already held.
-    fn tile(&self, x0: u32, y0: u32, skip: bool) -> Result<TileOut> {
+    /// Render the tile at (x0, y0) with the thread's `lanes`, or (`skip`)
+    /// only carry over the samples already held.
+    fn tile(&self, lanes: &mut Lanes, x0: u32, y0: u32, skip: bool) -> Result<TileOut> {
         let scene = self.scene;
         let w = TILE.min(self.region.x1 - x0);
         let h = TILE.min(self.region.y1 - y0);
@@ -698,7 +699,7 @@ impl TileJob<'_> {
                 stats: &mut stats,
             };
             if path_lanes_apply(tracer) {
-                self.stream_tile(tracer, (x0, y0), (w, h), &taken, sums)?;
+                self.stream_tile(tracer, lanes, (x0, y0), (w, h), &taken, sums)?;
             } else {
                 self.trace_tile(tracer, (x0, y0), (w, h), &taken, sums)?;
             }
@@ -741,13 +742,13 @@ impl TileJob<'_> {
     fn stream_tile(
         &self,
         tracer: Tracer<'_>,
+        lanes: &mut Lanes,
         (x0, y0): (u32, u32),
         (w, h): (u32, u32),
         taken: &[u32],
         TileSums { pix, aov, stats }: TileSums<'_>,
     ) -> Result<()> {
         let list = InteriorList::from_solids(&tracer.scene.solids, &tracer.scene.camera_interior);
-        let mut lanes = Lanes::of_width(self.packet_lanes);
         // Each sample's own counts only where a layer reads them.
         let per_path = aov.is_some();
         // The tile's samples in order: (pixel index in the tile, sample index).
@@ -978,19 +979,23 @@ pub fn render_part(
     let run_tiles = || -> Vec<Result<TileOut>> {
         tiles
             .par_iter()
-            .map(|&(x, y)| {
-                let t = job.tile(x, y, opts.cancel.is_cancelled())?;
-                let s = samples_done.fetch_add(t.stats.samples, Ordering::Relaxed) + t.stats.samples;
-                let done = tiles_finished.fetch_add(1, Ordering::Relaxed) + 1;
-                let p = RenderProgress {
-                    tiles_done: done,
-                    tiles_total: total,
-                    samples_done: s,
-                    elapsed_s: start_t.elapsed().as_secs_f64(),
-                };
-                opts.progress.report(&p, bar.as_ref());
-                Ok(t)
-            })
+            // Each thread's packets and wavefront storage, kept from tile to tile.
+            .map_init(
+                || Lanes::of_width(job.packet_lanes),
+                |lanes, &(x, y)| {
+                    let t = job.tile(lanes, x, y, opts.cancel.is_cancelled())?;
+                    let s = samples_done.fetch_add(t.stats.samples, Ordering::Relaxed) + t.stats.samples;
+                    let done = tiles_finished.fetch_add(1, Ordering::Relaxed) + 1;
+                    let p = RenderProgress {
+                        tiles_done: done,
+                        tiles_total: total,
+                        samples_done: s,
+                        elapsed_s: start_t.elapsed().as_secs_f64(),
+                    };
+                    opts.progress.report(&p, bar.as_ref());
+                    Ok(t)
+                },
+            )
             .collect()
     };
     let (results, cpu) = crate::timing::on_pool(&pool, || pool.install(run_tiles));
