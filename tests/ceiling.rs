@@ -94,7 +94,7 @@ fn two_renders_at_once_record_independently() {
 /// least one per sample, each thread's in its order, so a pixel's camera
 /// rays come one after another; a diffuse scene's later segments are not
 /// coherent. And `snell bench render` replays them in packets and one by
-/// one with the same hits (it fails otherwise), with a share in (0, 1.5).
+/// one with the same hits, but for at most one ray in a thousand.
 #[test]
 fn coherent_queries_are_the_camera_rays_and_the_ceiling_replays_them() {
     let s = scene("three_spheres");
@@ -143,8 +143,17 @@ fn coherent_queries_are_the_camera_rays_and_the_ceiling_replays_them() {
     };
     for run in snell::ceiling::ceiling(&opts, |_| {}).unwrap() {
         assert!(run.coherent_share > 0.05, "{}: {}", run.scene, run.coherent_share);
+        let rays = run.rays_per_sample * (32 * 24) as f64;
         assert!(
-            run.share[0] > 0.0 && run.share[0] < 1.5,
+            (run.hits_differ as f64) <= rays * 1e-3,
+            "{}: {} of {rays} rays hit in one replay only",
+            run.scene,
+            run.hits_differ
+        );
+        // A ratio of two timings: only that it is one (its size is the
+        // bench's business, and a loaded or unoptimised test run moves it).
+        assert!(
+            run.share[0].is_finite() && run.share[0] > 0.0,
             "{}: {:?}",
             run.scene,
             run.share
