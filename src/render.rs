@@ -498,7 +498,8 @@ impl PixelSum {
     }
 }
 
-/// A thread's packets for [`path_lanes`], of the render's width.
+/// A thread's packets and wavefront storage for [`path_stream`], of the
+/// render's width.
 enum Lanes {
     Eight(Box<LanePackets<crate::embree::Packet8>>),
     Sixteen(Box<LanePackets<crate::embree::Packet16>>),
@@ -589,18 +590,18 @@ impl TileJob<'_> {
     }
 
     /// The paths of up to 16 samples `(k, s)` (pixel `k` of the w-wide tile
-    /// at (x0, y0), sample `s`) onto `out`, tagged by their place after
-    /// those already there: each one's generator after drawing its camera
-    /// ray, as [`Self::camera_ray`] gives them (a pinhole's directions
-    /// computed sixteen at once, the same bits).
+    /// at (x0, y0), sample `s`) onto `out`: each one's camera ray and its
+    /// generator after drawing it, as [`Self::camera_ray`] gives them (a
+    /// pinhole's directions computed sixteen at once, the same bits).
     fn camera_rays(&self, group: &[(usize, u32)], (x0, y0): (u32, u32), w: u32, out: &mut Vec<PathStart>) {
         let first = out.len();
+        let pinhole = self.camera.is_pinhole();
         let (mut xs, mut ys) = ([0.0f32; 16], [0.0f32; 16]);
         for (i, &(k, s)) in group.iter().enumerate() {
             let (x, y) = (x0 + k as u32 % w, y0 + k as u32 / w);
             let pixel = y as u64 * self.settings.width as u64 + x as u64;
             let mut rng = Rng::for_sample(self.settings.seed, pixel, s as u64);
-            let ray = if self.camera.is_pinhole() {
+            let ray = if pinhole {
                 // The same draws as `camera_ray_from`; the lens's two are unused.
                 xs[i] = x as f32 + rng.uniform();
                 ys[i] = y as f32 + rng.uniform();
@@ -610,13 +611,9 @@ impl TileJob<'_> {
             } else {
                 self.camera_ray_from(x, y, &mut rng)
             };
-            out.push(PathStart {
-                tag: (first + i) as u32,
-                ray,
-                rng,
-            });
+            out.push(PathStart { ray, rng });
         }
-        if self.camera.is_pinhole() {
+        if pinhole {
             let dirs = self.camera.pinhole_dirs(&xs, &ys);
             for (p, d) in out[first..].iter_mut().zip(dirs) {
                 p.ray.1 = d;
@@ -770,10 +767,11 @@ impl TileJob<'_> {
             }
             let mut next_start = starts.drain(..);
             let next = || next_start.next();
-            let done = |tag: u32, l: V3, st: &Counters| {
-                ls[tag as usize] = l;
+            // A path's index in `starts` is its sample's in `window`.
+            let done = |t: u32, l: V3, st: &Counters| {
+                ls[t as usize] = l;
                 if per_path {
-                    own[tag as usize] = *st;
+                    own[t as usize] = *st;
                 }
             };
             lanes.stream(tracer, &list, next, done, per_path, stats)?;
@@ -831,8 +829,15 @@ impl TileJob<'_> {
                 let mut s = self.start + self.count - taken[k];
                 while s < self.start + self.count {
                     let lanes = (self.start + self.count - s).min(width as u32) as usize;
+                    // Lanes past `lanes` are never read: they hold a copy of the
+                    // first generator instead of seeding one each.
+                    let first = Rng::for_sample(self.settings.seed, pixel, s as u64);
                     let mut rngs: [Rng; MAX_PATHS_PER_PACKET] = std::array::from_fn(|i| {
-                        Rng::for_sample(self.settings.seed, pixel, s as u64 + i as u64)
+                        if i == 0 || i >= lanes {
+                            first.clone()
+                        } else {
+                            Rng::for_sample(self.settings.seed, pixel, s as u64 + i as u64)
+                        }
                     });
                     let mut rays = [(V3::ZERO, V3::ZERO); MAX_PATHS_PER_PACKET];
                     for (rng, ray) in rngs.iter_mut().zip(&mut rays).take(lanes) {

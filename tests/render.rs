@@ -589,14 +589,14 @@ fn the_wavefront_traces_the_same_paths_as_single_rays() {
         };
         let stream = |shift: u64, wide: bool| {
             let all = starts(shift);
-            let mut next = all.iter().map(|(i, ray, rng)| PathStart {
-                tag: *i as u32,
+            let mut next = all.iter().map(|(_, ray, rng)| PathStart {
                 ray: *ray,
                 rng: rng.clone(),
             });
             let mut out = vec![(V3::splat(f32::NAN), Counters::default()); all.len()];
             let mut total = Counters::default();
-            let done = |tag: u32, l: V3, st: &Counters| out[tag as usize] = (l, *st);
+            // `done` names a path by its place in `next`'s order.
+            let done = |i: u32, l: V3, st: &Counters| out[i as usize] = (l, *st);
             if wide {
                 let mut packets = LanePackets::<Packet16>::default();
                 path_stream::<16, _>(tr, &list, || next.next(), done, true, &mut total, &mut packets)

@@ -45,8 +45,6 @@ impl<P> LanePackets<P> {
 
 /// One path for [`path_stream`] to start.
 pub struct PathStart {
-    /// The caller's name for the path, handed back with its radiance.
-    pub tag: u32,
     /// The camera ray: origin and unit direction.
     pub ray: (V3, V3),
     /// The path's generator, after drawing `ray`.
@@ -57,8 +55,8 @@ pub struct PathStart {
 struct Lane {
     path: PathState,
     rng: Rng,
-    tag: u32,
-    /// Its place in the front as it started: where its own counts are.
+    /// Its place in the order `next` gave it: its name for `done`, and
+    /// where its own counts are.
     slot: u32,
     /// The shadow ray of its last segment, to resolve before the next one.
     pending: Option<PendingShadow>,
@@ -85,10 +83,9 @@ pub fn path_lanes<const N: usize, P: RayPacket<N>>(
     debug_assert!(rngs.len() >= n && (sts.len() == 1 || sts.len() >= n));
     let per_path = sts.len() > 1;
     let mut out = [V3::ZERO; N];
-    let mut starts = cams[..n].iter().zip(rngs.iter()).enumerate();
+    let mut starts = cams[..n].iter().zip(rngs.iter());
     let next = || {
-        starts.next().map(|(i, (&ray, rng))| PathStart {
-            tag: i as u32,
+        starts.next().map(|(&ray, rng)| PathStart {
             ray,
             rng: rng.clone(),
         })
@@ -99,9 +96,9 @@ pub fn path_lanes<const N: usize, P: RayPacket<N>>(
         tr,
         list,
         next,
-        |tag, l, st| {
-            out[tag as usize] = l;
-            own[tag as usize] = *st;
+        |i, l, st| {
+            out[i as usize] = l;
+            own[i as usize] = *st;
         },
         per_path,
         &mut total,
@@ -130,8 +127,9 @@ pub fn path_lanes<const N: usize, P: RayPacket<N>>(
 /// bit, as [`radiance`](super::radiance) with its own generator: the shading
 /// is `PathState::advance` in both, each path's random numbers are its own,
 /// and a path's shadow ray is resolved before its next segment. Every ended
-/// path goes to `done` with its tag and radiance, and (`per_path`) its own
-/// counters, else zeros; all counts also add to `stats`. Only where
+/// path goes to `done` with its index in the order `next` gave it, its
+/// radiance and (`per_path`) its own counters, else zeros; all counts also
+/// add to `stats`. Only where
 /// [`path_lanes_apply`] holds.
 ///
 /// # Errors
@@ -155,16 +153,10 @@ pub fn path_stream<const N: usize, P: RayPacket<N>>(
         own,
     } = packets;
     front.clear();
-    while let Some(PathStart {
-        tag,
-        ray: (o, d),
-        rng,
-    }) = next()
-    {
+    while let Some(PathStart { ray: (o, d), rng }) = next() {
         front.push(Lane {
             path: PathState::new(o, d, list.clone()),
             rng,
-            tag,
             slot: front.len() as u32,
             pending: None,
             ended: false,
@@ -276,23 +268,19 @@ pub fn path_stream<const N: usize, P: RayPacket<N>>(
         }
         // Ended paths leave the front, the others keep their order (and
         // stay side by side in memory: a step's packets read them in turn).
-        let mut ended = |lane: &mut Lane| {
+        front.retain_mut(|lane| {
+            if !lane.ended {
+                return true;
+            }
             let l = lane.path.radiance(counts!(lane));
             if per_path {
                 let st = &own[lane.slot as usize];
-                done(lane.tag, l, st);
+                done(lane.slot, l, st);
                 *stats += *st;
             } else {
-                done(lane.tag, l, &Counters::default());
+                done(lane.slot, l, &Counters::default());
             }
-        };
-        front.retain_mut(|lane| {
-            if lane.ended {
-                ended(lane);
-                false
-            } else {
-                true
-            }
+            false
         });
     }
     *stats += shared;
