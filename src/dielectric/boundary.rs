@@ -103,7 +103,36 @@ pub fn keeps_line(scene: &RenderScene) -> bool {
 /// orientation check at load (normals point out of every solid). The toggle
 /// strategy (the paper's) decides entering by membership instead and is left
 /// as it is.
+#[inline]
 pub fn boundary(
+    nesting: Nesting<'_>,
+    strategy: NestedStrategy,
+    material: &Material,
+    front: bool,
+    coincident: &Coincident,
+    list: &mut InteriorList,
+) -> Option<Boundary> {
+    // The common case, inline: an interface with nothing coincident leaves
+    // the list as it is (the general case builds and moves lists).
+    if let (Material::Interface { int_ior, ext_ior }, true) = (material, coincident.is_empty()) {
+        let (n1, n2) = if front {
+            (*ext_ior, *int_ior)
+        } else {
+            (*int_ior, *ext_ior)
+        };
+        return Some(Boundary {
+            n1,
+            n2,
+            entering: front,
+            transmitted: None,
+        });
+    }
+    boundary_of_any(nesting, strategy, material, front, coincident, list)
+}
+
+/// [`boundary`] for every material and coincidence.
+#[inline(never)]
+fn boundary_of_any(
     nesting: Nesting<'_>,
     strategy: NestedStrategy,
     material: &Material,

@@ -56,8 +56,12 @@ macro_rules! ray_packet {
         impl $name {
             /// All lanes inactive.
             pub fn new() -> $name {
+                // Fields no query writes (mask, time, flags; the instance id,
+                // which Embree sets to the context's: none here) are set
+                // once, here, not per ray.
                 let mut rh = sys::$rayhit::default();
                 rh.ray.mask = [u32::MAX; $n];
+                rh.hit.instID[0] = [INVALID_ID; $n];
                 $name { rh, valid: [0; $n] }
             }
 
@@ -79,12 +83,8 @@ macro_rules! ray_packet {
                 r.dir_z[i] = dir.z;
                 r.tnear[i] = 0.0;
                 r.tfar[i] = tfar;
-                r.time[i] = 0.0;
-                r.mask[i] = u32::MAX;
-                r.flags[i] = 0;
                 self.rh.hit.geomID[i] = INVALID_ID;
                 self.rh.hit.primID[i] = INVALID_ID;
-                self.rh.hit.instID[0][i] = INVALID_ID;
                 let ok = org.is_finite() && dir.is_finite() && !tfar.is_nan() && tfar >= 0.0;
                 self.valid[i] = if ok { -1 } else { 0 };
             }
@@ -184,7 +184,6 @@ macro_rules! ray_packet {
                 h.v[i] = hit.v;
                 h.primID[i] = hit.prim_id;
                 h.geomID[i] = hit.geom_id;
-                h.instID[0][i] = INVALID_ID;
             }
             #[inline]
             fn set_occluded(&mut self, i: usize) {
