@@ -33,6 +33,10 @@ pub struct LanePackets<P> {
     /// their allocations.
     front: Vec<Lane>,
     own: Vec<Counters>,
+    /// A step's shadow rays: the place of their path in the front and the
+    /// connection (kept apart from the paths, which move as the front
+    /// shrinks).
+    waiting: Vec<(u32, PendingShadow)>,
 }
 
 impl<P> LanePackets<P> {
@@ -58,8 +62,6 @@ struct Lane {
     /// Its place in the order `next` gave it: its name for `done`, and
     /// where its own counts are.
     slot: u32,
-    /// The shadow ray of its last segment, to resolve before the next one.
-    pending: Option<PendingShadow>,
     /// Its last segment ended it.
     ended: bool,
 }
@@ -151,6 +153,7 @@ pub fn path_stream<const N: usize, P: RayPacket<N>>(
         occupancy,
         front,
         own,
+        waiting,
     } = packets;
     front.clear();
     while let Some(PathStart { ray: (o, d), rng }) = next() {
@@ -158,7 +161,6 @@ pub fn path_stream<const N: usize, P: RayPacket<N>>(
             path: PathState::new(o, d, list.clone()),
             rng,
             slot: front.len() as u32,
-            pending: None,
             ended: false,
         });
     }
@@ -179,7 +181,8 @@ pub fn path_stream<const N: usize, P: RayPacket<N>>(
         };
     }
     while !front.is_empty() {
-        for chunk in front.chunks_mut(N) {
+        waiting.clear();
+        for (c, chunk) in front.chunks_mut(N).enumerate() {
             near.clear();
             let mut plain: [Option<bool>; N] = [None; N];
             for (i, p) in chunk.iter().enumerate() {
@@ -239,30 +242,24 @@ pub fn path_stream<const N: usize, P: RayPacket<N>>(
                     coincident = &cast_coincident;
                 }
                 let (sh, go) = p.advance(tr, sigma, &seg, coincident, sps[i].as_ref(), &mut lane.rng, st);
-                lane.pending = sh;
+                if let Some(sh) = sh {
+                    waiting.push(((c * N + i) as u32, sh));
+                }
                 lane.ended = !go;
             }
         }
         // The step's shadow rays, packed: each path's before its next segment.
-        let mut waiting = front.iter_mut().filter(|l| l.pending.is_some()).peekable();
-        while waiting.peek().is_some() {
+        for group in waiting.chunks(N) {
             shadow.clear();
-            let mut group: [Option<&mut Lane>; N] = std::array::from_fn(|_| None);
-            for (i, lane) in waiting.by_ref().take(N).enumerate() {
-                if let Some(sh) = &lane.pending {
-                    shadow.set_ray(i, &sh.ray);
-                }
-                group[i] = Some(lane);
+            for (i, (_, sh)) in group.iter().enumerate() {
+                shadow.set_ray(i, &sh.ray);
             }
             occupancy.shadow_packet_slots += N as u64;
-            occupancy.shadow_packet_lanes += group.iter().flatten().count() as u64;
+            occupancy.shadow_packet_lanes += group.len() as u64;
             occlude_packet(scene, shadow);
-            for (i, lane) in group.into_iter().enumerate() {
-                let Some(lane) = lane else { break };
-                if let Some(sh) = lane.pending.take() {
-                    if !shadow.occluded(i) {
-                        lane.path.l += sh.contrib;
-                    }
+            for (i, (at, sh)) in group.iter().enumerate() {
+                if !shadow.occluded(i) {
+                    front[*at as usize].path.l += sh.contrib;
                 }
             }
         }
