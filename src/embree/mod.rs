@@ -66,7 +66,7 @@ pub use dynamic_mesh::{Committed, DynamicMesh};
 use filter::init_context;
 pub use filter::{FilterContext, FilterHit, HitFilter, SkipRanges};
 pub(crate) use libc_clock::{process_cpu_s, thread_cpu_s};
-pub use packet::{Packet16, Packet8, RayPacket};
+pub use packet::{Packet16, Packet8, PacketRays, RayPacket};
 pub use scene::{BuildQuality, Scene, SceneBuilder, SceneFlags};
 pub use user_geometry::{Bounds, Candidate, Candidates, LaneRay, UserShape};
 

@@ -37,6 +37,34 @@ pub trait RayPacket<const N: usize>: Default {
     fn set_hit(&mut self, i: usize, hit: &Hit);
     /// Mark lane `i` occluded.
     fn set_occluded(&mut self, i: usize);
+    /// Every lane's ray as the packet holds them, arrays by component (for
+    /// loops over lanes that the compiler vectorises).
+    fn rays(&self) -> PacketRays<'_, N>;
+}
+
+/// The rays of a packet's `N` lanes as arrays ([`RayPacket::rays`]). Lane
+/// `i` is active when `valid[i] != 0` and `tfar[i]` is not −∞ (the mark of
+/// an occluded lane), as [`RayPacket::lane`] says; the arrays of the other
+/// lanes hold whatever they last held.
+pub struct PacketRays<'a, const N: usize> {
+    /// Origins: x, y, z.
+    pub org: [&'a [f32; N]; 3],
+    /// Directions: x, y, z.
+    pub dir: [&'a [f32; N]; 3],
+    /// Starts of the intervals.
+    pub tnear: &'a [f32; N],
+    /// Ends of the intervals (a hit's t after a nearest-hit query).
+    pub tfar: &'a [f32; N],
+    /// Embree's lane mask: −1 active, 0 not.
+    pub valid: &'a [i32; N],
+}
+
+impl<const N: usize> PacketRays<'_, N> {
+    /// Is lane `i` active ([`RayPacket::lane`] is `Some`)?
+    #[inline(always)]
+    pub fn active(&self, i: usize) -> bool {
+        self.valid[i] != 0 && self.tfar[i] != f32::NEG_INFINITY
+    }
 }
 
 macro_rules! ray_packet {
@@ -188,6 +216,17 @@ macro_rules! ray_packet {
             #[inline]
             fn set_occluded(&mut self, i: usize) {
                 self.rh.ray.tfar[i] = f32::NEG_INFINITY;
+            }
+            #[inline(always)]
+            fn rays(&self) -> PacketRays<'_, $n> {
+                let r = &self.rh.ray;
+                PacketRays {
+                    org: [&r.org_x, &r.org_y, &r.org_z],
+                    dir: [&r.dir_x, &r.dir_y, &r.dir_z],
+                    tnear: &r.tnear,
+                    tfar: &r.tfar,
+                    valid: &self.valid,
+                }
             }
         }
     };

@@ -22,7 +22,7 @@
 //! [`SceneBuilder::with_meshes_only`]: crate::embree::SceneBuilder::with_meshes_only
 use super::segment::{Roots, Segment};
 use super::Analytic;
-use crate::embree::{Candidates, LaneRay, RayPacket, UserShape};
+use crate::embree::{Candidates, PacketRays, RayPacket, UserShape};
 use crate::ray::Hit;
 use glam::DVec3;
 
@@ -72,8 +72,12 @@ struct LaneArrays<const N: usize> {
 }
 
 impl<const N: usize> LaneArrays<N> {
+    /// The lanes of `rays` up to the last active one (how many: the second
+    /// value). Every lane is converted, active or not, so that the loops
+    /// vectorise; an inactive lane gets an empty interval (and is skipped by
+    /// the callers whatever its roots).
     #[inline(always)]
-    fn of(rays: &[LaneRay]) -> Self {
+    fn of(rays: &PacketRays<'_, N>) -> (Self, usize) {
         let mut l = LaneArrays {
             o: [[0.0; N]; 3],
             d: [[0.0; N]; 3],
@@ -81,19 +85,29 @@ impl<const N: usize> LaneArrays<N> {
             t_lo: [f64::INFINITY; N],
             t_hi: [f64::NEG_INFINITY; N],
         };
-        for (k, r) in rays.iter().enumerate() {
-            for a in 0..3 {
-                l.o[a][k] = r.org[a] as f64;
-                l.d[a][k] = r.dir[a] as f64;
-                l.inv_d[a][k] = 1.0 / r.dir[a] as f64;
+        for a in 0..3 {
+            for k in 0..N {
+                l.o[a][k] = rays.org[a][k] as f64;
+                l.d[a][k] = rays.dir[a][k] as f64;
+                l.inv_d[a][k] = 1.0 / rays.dir[a][k] as f64;
             }
-            // A crossing is kept when its t rounded to f32 is within the
-            // interval: a relative 1e-6 covers that rounding many times over.
-            let (tn, tf) = (r.tnear as f64, r.tfar as f64);
+        }
+        // A crossing is kept when its t rounded to f32 is within the
+        // interval: a relative 1e-6 covers that rounding many times over.
+        for k in 0..N {
+            let (tn, tf) = (rays.tnear[k] as f64, rays.tfar[k] as f64);
             l.t_lo[k] = tn - tn.abs() * 1e-6 - 1e-9;
             l.t_hi[k] = tf + tf.abs() * 1e-6 + 1e-9;
         }
-        l
+        let mut m = 0;
+        for k in 0..N {
+            if rays.active(k) {
+                m = k + 1;
+            } else {
+                (l.t_lo[k], l.t_hi[k]) = (f64::INFINITY, f64::NEG_INFINITY);
+            }
+        }
+        (l, m)
     }
 }
 
@@ -292,57 +306,49 @@ impl AnalyticSet {
         self.prims.is_empty()
     }
 
-    /// The active lanes of `packet`: their indices and rays, and how many.
+    /// For each primitive, the crossings of each active lane of `packet`
+    /// that has any, sorted by t, to `each(packet, primitive, lane,
+    /// crossings)`: what the user-geometry callback would offer Embree for
+    /// the lane's interval as it stands then (`each` may narrow it).
     #[inline(always)]
-    fn gather<const N: usize, P: RayPacket<N>>(packet: &P) -> ([u8; N], [LaneRay; N], usize) {
-        let mut idx = [0u8; N];
-        let mut rays = [LaneRay::default(); N];
-        let mut m = 0;
-        for i in 0..N {
-            if let Some(r) = packet.lane(i) {
-                idx[m] = i as u8;
-                rays[m] = r;
-                m += 1;
-            }
-        }
-        (idx, rays, m)
-    }
-
-    /// For each primitive, the crossings of each of `rays` that has any,
-    /// sorted by t, to `each(primitive, k, crossings, rays[k])`: what the
-    /// user-geometry callback would offer Embree for the lane's current
-    /// interval (`each` may narrow it).
-    #[inline(always)]
-    fn crossings<const N: usize>(
+    fn crossings<const N: usize, P: RayPacket<N>>(
         &self,
-        rays: &mut [LaneRay],
-        mut each: impl FnMut(&Primitive, usize, &Candidates, &mut LaneRay),
+        packet: &mut P,
+        mut each: impl FnMut(&mut P, &Primitive, usize, &Candidates),
     ) {
-        let lanes = LaneArrays::<N>::of(rays);
+        let (lanes, m) = LaneArrays::<N>::of(&packet.rays());
+        if m == 0 {
+            return;
+        }
         self.arch.dispatch(SetKernel {
             prims: &self.prims,
             lanes: &lanes,
-            m: rays.len(),
+            m,
             each: |p: &Primitive, roots: &LaneRoots<N>| {
-                for (k, r) in rays.iter_mut().enumerate() {
+                for k in 0..m {
                     let lane_roots = roots.get(k);
                     if !lane_roots.real {
                         continue;
                     }
+                    // The lane as it stands (an earlier primitive may have
+                    // narrowed it, or occluded it).
+                    let Some(r) = packet.lane(k) else { continue };
                     let mut c = Candidates::default();
                     match (&p.shape, p.quadric) {
                         (Analytic::Sphere(s), Some(_)) => {
-                            s.push_crossings(&Segment::of(r), lane_roots, &mut c)
+                            s.push_crossings(&Segment::of(&r), lane_roots, &mut c)
                         }
-                        (Analytic::Cylinder(cyl), Some(_)) => {
-                            cyl.wall()
-                                .push_crossings_about_y(cyl.inward, &Segment::of(r), lane_roots, &mut c)
-                        }
+                        (Analytic::Cylinder(cyl), Some(_)) => cyl.wall().push_crossings_about_y(
+                            cyl.inward,
+                            &Segment::of(&r),
+                            lane_roots,
+                            &mut c,
+                        ),
                         (shape, _) => shape.intersect_in(p.prim, r.org, r.dir, r.tnear, r.tfar, &mut c),
                     }
                     if !c.as_slice().is_empty() {
                         c.sort();
-                        each(p, k, &c, r);
+                        each(packet, p, k, &c);
                     }
                 }
             },
@@ -354,16 +360,13 @@ impl AnalyticSet {
     /// the set lies within `[tnear, tfar]` (tfar: the mesh hit, if any) gets
     /// that crossing as its hit.
     pub fn intersect<const N: usize, P: RayPacket<N>>(&self, packet: &mut P) {
-        let (idx, mut rays, m) = Self::gather(packet);
-        if m == 0 {
-            return;
-        }
-        self.crossings::<N>(&mut rays[..m], |p, k, c, r| {
+        self.crossings::<N, P>(packet, |packet, p, k, c| {
+            let rays = packet.rays();
+            let (tnear, tfar) = (rays.tnear[k], rays.tfar[k]);
             // Sorted: the first crossing within the interval is the nearest.
-            if let Some(c) = c.as_slice().iter().find(|c| c.t >= r.tnear && c.t <= r.tfar) {
-                r.tfar = c.t;
+            if let Some(c) = c.as_slice().iter().find(|c| c.t >= tnear && c.t <= tfar) {
                 packet.set_hit(
-                    idx[k] as usize,
+                    k,
                     &Hit {
                         geom_id: p.geom,
                         prim_id: p.prim,
@@ -381,15 +384,12 @@ impl AnalyticSet {
     /// the meshes alone: a lane not yet occluded that crosses a primitive of
     /// the set within `[tnear, tfar]` becomes occluded.
     pub fn occlude<const N: usize, P: RayPacket<N>>(&self, packet: &mut P) {
-        let (idx, mut rays, m) = Self::gather(packet);
-        if m == 0 {
-            return;
-        }
-        self.crossings::<N>(&mut rays[..m], |_, k, c, r| {
-            if c.as_slice().iter().any(|c| c.t >= r.tnear && c.t <= r.tfar) {
-                // An empty interval: later primitives find nothing more.
-                r.tfar = f32::NEG_INFINITY;
-                packet.set_occluded(idx[k] as usize);
+        self.crossings::<N, P>(packet, |packet, _, k, c| {
+            let rays = packet.rays();
+            let (tnear, tfar) = (rays.tnear[k], rays.tfar[k]);
+            if c.as_slice().iter().any(|c| c.t >= tnear && c.t <= tfar) {
+                // Later primitives skip the lane (`RayPacket::lane`).
+                packet.set_occluded(k);
             }
         });
     }
