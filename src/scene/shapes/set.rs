@@ -243,7 +243,17 @@ impl<'a, const N: usize, F: FnMut(&Primitive, &LaneRoots<N>)> pulp::WithSimd for
                     // The wall's roots stay in the quadratic's order.
                     Quadric::WallY { .. } => (t0, t1),
                 };
-                reals[k] = simd.select_f64s(simd.or_m64s(not_real, misses), zero, one);
+                // A lane with neither root in its widened interval has no
+                // crossing the scalar code keeps (`Segment::keeps` compares
+                // within the exact one, which only narrows): not passed on.
+                let within = |t| {
+                    simd.and_m64s(
+                        simd.greater_than_or_equal_f64s(t, t_lo[k]),
+                        simd.less_than_or_equal_f64s(t, t_hi[k]),
+                    )
+                };
+                let outside = simd.not_m64s(simd.or_m64s(within(t0s[k]), within(t1s[k])));
+                reals[k] = simd.select_f64s(simd.or_m64s(simd.or_m64s(not_real, misses), outside), zero, one);
             }
             if any {
                 each(p, &out);
