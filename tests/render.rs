@@ -476,6 +476,14 @@ fn packet_lanes_trace_the_same_paths_as_single_rays() {
         // (`shapes::AnalyticSet`) in packets; `radiance` through Embree.
         if matches!(name, "three_spheres" | "cylinder_refraction") {
             assert!(scene.analytic_set.is_some(), "{name}: an analytic set");
+            // Their rects too: no mesh is left for Embree.
+            assert!(
+                scene
+                    .geoms
+                    .iter()
+                    .all(|g| matches!(g.shape, snell::scene::Shape::Analytic(_))),
+                "{name}: every shape analytic, rects included"
+            );
         }
         let settings = RenderSettings::from_scene(&scene)
             .with_resolution(64, 48)

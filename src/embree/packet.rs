@@ -24,7 +24,8 @@ pub trait RayPacket<const N: usize>: Default {
     /// Occlusion of the active lanes.
     fn occlude(&mut self, scene: &Scene, coherent: bool);
     /// [`intersect`](Self::intersect) against the scene's meshes alone
-    /// ([`Scene::has_meshes_only`]; the whole scene when it has no such twin).
+    /// ([`Scene::has_meshes_only`]; the whole scene when it has no such twin;
+    /// no query at all, every lane missing, when the twin is empty).
     fn intersect_meshes(&mut self, scene: &Scene, coherent: bool);
     /// [`occlude`](Self::occlude) against the scene's meshes alone (as
     /// [`intersect_meshes`](Self::intersect_meshes)).
@@ -186,10 +187,14 @@ macro_rules! ray_packet {
                 self.query(scene.raw, coherent, true);
             }
             fn intersect_meshes(&mut self, scene: &Scene, coherent: bool) {
-                self.query(scene.meshes_or_all(), coherent, false);
+                if let Some(s) = scene.meshes_or_all() {
+                    self.query(s, coherent, false);
+                }
             }
             fn occlude_meshes(&mut self, scene: &Scene, coherent: bool) {
-                self.query(scene.meshes_or_all(), coherent, true);
+                if let Some(s) = scene.meshes_or_all() {
+                    self.query(s, coherent, true);
+                }
             }
             #[inline]
             fn lane(&self, i: usize) -> Option<LaneRay> {

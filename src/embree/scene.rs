@@ -55,6 +55,8 @@ pub struct SceneBuilder {
     /// [`with_meshes_only`](Self::with_meshes_only)): each mesh is attached
     /// to both under the same geometry id.
     meshes_only: sys::RTCScene,
+    /// Has a mesh been attached to `meshes_only`?
+    any_mesh: bool,
     /// The build quality of both scenes.
     quality: sys::RTCBuildQuality,
     // Boxed so each UserGeom keeps its address (Embree holds pointers to it) when the Vec grows.
@@ -113,6 +115,7 @@ impl SceneBuilder {
             device: device.clone(),
             raw,
             meshes_only: ptr::null_mut(),
+            any_mesh: false,
             quality: q,
             user: Vec::new(),
             context_filter: flags.context_filter,
@@ -174,6 +177,7 @@ impl SceneBuilder {
             sys::rtcReleaseGeometry(geom);
             id
         };
+        self.any_mesh |= mesh;
         self.device.inner.check()?;
         Ok(id)
     }
@@ -307,6 +311,7 @@ impl SceneBuilder {
             device: self.device.clone(),
             raw,
             meshes_only,
+            no_meshes: !self.any_mesh,
             context_filter: self.context_filter,
             filter_table: std::sync::OnceLock::new(),
             user: std::mem::take(&mut self.user),
@@ -326,6 +331,8 @@ pub struct Scene {
     pub(super) raw: sys::RTCScene,
     /// The meshes alone ([`SceneBuilder::with_meshes_only`]), or null.
     pub(super) meshes_only: sys::RTCScene,
+    /// The scene holds no triangle mesh (its meshes-only twin is empty).
+    no_meshes: bool,
     /// Built with `RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION`.
     context_filter: bool,
     /// [`Scene::filter_table`]'s table.
@@ -402,12 +409,14 @@ impl Scene {
         !self.meshes_only.is_null()
     }
 
-    /// The meshes-only twin if there is one, else the whole scene.
-    pub(super) fn meshes_or_all(&self) -> sys::RTCScene {
+    /// The meshes-only twin if there is one, else the whole scene; `None`
+    /// when the twin is empty: a query of it could only miss, and Embree
+    /// would still be entered for every packet.
+    pub(super) fn meshes_or_all(&self) -> Option<sys::RTCScene> {
         if self.meshes_only.is_null() {
-            self.raw
+            Some(self.raw)
         } else {
-            self.meshes_only
+            (!self.no_meshes).then_some(self.meshes_only)
         }
     }
 
@@ -692,6 +701,49 @@ mod tests {
             if mask == 1 << 31 {
                 assert!(!f.0.contains(&0), "the masked plane was seen: {:?}", f.0);
             }
+        }
+    }
+
+    /// A meshes-only twin without meshes is never queried (a packet's
+    /// lanes all miss without entering Embree); one with meshes is, and
+    /// without a twin the whole scene is.
+    #[test]
+    fn an_empty_meshes_only_twin_is_not_queried() {
+        use crate::embree::{Packet8, RayPacket};
+        let d = Device::new("").unwrap();
+        let quad = [
+            [-1.0, -1.0, 1.0],
+            [1.0, -1.0, 1.0],
+            [1.0, 1.0, 1.0],
+            [-1.0, 1.0, 1.0],
+        ];
+        let ray = Ray::new(V3::new(0.1, 0.2, 0.0), V3::Z);
+        for (twin, mesh) in [(true, false), (true, true), (false, false)] {
+            let mut b = SceneBuilder::new(&d, SceneFlags::default(), BuildQuality::Medium).unwrap();
+            if twin {
+                b = b.with_meshes_only().unwrap();
+            }
+            b.add_user(Box::new(Plane(2.0))).unwrap();
+            if mesh {
+                b.add_triangles(&quad, &[[0, 1, 2], [0, 2, 3]]).unwrap();
+            }
+            let s = b.commit().unwrap();
+            let queried = s.meshes_or_all();
+            assert_eq!(queried.is_some(), mesh || !twin, "twin {twin}, mesh {mesh}");
+            let mut p = Packet8::new();
+            p.set_ray(3, &ray);
+            p.intersect_meshes(&s, false);
+            // The mesh at z = 1 if queried with it, the plane at z = 2 if
+            // queried without a twin, nothing when not queried.
+            let want = match (twin, mesh) {
+                (_, true) => Some(1),
+                (false, false) => Some(0),
+                (true, false) => None,
+            };
+            assert_eq!(p.hit(3).map(|h| h.geom_id), want, "twin {twin}, mesh {mesh}");
+            p.set_ray(3, &ray);
+            p.occlude_meshes(&s, false);
+            assert_eq!(p.occluded(3), want.is_some(), "twin {twin}, mesh {mesh}");
         }
     }
 

@@ -187,6 +187,14 @@ enum Patch {
         radius: f64,
         inward: bool,
     },
+    /// A parallelogram from `corner` along `edge_u` and `edge_v`, facing
+    /// `normal`.
+    Parallelogram {
+        corner: DVec3,
+        edge_u: DVec3,
+        edge_v: DVec3,
+        normal: DVec3,
+    },
 }
 
 impl Patch {
@@ -219,6 +227,7 @@ impl Patch {
         match *self {
             Patch::Annulus { inner, outer, .. } => std::f64::consts::PI * (outer * outer - inner * inner),
             Patch::Wall { height, radius, .. } => std::f64::consts::TAU * radius * height,
+            Patch::Parallelogram { edge_u, edge_v, .. } => edge_u.cross(edge_v).length(),
         }
     }
 
@@ -251,6 +260,12 @@ impl Patch {
                 let n = if inward { -radial } else { radial };
                 (base + axis * (height * u1) + radial * radius, n)
             }
+            Patch::Parallelogram {
+                corner,
+                edge_u,
+                edge_v,
+                normal,
+            } => (corner + edge_u * u1 + edge_v * u2, normal),
         }
     }
 }
@@ -275,12 +290,18 @@ impl AreaSampler {
         })
     }
 
-    /// The parts of an analytic disk, cylinder or tube by area (`None` for a
+    /// The parts of an analytic disk, cylinder, tube or rect by area (`None` for a
     /// sphere, which is sampled by its cone, or a shape without area).
     pub fn analytic(a: &Analytic) -> Option<AreaSampler> {
         let patches = match *a {
             Analytic::Sphere(_) => return None,
             Analytic::Disk(d) => vec![Patch::annulus(d.center, d.normal, d.normal, d.inner, d.radius)],
+            Analytic::Rect(r) => vec![Patch::Parallelogram {
+                corner: r.corner,
+                edge_u: r.edge_u,
+                edge_v: r.edge_v,
+                normal: r.normal,
+            }],
             Analytic::Cylinder(c) => {
                 let mut v = vec![Patch::wall(c.p0, c.axis, c.height, c.radius, c.inward)];
                 if c.caps {
@@ -414,7 +435,7 @@ impl Spot {
 mod tests {
     use super::*;
     use crate::sampling::Rng;
-    use crate::scene::shapes::{Cylinder, Disk, Sphere, Tube};
+    use crate::scene::shapes::{Cylinder, Disk, Rect, Sphere, Tube};
 
     /// The sampler's points lie on the shape, spread by area: the mean of a
     /// linear function over the samples against its exact mean.
@@ -451,6 +472,17 @@ mod tests {
                 outer: 1.0,
                 inner: 0.8,
             }),
+            // A sheared one: edges 2 and 1.5 apart at 60°, across the axis.
+            Analytic::Rect({
+                let (t, b) = axis.any_orthonormal_pair();
+                Rect::new(
+                    DVec3::new(0.5, -1.0, 2.0),
+                    t * 2.0,
+                    (t * 0.5 + b * 0.75f64.sqrt()) * 1.5,
+                    true,
+                )
+                .unwrap()
+            }),
         ];
         let pi = std::f64::consts::PI;
         let want_area = [
@@ -458,6 +490,7 @@ mod tests {
             2.0 * pi * 0.5 * 3.0,
             2.0 * pi * 1.5 + 2.0 * pi * 0.25,
             2.0 * pi * 1.8 + 2.0 * pi * 0.36,
+            2.0 * 1.5 * 0.75f64.sqrt(),
         ];
         let mut rng = Rng::new(5);
         for (a, want) in shapes.iter().zip(want_area) {
@@ -496,6 +529,7 @@ mod tests {
                 Analytic::Disk(d) => d.center.dot(axis),
                 Analytic::Cylinder(c) => c.p0.dot(axis) + 1.5,
                 Analytic::Tube(t) => t.p0.dot(axis) + 0.5,
+                Analytic::Rect(r) => (r.corner + (r.edge_u + r.edge_v) * 0.5).dot(axis),
                 _ => unreachable!(),
             };
             let spread = 1.5;

@@ -107,7 +107,9 @@ pub struct RenderArgs {
     pub nested: NestedStrategy,
     /// Who intersects the analytic shapes for the path tracer's packets:
     /// `auto` (snell itself when the scene has at most 8 analytic primitives
-    /// and no medium: the same hits, without Embree's callbacks) or `embree`.
+    /// and no medium: the same hits, without Embree's callbacks; rects are
+    /// then analytic too when they fit) or `embree` (rects stay two
+    /// triangles).
     #[arg(long, value_enum, default_value = "auto")]
     pub analytic_shapes: AnalyticShapes,
     /// Paths per Embree packet in the path tracer: `auto` (16 where Embree's

@@ -6,7 +6,7 @@ use crate::scene::desc::*;
 use crate::scene::emitter::Spot;
 use crate::scene::meshgen;
 use crate::scene::model::{Light, Material, Shape};
-use crate::scene::shapes::{Analytic, Sphere};
+use crate::scene::shapes::{Analytic, Rect, Sphere};
 use crate::scene::texture::Texture;
 use std::sync::Arc;
 
@@ -48,10 +48,12 @@ impl Builder<'_> {
                         area: (su * sv) as f32,
                         radiance,
                     });
+                    let mesh = meshgen::rect(center, normal, u, [su, sv]);
                     pending.push(Pending {
                         name: r.name.clone().unwrap_or_else(|| k.clone()),
                         name_key: format!("{k}.name"),
-                        shape: Shape::Mesh(Arc::new(meshgen::rect(center, normal, u, [su, sv]))),
+                        analytic_twin: Rect::of_mesh(&mesh).map(Analytic::Rect),
+                        shape: Shape::Mesh(Arc::new(mesh)),
                         material: Material::Black,
                         emission: Some(Texture::Constant(radiance)),
                         emission_two_sided: false,
@@ -78,6 +80,7 @@ impl Builder<'_> {
                         emission_two_sided: false,
                         light: Some(li),
                         solid: None,
+                        analytic_twin: None,
                     });
                 }
                 LightDesc::Spot(s) => lights.push(Light::Spot(self.spot(&k, s)?)),

@@ -11,6 +11,7 @@ use crate::error::{Error, Result};
 use glam::{DVec3, Vec3A as V3};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
+use upload::analytic_rects;
 
 /// Hard limits checked before any allocation (estimated memory in the message).
 pub use super::model::MAX_PIXELS;
@@ -111,6 +112,10 @@ struct Pending {
     emission_two_sided: bool,
     light: Option<u32>,
     solid: Option<PendingSolid>,
+    /// The analytic shape that may take this mesh's place (a rect's
+    /// [`Rect`](crate::scene::shapes::Rect)) when the scene is built for
+    /// the analytic set (`upload::analytic_rects`).
+    analytic_twin: Option<crate::scene::shapes::Analytic>,
 }
 
 struct PendingSolid {
@@ -213,6 +218,11 @@ impl Builder<'_> {
         // The path tracer's packets (a scene without a medium) may take the
         // analytic shapes out of Embree.
         let set_wanted = self.opts.analytic_set && integrator == IntegratorKind::Path && d.medium.is_none();
+        // The warp renderer moves mesh vertices: a `[warp]` scene's rects
+        // stay meshes.
+        if set_wanted && d.warp.is_none() {
+            analytic_rects(&mut pending);
+        }
         let up = self.upload(pending, set_wanted)?;
         // The medium sees the camera (pixel tolerances) and the geometry as
         // boxes (stretches that can meet nothing need no chords).

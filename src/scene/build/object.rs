@@ -7,7 +7,7 @@ use crate::scene::desc::*;
 use crate::scene::emitter::{AreaSampler, Emitter, EmitterShape};
 use crate::scene::meshgen;
 use crate::scene::model::{Containment, Light, Material, Shape};
-use crate::scene::shapes::{Analytic, Cylinder, Disk, Mesh, Sphere, Tube};
+use crate::scene::shapes::{Analytic, Cylinder, Disk, Mesh, Rect, Sphere, Tube};
 use crate::scene::texture::{load_image, Texture};
 use glam::{DMat3, DMat4, DVec3, Vec3A as V3};
 use std::sync::Arc;
@@ -70,6 +70,10 @@ impl Builder<'_> {
             Some(e) => Some(self.texture(&format!("{k}.emission.radiance"), &e.radiance)?),
             None => None,
         };
+        let analytic_twin = match (&o.shape, &shape) {
+            (ShapeDesc::Rect(_), Shape::Mesh(m)) if solid.is_none() => Rect::of_mesh(m).map(Analytic::Rect),
+            _ => None,
+        };
         Ok(Pending {
             name,
             name_key: format!("{k}.name"),
@@ -79,6 +83,7 @@ impl Builder<'_> {
             emission_two_sided: o.emission.as_ref().is_some_and(|e| e.two_sided),
             light: None,
             solid,
+            analytic_twin,
         })
     }
 

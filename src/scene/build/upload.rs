@@ -4,7 +4,7 @@ use super::{Builder, Pending};
 use crate::embree::{Device, Scene, SceneBuilder, SceneFlags};
 use crate::error::Result;
 use crate::scene::model::{Containment, GeomRecord, Material, Shape, Solid};
-use crate::scene::shapes::AnalyticSet;
+use crate::scene::shapes::{AnalyticSet, MAX_SET_PRIMITIVES};
 
 /// What the upload hands back to the scene.
 pub(super) struct Uploaded {
@@ -17,6 +17,40 @@ pub(super) struct Uploaded {
     pub has_overlap: bool,
     pub masked_solids: Vec<u32>,
     pub analytic_set: Option<AnalyticSet>,
+}
+
+/// Every pending mesh with an analytic twin (a rect) replaced by the twin,
+/// when every mesh of the scene has one and the scene's analytic
+/// primitives, the twins included, are few enough for an [`AnalyticSet`]:
+/// the set then intersects them too, and the scene, left without meshes,
+/// answers packets without Embree. Else all stay meshes (an
+/// [`AnalyticSet`] is all or nothing; and while other meshes keep Embree's
+/// packet query, a rect costs more in the set's lane loop than as two more
+/// triangles there). The emitters were made of the meshes before: light
+/// sampling does not change.
+pub(super) fn analytic_rects(pending: &mut [Pending]) {
+    let other_meshes = pending
+        .iter()
+        .any(|p| matches!(p.shape, Shape::Mesh(_)) && p.analytic_twin.is_none());
+    if other_meshes {
+        return;
+    }
+    let twins = pending.iter().filter(|p| p.analytic_twin.is_some()).count();
+    let analytic: usize = pending
+        .iter()
+        .map(|p| match &p.shape {
+            Shape::Analytic(a) => a.prims() as usize,
+            Shape::Mesh(_) => 0,
+        })
+        .sum();
+    if twins == 0 || twins + analytic > MAX_SET_PRIMITIVES {
+        return;
+    }
+    for p in pending {
+        if let Some(a) = p.analytic_twin.take() {
+            p.shape = Shape::Analytic(a);
+        }
+    }
 }
 
 impl Builder<'_> {
@@ -148,5 +182,101 @@ impl Builder<'_> {
                 masked_solids.into_iter().map(|(_, s)| s).collect()
             },
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::scene::shapes::Analytic;
+    use crate::scene::{load_scene, load_scene_str, BuildOptions, RenderScene, Shape};
+
+    /// `balls` spheres above a ground rect, lit by a rect light.
+    fn scene(balls: usize, extra: &str, opts: &BuildOptions) -> RenderScene {
+        let mut text = format!(
+            r#"
+{extra}
+[camera]
+position = [0.0, 1.0, 6.0]
+target = [0.0, 0.5, 0.0]
+fov = 40.0
+[film]
+width = 8
+height = 8
+spp = 1
+[[lights]]
+type = "rect"
+center = [0.0, 3.0, 0.0]
+normal = [0.0, -1.0, 0.0]
+u_axis = [1.0, 0.0, 0.0]
+size = [1.0, 0.5]
+radiance = [5.0, 5.0, 5.0]
+[[objects]]
+name = "ground"
+shape = {{ type = "rect", center = [0.0, 0.0, 0.0], normal = [0.0, 1.0, 0.0], u_axis = [1.0, 0.0, 0.0], size = [8.0, 8.0] }}
+material = {{ type = "diffuse", reflectance = [0.5, 0.5, 0.5] }}
+"#
+        );
+        for i in 0..balls {
+            text += &format!(
+                r#"
+[[objects]]
+name = "ball{i}"
+shape = {{ type = "sphere", center = [{}, 0.5, 0.0], radius = 0.4 }}
+material = {{ type = "diffuse", reflectance = [0.5, 0.5, 0.5] }}
+"#,
+                i as f64 - 3.0
+            );
+        }
+        load_scene_str("rects.toml", &text, std::path::Path::new("."), opts).unwrap()
+    }
+
+    /// How many rects are analytic, and how many meshes are left.
+    fn rects_and_meshes(s: &RenderScene) -> (usize, usize) {
+        let rects = s
+            .geoms
+            .iter()
+            .filter(|g| matches!(g.shape, Shape::Analytic(Analytic::Rect(_))))
+            .count();
+        let meshes = s
+            .geoms
+            .iter()
+            .filter(|g| matches!(g.shape, Shape::Mesh(_)))
+            .count();
+        (rects, meshes)
+    }
+
+    /// Rects are analytic only in a scene built for the analytic set (the
+    /// path tracer, no medium, the option on) whose primitives, rects
+    /// included, stay within its limit; then the set holds them. Not in a
+    /// `[warp]` scene, whose renderer moves mesh vertices (the shipped
+    /// ones prepare as before).
+    #[test]
+    fn rects_are_analytic_only_for_the_analytic_set() {
+        let set = BuildOptions::default();
+        let s = scene(3, "", &set);
+        assert_eq!(rects_and_meshes(&s), (2, 0));
+        assert_eq!(s.analytic_set.as_ref().map(|a| a.len()), Some(5));
+        // Six balls and two rects: eight primitives, the limit.
+        assert_eq!(rects_and_meshes(&scene(6, "", &set)), (2, 0));
+        // Seven: the rects stay meshes, the balls make the set.
+        let s = scene(7, "", &set);
+        assert_eq!(rects_and_meshes(&s), (0, 2));
+        assert_eq!(s.analytic_set.as_ref().map(|a| a.len()), Some(7));
+        let off = BuildOptions {
+            analytic_set: false,
+            ..BuildOptions::default()
+        };
+        assert_eq!(rects_and_meshes(&scene(3, "", &off)), (0, 2));
+        // Another mesh keeps Embree's query: the rects stay triangles in it.
+        let cube = "[[objects]]\nshape = { type = \"box\", center = [0.0, 2.0, 0.0], size = [0.5, 0.5, 0.5] }\nmaterial = { type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }";
+        assert_eq!(rects_and_meshes(&scene(1, cube, &set)), (0, 3));
+        let whitted = "[integrator]\ntype = \"whitted\"";
+        assert_eq!(rects_and_meshes(&scene(3, whitted, &set)), (0, 2));
+        for path in ["scenes/warp_plate.toml", "scenes/warp_cylinder.toml"] {
+            let s = load_scene(std::path::Path::new(path), &set).unwrap();
+            assert_eq!(rects_and_meshes(&s).0, 0, "{path}");
+            let spec = s.warp.clone().unwrap();
+            crate::warp_render::prepare(&s, &spec, 1e9).unwrap();
+        }
     }
 }

@@ -153,5 +153,6 @@ fn glass_pending(name: &str, shape: Shape, ior: f64) -> Pending {
         emission_two_sided: false,
         light: None,
         solid: None,
+        analytic_twin: None,
     }
 }

@@ -57,6 +57,7 @@ impl UserShape for Analytic {
             Analytic::Cylinder(c) => c.bounds(prim),
             Analytic::Tube(t) => t.bounds(prim),
             Analytic::Disk(k) => k.bounds(),
+            Analytic::Rect(r) => r.bounds(),
         }
     }
 
@@ -72,6 +73,7 @@ impl UserShape for Analytic {
             Analytic::Cylinder(c) => c.intersect(prim, &seg, out),
             Analytic::Tube(t) => t.intersect(prim, &seg, out),
             Analytic::Disk(k) => k.intersect(&seg, out),
+            Analytic::Rect(r) => r.intersect(&seg, out),
         }
     }
 
@@ -81,6 +83,7 @@ impl UserShape for Analytic {
             Analytic::Cylinder(c) => c.intersect_lanes(prim, rays, out),
             Analytic::Tube(t) => t.intersect_lanes(prim, rays, out),
             Analytic::Disk(k) => lane_by_lane(rays, out, |seg, out| k.intersect(seg, out)),
+            Analytic::Rect(r) => lane_by_lane(rays, out, |seg, out| r.intersect(seg, out)),
         }
     }
 }

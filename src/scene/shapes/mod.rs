@@ -4,10 +4,10 @@
 //!
 //! Normal conventions: a sphere's and a cylinder's normal point away from the
 //! centre/axis (cylinder `normal = "in"` flips it); a disk's and a rect's normal
-//! is the given one; for meshes the geometric normal is (v1−v0)×(v2−v0), i.e.
+//! is the given one (an analytic rect's is its mesh twin's); for meshes the geometric normal is (v1−v0)×(v2−v0), i.e.
 //! the side from which the winding is counter-clockwise.
 //!
-//! One file per shape ([`Sphere`], [`Cylinder`], [`Tube`], [`Disk`]), each with
+//! One file per shape ([`Sphere`], [`Cylinder`], [`Tube`], [`Disk`], [`Rect`]), each with
 //! its intersection, normal, projection, point-in-solid and proximity tests;
 //! the cylinder's and tube's walls share `wall`; [`Analytic`] dispatches to
 //! them, and `callbacks` hands them to Embree.
@@ -19,6 +19,7 @@ mod cylinder;
 mod disk;
 mod mesh;
 mod normalize;
+mod rect;
 mod segment;
 mod set;
 mod sphere;
@@ -30,6 +31,7 @@ pub use cylinder::Cylinder;
 pub use disk::Disk;
 pub use mesh::Mesh;
 pub(crate) use normalize::normalize_or;
+pub use rect::Rect;
 pub use set::{AnalyticSet, MAX_SET_PRIMITIVES};
 pub use sphere::Sphere;
 pub use tube::Tube;
@@ -51,13 +53,15 @@ pub enum Analytic {
     Tube(Tube),
     /// A disk or annulus.
     Disk(Disk),
+    /// A rectangle or parallelogram (a rect mesh's twin).
+    Rect(Rect),
 }
 
 impl Analytic {
     /// Primitives (Embree's prim ids `0..prims()`).
     pub(crate) fn prims(&self) -> u32 {
         match self {
-            Analytic::Sphere(_) | Analytic::Disk(_) => 1,
+            Analytic::Sphere(_) | Analytic::Disk(_) | Analytic::Rect(_) => 1,
             Analytic::Cylinder(c) => c.prims(),
             Analytic::Tube(_) => 4,
         }
@@ -71,7 +75,7 @@ impl Analytic {
             Analytic::Sphere(s) => Some(s.surface_near(p, tol)),
             Analytic::Cylinder(c) => c.surface_near(p, tol),
             Analytic::Tube(t) => Some(t.surface_near(p, tol)),
-            Analytic::Disk(_) => None,
+            Analytic::Disk(_) | Analytic::Rect(_) => None,
         }
     }
 
@@ -82,7 +86,7 @@ impl Analytic {
             Analytic::Sphere(s) => Some(s.contains(p)),
             Analytic::Cylinder(c) => c.contains(p),
             Analytic::Tube(t) => Some(t.contains(p)),
-            Analytic::Disk(_) => None,
+            Analytic::Disk(_) | Analytic::Rect(_) => None,
         }
     }
 
@@ -114,6 +118,7 @@ impl Analytic {
             Analytic::Cylinder(c) => c.normal(prim, p),
             Analytic::Tube(t) => t.normal(prim, p),
             Analytic::Disk(k) => k.normal,
+            Analytic::Rect(r) => r.normal,
         }
     }
 
@@ -125,14 +130,17 @@ impl Analytic {
             Analytic::Cylinder(c) => c.project(prim, p),
             Analytic::Tube(t) => t.project(prim, p),
             Analytic::Disk(k) => k.project(p),
+            Analytic::Rect(r) => r.project(p),
         }
     }
 
     /// Texture coordinates in [0, 1]² at `p` (sphere: longitude/latitude
-    /// around y; zero on the other shapes).
+    /// around y; rect: along its edges, as its mesh twin has them; zero on
+    /// the other shapes).
     pub fn uv(&self, p: DVec3) -> [f32; 2] {
         match self {
             Analytic::Sphere(s) => s.uv(p),
+            Analytic::Rect(r) => r.uv(p),
             _ => [0.0, 0.0],
         }
     }

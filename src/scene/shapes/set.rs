@@ -4,14 +4,15 @@
 //! Why: an Embree packet query that reaches a user geometry pays a
 //! traversal into its leaf, a callback per primitive and a lane loop that
 //! gathers the active rays, and most callbacks have one to four active
-//! lanes. With a handful of spheres or cylinders it is cheaper to test every
+//! lanes. With a handful of spheres, cylinders or rects it is cheaper to test every
 //! active lane against every primitive here, in vector registers, after
 //! Embree has answered the packet against the scene's meshes alone
 //! ([`SceneBuilder::with_meshes_only`]).
 //!
 //! The answer is Embree's, bit for bit: lanes that miss a primitive's
 //! bounds (the padded box Embree culls with) are left out, and for the
-//! others the same f64 roots (spheres and walls about the y axis: the
+//! others the same f64 roots (spheres and walls about the y axis, and the
+//! plane crossings of rects with their coordinates along the edges: the
 //! scalar arithmetic in every vector lane; other primitives: their scalar
 //! `intersect_in`) give the same candidates, sorted, clipped to the lane's
 //! `[tnear, tfar]` with `tfar` the nearest hit so far, the first one kept.
@@ -30,13 +31,22 @@ use glam::DVec3;
 /// tested here (every lane meets every primitive: no hierarchy).
 pub const MAX_SET_PRIMITIVES: usize = 8;
 
-/// A quadric whose roots [`SetKernel`] finds for many lanes at once.
+/// A quadric whose roots [`SetKernel`] finds for many lanes at once (or a
+/// parallelogram: its one root, the plane's crossing, where it lies inside).
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Quadric {
     /// `Sphere::roots`.
     Sphere { center: DVec3, radius: f64 },
     /// `Wall::roots` of a wall about the y axis (`AxisY`).
     WallY { base: DVec3, radius: f64 },
+    /// `Rect::crossing` but the segment's interval (`t0`: the crossing;
+    /// real only inside the parallelogram).
+    Rect {
+        corner: DVec3,
+        normal: DVec3,
+        to_a: DVec3,
+        to_b: DVec3,
+    },
 }
 
 /// One primitive of an analytic shape, with the geometry id Embree knows it
@@ -218,6 +228,53 @@ impl<'a, const N: usize, F: FnMut(&Primitive, &LaneRoots<N>)> pulp::WithSimd for
                         [d[0][k], zero, d[2][k]],
                         radius,
                     ),
+                    Quadric::Rect {
+                        corner,
+                        normal,
+                        to_a,
+                        to_b,
+                    } => {
+                        // t = (corner − o)·n / (d·n); p − corner = (o + d·t) − corner;
+                        // inside when both its coordinates are in [0, 1], and never
+                        // for d·n == 0 (a NaN coordinate is outside). Written out:
+                        // closures and array maps here are not inlined into the
+                        // vector code.
+                        let (nx, ny, nz) = (splat(normal.x), splat(normal.y), splat(normal.z));
+                        let (kx, ky, kz) = (splat(corner.x), splat(corner.y), splat(corner.z));
+                        let dn = dot(d[0][k], d[1][k], d[2][k], nx, ny, nz);
+                        let (cx, cy, cz) = (sub(kx, o[0][k]), sub(ky, o[1][k]), sub(kz, o[2][k]));
+                        let t = simd.div_f64s(dot(cx, cy, cz, nx, ny, nz), dn);
+                        let qx = sub(add(o[0][k], mul(d[0][k], t)), kx);
+                        let qy = sub(add(o[1][k], mul(d[1][k], t)), ky);
+                        let qz = sub(add(o[2][k], mul(d[2][k], t)), kz);
+                        let a = dot(qx, qy, qz, splat(to_a.x), splat(to_a.y), splat(to_a.z));
+                        let b = dot(qx, qy, qz, splat(to_b.x), splat(to_b.y), splat(to_b.z));
+                        let a_in = simd.and_m64s(
+                            simd.greater_than_or_equal_f64s(a, zero),
+                            simd.less_than_or_equal_f64s(a, one),
+                        );
+                        let b_in = simd.and_m64s(
+                            simd.greater_than_or_equal_f64s(b, zero),
+                            simd.less_than_or_equal_f64s(b, one),
+                        );
+                        let inside = simd.and_m64s(
+                            simd.and_m64s(a_in, b_in),
+                            simd.not_m64s(simd.equal_f64s(dn, zero)),
+                        );
+                        // Only a crossing within the lane's widened interval
+                        // can be one the scalar code keeps (as for the quadrics).
+                        let kept = simd.and_m64s(
+                            simd.greater_than_or_equal_f64s(t, t_lo[k]),
+                            simd.less_than_or_equal_f64s(t, t_hi[k]),
+                        );
+                        t0s[k] = t;
+                        reals[k] = simd.select_f64s(
+                            simd.and_m64s(simd.and_m64s(inside, kept), simd.not_m64s(misses)),
+                            one,
+                            zero,
+                        );
+                        continue;
+                    }
                 };
                 let [cx, cy, cz] = off;
                 let [dx, dy, dz] = dir;
@@ -241,7 +298,7 @@ impl<'a, const N: usize, F: FnMut(&Primitive, &LaneRoots<N>)> pulp::WithSimd for
                 (t0s[k], t1s[k]) = match quadric {
                     Quadric::Sphere { .. } => (simd.min_f64s(t0, t1), simd.max_f64s(t0, t1)),
                     // The wall's roots stay in the quadratic's order.
-                    Quadric::WallY { .. } => (t0, t1),
+                    Quadric::WallY { .. } | Quadric::Rect { .. } => (t0, t1),
                 };
                 // A lane with neither root in its widened interval has no
                 // crossing the scalar code keeps (`Segment::keeps` compares
@@ -279,6 +336,15 @@ impl AnalyticSet {
                         base: c.p0,
                         radius: c.radius,
                     }),
+                    Analytic::Rect(r) => {
+                        let (to_a, to_b) = r.dual();
+                        Some(Quadric::Rect {
+                            corner: r.corner,
+                            normal: r.normal,
+                            to_a,
+                            to_b,
+                        })
+                    }
                     _ => None,
                 };
                 prims.push(Primitive {
@@ -354,6 +420,9 @@ impl AnalyticSet {
                             lane_roots,
                             &mut c,
                         ),
+                        (Analytic::Rect(rect), Some(_)) => {
+                            rect.push_crossing_at(&Segment::of(&r), lane_roots.t0, &mut c)
+                        }
                         (shape, _) => shape.intersect_in(p.prim, r.org, r.dir, r.tnear, r.tfar, &mut c),
                     }
                     if !c.as_slice().is_empty() {
@@ -467,6 +536,11 @@ material = { type = "dielectric", int_ior = 1.5, ext_ior = 1.0 }
 name = "disk"
 shape = { type = "disk", center = [0.0, 1.2, 0.0], normal = [0.0, 1.0, 0.0], radius = 0.5 }
 material = { type = "diffuse", reflectance = [0.5, 0.5, 0.5] }
+[[objects]]
+name = "card"
+shape = { type = "rect", center = [0.0, 0.0, 0.0], normal = [0.0, 0.0, 1.0], u_axis = [1.0, 0.0, 0.0], size = [1.2, 0.8] }
+transform = [{ matrix = [[1.0, 0.4, 0.0, -0.6], [0.0, 1.0, 0.3, 0.2], [0.2, 0.0, 1.0, 0.8], [0.0, 0.0, 0.0, 1.0]] }]
+material = { type = "diffuse", reflectance = [0.5, 0.5, 0.5] }
 "#,
         r#"
 [[objects]]
@@ -526,13 +600,9 @@ material = { type = "dielectric", int_ior = 1.5, ext_ior = 1.0 }
     }
 
     /// Lanes of `rays` where `set` (with the meshes from Embree) answers
-    /// otherwise than Embree with its callbacks, nearest hits and occlusion.
-    fn disagreements(
-        set: &AnalyticSet,
-        with: &RenderScene,
-        without: &RenderScene,
-        rays: &[[Ray; 8]],
-    ) -> usize {
+    /// otherwise than Embree with its callbacks in the whole scene, nearest
+    /// hits and occlusion.
+    fn disagreements(set: &AnalyticSet, with: &RenderScene, rays: &[[Ray; 8]]) -> usize {
         let mut bad = 0;
         for batch in rays {
             let (mut a, mut b) = (Packet8::new(), Packet8::new());
@@ -542,7 +612,7 @@ material = { type = "dielectric", int_ior = 1.5, ext_ior = 1.0 }
             }
             a.intersect_meshes(&with.embree, false);
             set.intersect(&mut a);
-            b.intersect(&without.embree, false);
+            b.intersect(&with.embree, false);
             bad += (0..8).filter(|&i| bits(&a, i) != bits(&b, i)).count();
             for (i, r) in batch.iter().enumerate() {
                 a.set_ray(i, r);
@@ -550,7 +620,7 @@ material = { type = "dielectric", int_ior = 1.5, ext_ior = 1.0 }
             }
             a.occlude_meshes(&with.embree, false);
             set.occlude(&mut a);
-            b.occlude(&without.embree, false);
+            b.occlude(&with.embree, false);
             bad += (0..8).filter(|&i| a.occluded(i) != b.occluded(i)).count();
         }
         bad
@@ -559,8 +629,10 @@ material = { type = "dielectric", int_ior = 1.5, ext_ior = 1.0 }
     /// The set answers packet queries as Embree's user-geometry callbacks
     /// do, bit for bit (hit distance, normal, ids; occlusion), at every
     /// vector level the CPU has: spheres, walls about y and other axes,
-    /// caps, disks and tubes, rays grazing them, any interval. A sphere
-    /// larger by a relative 1e-7 is caught.
+    /// caps, disks, tubes and rects (the ground and a sheared card, when
+    /// they fit in the set: the first scene; the second keeps its ground a
+    /// mesh), rays grazing them, any interval. A sphere larger by a
+    /// relative 1e-7 is caught, and so are rects with their edges swapped.
     #[test]
     fn set_answers_as_embree_at_every_level() {
         let rays = packets(3, 4000);
@@ -570,6 +642,14 @@ material = { type = "dielectric", int_ior = 1.5, ext_ior = 1.0 }
             assert!(with.embree.has_meshes_only() && !without.embree.has_meshes_only());
             let set = with.analytic_set.clone().expect("a set of few shapes");
             assert!(without.analytic_set.is_none());
+            let rects = |s: &RenderScene| {
+                s.geoms
+                    .iter()
+                    .filter(|g| matches!(g.shape, Shape::Analytic(Analytic::Rect(_))))
+                    .count()
+            };
+            assert_eq!(rects(&with), [2, 0][n], "set {n}: analytic rects");
+            assert_eq!(rects(&without), 0, "set {n}: no set, no analytic rects");
             let hits: usize = rays
                 .iter()
                 .map(|batch| {
@@ -589,33 +669,41 @@ material = { type = "dielectric", int_ior = 1.5, ext_ior = 1.0 }
             );
             for arch in levels() {
                 let set = set.clone().with_arch(arch);
-                assert_eq!(
-                    disagreements(&set, &with, &without, &rays),
-                    0,
-                    "set {n}, {arch:?}"
-                );
+                assert_eq!(disagreements(&set, &with, &rays), 0, "set {n}, {arch:?}");
             }
-            // Power: every sphere a relative 1e-7 larger.
+            // Power: every sphere a relative 1e-7 larger; every rect with its
+            // edges swapped (facing the other way).
             let grown =
-                AnalyticSet::try_new(
-                    with.geoms
-                        .iter()
-                        .enumerate()
-                        .filter_map(|(g, rec)| match &rec.shape {
-                            Shape::Analytic(Analytic::Sphere(s)) => Some((
-                                g as u32,
-                                Analytic::Sphere(crate::scene::shapes::Sphere {
-                                    radius: s.radius * (1.0 + 1e-7),
-                                    ..*s
-                                }),
-                            )),
-                            Shape::Analytic(a) => Some((g as u32, *a)),
+                |grow: &dyn Fn(&Analytic) -> Option<Analytic>| {
+                    AnalyticSet::try_new(with.geoms.iter().enumerate().filter_map(
+                        |(g, rec)| match &rec.shape {
+                            Shape::Analytic(a) => Some((g as u32, grow(a).unwrap_or(*a))),
                             Shape::Mesh(_) => None,
-                        }),
-                )
-                .unwrap();
-            let bad = disagreements(&grown, &with, &without, &rays);
+                        },
+                    ))
+                    .unwrap()
+                };
+            let spheres = grown(&|a| match a {
+                Analytic::Sphere(s) => Some(Analytic::Sphere(crate::scene::shapes::Sphere {
+                    radius: s.radius * (1.0 + 1e-7),
+                    ..*s
+                })),
+                _ => None,
+            });
+            let bad = disagreements(&spheres, &with, &rays);
             assert!(bad > 0, "set {n}: a grown sphere went unnoticed");
+            if rects(&with) > 0 {
+                let swapped = grown(&|a| match a {
+                    Analytic::Rect(r) => {
+                        let flip = r.normal.dot(r.edge_u.cross(r.edge_v)) < 0.0;
+                        crate::scene::shapes::Rect::new(r.corner, r.edge_v, r.edge_u, flip)
+                            .map(Analytic::Rect)
+                    }
+                    _ => None,
+                });
+                let bad = disagreements(&swapped, &with, &rays);
+                assert!(bad > 0, "set {n}: rects with swapped edges went unnoticed");
+            }
         }
     }
 
