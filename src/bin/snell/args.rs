@@ -108,7 +108,7 @@ pub struct RenderArgs {
     /// Who intersects the analytic shapes for the path tracer's packets:
     /// `auto` (snell itself when the scene has at most 8 analytic primitives
     /// and no medium: the same hits, without Embree's callbacks; rects are
-    /// then analytic too when they fit) or `embree` (rects stay two
+    /// then analytic too when they are its only meshes) or `embree` (rects stay two
     /// triangles).
     #[arg(long, value_enum, default_value = "auto")]
     pub analytic_shapes: AnalyticShapes,
