@@ -22,16 +22,8 @@ impl Disk {
     /// The crossing of the segment with the disk, if the segment keeps it.
     #[inline]
     pub(super) fn crossing(&self, seg: &Segment) -> Option<f64> {
-        let (o, d, n) = (seg.o, seg.d, self.normal);
-        let dn = d.dot(n);
-        if dn == 0.0 {
-            return None;
-        }
-        let t = (self.center - o).dot(n) / dn;
-        if !seg.keeps(t) {
-            return None;
-        }
-        let p = o + d * t - self.center;
+        let t = seg.plane_crossing(self.center, self.normal)?;
+        let p = seg.o + seg.d * t - self.center;
         let q = p.length_squared();
         (q <= self.radius * self.radius && q >= self.inner * self.inner).then_some(t)
     }

@@ -82,20 +82,11 @@ impl Rect {
     }
 
     /// The crossing of the segment with the parallelogram, if the segment
-    /// keeps it. A ray parallel to the plane (`d·n == 0`) crosses nothing:
-    /// one lying in the plane would only graze the surface.
+    /// keeps it ([`Segment::plane_crossing`]).
     #[inline]
     pub(super) fn crossing(&self, seg: &Segment) -> Option<f64> {
-        let (o, d, n) = (seg.o, seg.d, self.normal);
-        let dn = d.dot(n);
-        if dn == 0.0 {
-            return None;
-        }
-        let t = (self.corner - o).dot(n) / dn;
-        if !seg.keeps(t) {
-            return None;
-        }
-        let (a, b) = self.coords(o + d * t);
+        let t = seg.plane_crossing(self.corner, self.normal)?;
+        let (a, b) = self.coords(seg.o + seg.d * t);
         ((0.0..=1.0).contains(&a) && (0.0..=1.0).contains(&b)).then_some(t)
     }
 

@@ -43,6 +43,21 @@ impl Segment {
         t.is_finite() && t32 >= self.tn && t32 <= self.tf
     }
 
+    /// Where the segment crosses the plane through `point` with normal `n`
+    /// (any length), if it keeps the crossing; never for a segment parallel
+    /// to the plane (`d·n == 0`: one lying in it would only graze a surface
+    /// there). The arithmetic of the planar shapes (disks, rects) and of the
+    /// analytic set's vector lanes for rects, operation for operation.
+    #[inline(always)]
+    pub(super) fn plane_crossing(&self, point: DVec3, n: DVec3) -> Option<f64> {
+        let dn = self.d.dot(n);
+        if dn == 0.0 {
+            return None;
+        }
+        let t = (point - self.o).dot(n) / dn;
+        self.keeps(t).then_some(t)
+    }
+
     /// Are the roots `t0` and `t1` one tangent touch rather than an entry
     /// and an exit? They are when closer than the renderer's crossing window
     /// (twice the spawn offset, `ray::crossing_window`, in the same units):
