@@ -98,16 +98,6 @@ impl Rect {
         }
     }
 
-    /// The crossing at `t` onto `out` if the segment keeps it, where `t`
-    /// is the plane's crossing inside the parallelogram, found as
-    /// [`crossing`](Self::crossing) finds it (the set's lanes).
-    #[inline(always)]
-    pub(super) fn push_crossing_at(&self, seg: &Segment, t: f64, out: &mut Candidates) {
-        if seg.keeps(t) {
-            out.push(candidate(t, self.normal));
-        }
-    }
-
     /// `p` moved along the normal onto the plane.
     #[inline(always)]
     pub(super) fn project(&self, p: DVec3) -> DVec3 {

@@ -12,18 +12,22 @@
 //! The answer is Embree's, bit for bit: lanes that miss a primitive's
 //! bounds (the padded box Embree culls with) are left out, and for the
 //! others the same f64 roots (spheres and walls about the y axis, and the
-//! plane crossings of rects with their coordinates along the edges: the
-//! scalar arithmetic in every vector lane; other primitives: their scalar
-//! `intersect_in`) give the same candidates, sorted, clipped to the lane's
-//! `[tnear, tfar]` with `tfar` the nearest hit so far, the first one kept.
-//! Only a tie at exactly the same f32 distance between two primitives may
-//! be broken otherwise (Embree's order is its traversal's; here it is the
-//! primitives' order).
+//! plane crossings of rects: the scalar arithmetic in every vector lane)
+//! give the same crossings, the touch test decides the same, and the kept
+//! crossing nearest within the lane's `[tnear, tfar]` (`tfar` narrowed by
+//! each primitive's hit in turn) becomes its hit, all in vector registers.
+//! Where the f32 rounding of a root could decide whether it is kept (a root
+//! within two f32 ulps of an end of the interval), or a lane meets a
+//! primitive without a vector form (caps, disks, tubes, tilted walls), the
+//! lane is answered again by the scalar `intersect_in`, one primitive at a
+//! time. Only a tie at exactly the same f32 distance between two primitives
+//! may be broken otherwise (Embree's order is its traversal's; here it is
+//! the primitives' order).
 //!
 //! [`SceneBuilder::with_meshes_only`]: crate::embree::SceneBuilder::with_meshes_only
-use super::segment::{Roots, Segment};
+use super::segment::candidate;
 use super::Analytic;
-use crate::embree::{Candidates, PacketRays, RayPacket, UserShape};
+use crate::embree::{Candidate, Candidates, PacketRays, RayPacket, UserShape};
 use crate::ray::Hit;
 use glam::DVec3;
 
@@ -37,8 +41,14 @@ pub const MAX_SET_PRIMITIVES: usize = 8;
 enum Quadric {
     /// `Sphere::roots`.
     Sphere { center: DVec3, radius: f64 },
-    /// `Wall::roots` of a wall about the y axis (`AxisY`).
-    WallY { base: DVec3, radius: f64 },
+    /// `Wall::roots` of a wall about the y axis (`AxisY`), `height` long,
+    /// its normals towards the axis when `flip`.
+    WallY {
+        base: DVec3,
+        radius: f64,
+        height: f64,
+        flip: bool,
+    },
     /// `Rect::crossing` but the segment's interval (`t0`: the crossing;
     /// real only inside the parallelogram).
     Rect {
@@ -67,18 +77,31 @@ pub struct AnalyticSet {
     prims: Vec<Primitive>,
     /// The vector instructions the lane loops are compiled for.
     arch: pulp::Arch,
+    /// Take the kernel's answer for unsure lanes too (a known-wrong
+    /// variant for the tests).
+    #[cfg(test)]
+    trust_kernel: bool,
 }
 
 /// The active lanes' rays in f64 (what `Segment::new` makes of each), the
-/// reciprocals of their directions and their intervals widened by far more
-/// than f32 rounding (for the box test); lanes past the active ones have a
-/// zero direction and an empty interval.
+/// reciprocals of their directions, their intervals (exact, and widened by
+/// far more than f32 rounding for the box test) and what the touch test
+/// reads of each ray; lanes past the active ones have a zero direction and
+/// an empty interval.
 struct LaneArrays<const N: usize> {
     o: [[f64; N]; 3],
     d: [[f64; N]; 3],
     inv_d: [[f64; N]; 3],
     t_lo: [f64; N],
     t_hi: [f64; N],
+    /// The interval as the packet holds it (f32 values).
+    tn: [f64; N],
+    tf: [f64; N],
+    /// `|o|` and `|d|` by their largest components, and `|d|`
+    /// (`Segment::is_touch`).
+    o_max: [f64; N],
+    d_max: [f64; N],
+    d_len: [f64; N],
 }
 
 impl<const N: usize> LaneArrays<N> {
@@ -94,6 +117,11 @@ impl<const N: usize> LaneArrays<N> {
             inv_d: [[0.0; N]; 3],
             t_lo: [f64::INFINITY; N],
             t_hi: [f64::NEG_INFINITY; N],
+            tn: [0.0; N],
+            tf: [0.0; N],
+            o_max: [0.0; N],
+            d_max: [0.0; N],
+            d_len: [0.0; N],
         };
         for a in 0..3 {
             for k in 0..N {
@@ -102,10 +130,18 @@ impl<const N: usize> LaneArrays<N> {
                 l.inv_d[a][k] = 1.0 / rays.dir[a][k] as f64;
             }
         }
+        for k in 0..N {
+            let (o, d) = (&l.o, &l.d);
+            l.o_max[k] = o[0][k].abs().max(o[1][k].abs().max(o[2][k].abs()));
+            l.d_max[k] = d[0][k].abs().max(d[1][k].abs().max(d[2][k].abs()));
+            // glam's `length`: the dot product summed left to right.
+            l.d_len[k] = (d[0][k] * d[0][k] + d[1][k] * d[1][k] + d[2][k] * d[2][k]).sqrt();
+        }
         // A crossing is kept when its t rounded to f32 is within the
         // interval: a relative 1e-6 covers that rounding many times over.
         for k in 0..N {
             let (tn, tf) = (rays.tnear[k] as f64, rays.tfar[k] as f64);
+            (l.tn[k], l.tf[k]) = (tn, tf);
             l.t_lo[k] = tn - tn.abs() * 1e-6 - 1e-9;
             l.t_hi[k] = tf + tf.abs() * 1e-6 + 1e-9;
         }
@@ -121,49 +157,206 @@ impl<const N: usize> LaneArrays<N> {
     }
 }
 
-/// Every lane's roots with one primitive, in arrays (`real` is 0 for a
-/// lane that misses the primitive's box; for a primitive without a
-/// quadric, `real` 1 only says the lane meets the box).
-#[derive(Clone, Copy)]
-struct LaneRoots<const N: usize> {
-    t0: [f64; N],
-    t1: [f64; N],
-    real: [f64; N],
+/// What [`SetKernel`] decides for each lane of a packet, as the scalar code
+/// would: its nearest crossing among the set's primitives (a nearest-hit
+/// query) or whether it has any (occlusion), unless the f32 rounding of a
+/// root could tip a comparison (`unsure`: the lane is replayed in scalar
+/// code).
+struct Resolved<const N: usize> {
+    /// The crossing's t (its f32 is the hit's).
+    t: [f64; N],
+    /// The crossing's geometry id, −1 for none (in occlusion: the lane is
+    /// occluded for sure).
+    geom: [f64; N],
+    /// Its primitive id.
+    prim: [f64; N],
+    /// The crossing's normal before its conversion to f32.
+    n: [[f64; N]; 3],
+    /// Nonzero: decide the lane in scalar code.
+    unsure: [f64; N],
+    /// The primitives whose boxes the lane meets, bit `i` for the `i`th
+    /// (what Embree would call back for).
+    boxes: [f64; N],
 }
 
-impl<const N: usize> LaneRoots<N> {
-    const NONE: LaneRoots<N> = LaneRoots {
-        t0: [0.0; N],
-        t1: [0.0; N],
-        real: [0.0; N],
+impl<const N: usize> Resolved<N> {
+    const NONE: Resolved<N> = Resolved {
+        t: [0.0; N],
+        geom: [-1.0; N],
+        prim: [0.0; N],
+        n: [[0.0; N]; 3],
+        unsure: [0.0; N],
+        boxes: [0.0; N],
     };
+}
 
-    /// Lane `k`'s roots.
-    #[inline(always)]
-    fn get(&self, k: usize) -> Roots {
-        Roots {
-            t0: self.t0[k],
-            t1: self.t1[k],
-            real: self.real[k] != 0.0,
-        }
-    }
+/// Relative and absolute slack around an interval's ends beyond which a
+/// root's f32 rounding cannot move it across: twice an f32 ulp, and a few
+/// of the smallest subnormals.
+const SLACK_REL: f64 = 1.0 / (1u64 << 21) as f64;
+const SLACK_ABS: f64 = 1e-44;
+
+// The kernel's arithmetic is written with these macros, not closures: a
+// closure is a function of its own, compiled without the vector unit's
+// target features, and left out of line its intrinsics are calls.
+macro_rules! v {
+    ($simd:ident, $op:ident, $($arg:expr),+) => {
+        $simd.$op($($arg),+)
+    };
+}
+
+/// x·x' + y·y' + z·z', summed left to right as glam's `dot`.
+macro_rules! dot {
+    ($simd:ident, $x:expr, $y:expr, $z:expr, $x2:expr, $y2:expr, $z2:expr) => {
+        v!(
+            $simd,
+            add_f64s,
+            v!(
+                $simd,
+                add_f64s,
+                v!($simd, mul_f64s, $x, $x2),
+                v!($simd, mul_f64s, $y, $y2)
+            ),
+            v!($simd, mul_f64s, $z, $z2)
+        )
+    };
+}
+
+/// Is `t` within `[lo, hi]`?
+macro_rules! within {
+    ($simd:ident, $t:expr, $lo:expr, $hi:expr) => {
+        v!(
+            $simd,
+            and_m64s,
+            v!($simd, greater_than_or_equal_f64s, $t, $lo),
+            v!($simd, less_than_or_equal_f64s, $t, $hi)
+        )
+    };
+}
+
+/// Does `Segment::keeps` keep the root `t` of lanes whose interval is
+/// `[tn, lim]` (`lim`: the f32 end, or a kept crossing's t whose f32 it
+/// became)? As masks: kept for sure, and unsure. Exact where sure: `t >=
+/// tn` implies `t as f32 >= tn` for an f32 `tn` (rounding is monotone), and
+/// past the slack the rounding cannot reach the end.
+#[inline(always)]
+fn keeps<S: pulp::Simd>(simd: S, t: S::f64s, tn: S::f64s, lim: S::f64s) -> (S::m64s, S::m64s) {
+    let (rel, abs) = (simd.splat_f64s(SLACK_REL), simd.splat_f64s(SLACK_ABS));
+    let tn_slack = v!(
+        simd,
+        add_f64s,
+        v!(simd, mul_f64s, v!(simd, abs_f64s, tn), rel),
+        abs
+    );
+    let lim_slack = v!(
+        simd,
+        add_f64s,
+        v!(simd, mul_f64s, v!(simd, abs_f64s, lim), rel),
+        abs
+    );
+    let finite = v!(
+        simd,
+        less_than_f64s,
+        v!(simd, abs_f64s, t),
+        simd.splat_f64s(f64::INFINITY)
+    );
+    let kept = v!(simd, and_m64s, finite, within!(simd, t, tn, lim));
+    let dropped = v!(
+        simd,
+        or_m64s,
+        v!(simd, not_m64s, finite),
+        v!(
+            simd,
+            or_m64s,
+            v!(simd, less_than_f64s, t, v!(simd, sub_f64s, tn, tn_slack)),
+            v!(simd, greater_than_f64s, t, v!(simd, add_f64s, lim, lim_slack))
+        )
+    );
+    (kept, v!(simd, not_m64s, v!(simd, or_m64s, kept, dropped)))
+}
+
+/// `Segment::is_touch` of the lanes' roots, operation for operation.
+#[inline(always)]
+fn touches<S: pulp::Simd>(
+    simd: S,
+    t0: S::f64s,
+    t1: S::f64s,
+    o_max: S::f64s,
+    d_max: S::f64s,
+    d_len: S::f64s,
+) -> S::m64s {
+    const K: f64 = 2.0 * crate::ray::OFFSET_ULPS as f64 * f32::EPSILON as f64;
+    const KM: f64 = K * (1.0 + 1e-9);
+    let gap = v!(simd, abs_f64s, v!(simd, sub_f64s, t1, t0));
+    let a0 = v!(simd, abs_f64s, t0);
+    let small = v!(
+        simd,
+        less_than_or_equal_f64s,
+        gap,
+        v!(
+            simd,
+            add_f64s,
+            simd.splat_f64s(1e-6),
+            v!(simd, mul_f64s, a0, simd.splat_f64s(4e-7))
+        )
+    );
+    let t_max = v!(simd, max_f64s, a0, v!(simd, abs_f64s, t1));
+    let km = simd.splat_f64s(KM);
+    let beyond = v!(
+        simd,
+        greater_than_f64s,
+        v!(
+            simd,
+            mul_f64s,
+            v!(simd, sub_f64s, gap, v!(simd, mul_f64s, km, t_max)),
+            d_max
+        ),
+        v!(
+            simd,
+            mul_f64s,
+            km,
+            v!(simd, add_f64s, o_max, simd.splat_f64s(0.5))
+        )
+    );
+    // `ray::crossing_window_f64(o, d, t_max)`.
+    let sum = v!(
+        simd,
+        add_f64s,
+        v!(simd, add_f64s, o_max, v!(simd, mul_f64s, t_max, d_len)),
+        simd.splat_f64s(0.5)
+    );
+    let window = v!(simd, div_f64s, v!(simd, mul_f64s, simd.splat_f64s(K), sum), d_len);
+    v!(
+        simd,
+        or_m64s,
+        small,
+        v!(
+            simd,
+            and_m64s,
+            v!(simd, not_m64s, beyond),
+            v!(simd, less_than_or_equal_f64s, gap, window)
+        )
+    )
 }
 
 /// For every primitive of the set and the first `m` lanes, as many lanes
 /// per instruction as the vector unit holds: which lanes meet its box in
-/// their interval, and the roots of those with its quadric, handed to
-/// `each(primitive, roots)`. Each lane's root arithmetic is the scalar
-/// function's, operation for operation and unfused (tested bit for bit);
-/// `min`/`max` differ from `f64::min`/`max` only for a NaN, which a lane
-/// with real roots does not have.
-struct SetKernel<'a, const N: usize, F> {
+/// their interval, the roots of those with its quadric, and which of the
+/// roots the query keeps (`occlusion`: any; else the nearest, each kept
+/// crossing narrowing the lane's interval for the next primitive), into
+/// `out`. A lane meeting a primitive without a quadric is unsure. Each
+/// lane's arithmetic is the scalar functions', operation for operation and
+/// unfused (tested bit for bit); `min`/`max` differ from `f64::min`/`max`
+/// only for a NaN, which a lane with real roots does not have.
+struct SetKernel<'a, const N: usize> {
     prims: &'a [Primitive],
     lanes: &'a LaneArrays<N>,
     m: usize,
-    each: F,
+    occlusion: bool,
+    out: &'a mut Resolved<N>,
 }
 
-impl<'a, const N: usize, F: FnMut(&Primitive, &LaneRoots<N>)> pulp::WithSimd for SetKernel<'a, N, F> {
+impl<'a, const N: usize> pulp::WithSimd for SetKernel<'a, N> {
     type Output = ();
 
     #[inline(always)]
@@ -172,148 +365,351 @@ impl<'a, const N: usize, F: FnMut(&Primitive, &LaneRoots<N>)> pulp::WithSimd for
             prims,
             lanes: l,
             m,
-            mut each,
+            occlusion,
+            out,
         } = self;
         // Whole vectors over the first m lanes (N is a multiple of every width).
         let n = m.div_ceil(S::F64_LANES) * S::F64_LANES;
-        let vectors = |a: &'a [f64; N]| S::as_simd_f64s(&a[..n]).0;
-        let xyz = |a: &'a [[f64; N]; 3]| [vectors(&a[0]), vectors(&a[1]), vectors(&a[2])];
-        let (o, d, inv) = (xyz(&l.o), xyz(&l.d), xyz(&l.inv_d));
-        let (t_lo, t_hi) = (vectors(&l.t_lo), vectors(&l.t_hi));
-        let mut out = LaneRoots::<N>::NONE;
-        let splat = |x: f64| simd.splat_f64s(x);
-        let (zero, one) = (splat(0.0), splat(1.0));
-        let add = |a, b| simd.add_f64s(a, b);
-        let sub = |a, b| simd.sub_f64s(a, b);
-        let mul = |a, b| simd.mul_f64s(a, b);
-        // x·x' + y·y' + z·z', summed left to right as glam's `dot`.
-        let dot = |x, y, z, x2, y2, z2| add(add(mul(x, x2), mul(y, y2)), mul(z, z2));
-        for p in prims {
+        let o = [
+            S::as_simd_f64s(&l.o[0][..n]).0,
+            S::as_simd_f64s(&l.o[1][..n]).0,
+            S::as_simd_f64s(&l.o[2][..n]).0,
+        ];
+        let d = [
+            S::as_simd_f64s(&l.d[0][..n]).0,
+            S::as_simd_f64s(&l.d[1][..n]).0,
+            S::as_simd_f64s(&l.d[2][..n]).0,
+        ];
+        let inv = [
+            S::as_simd_f64s(&l.inv_d[0][..n]).0,
+            S::as_simd_f64s(&l.inv_d[1][..n]).0,
+            S::as_simd_f64s(&l.inv_d[2][..n]).0,
+        ];
+        let t_lo = S::as_simd_f64s(&l.t_lo[..n]).0;
+        let t_hi = S::as_simd_f64s(&l.t_hi[..n]).0;
+        let tn = S::as_simd_f64s(&l.tn[..n]).0;
+        let o_max = S::as_simd_f64s(&l.o_max[..n]).0;
+        let d_max = S::as_simd_f64s(&l.d_max[..n]).0;
+        let d_len = S::as_simd_f64s(&l.d_len[..n]).0;
+        let mut lim_lanes = l.tf;
+        let lim = S::as_mut_simd_f64s(&mut lim_lanes[..n]).0;
+        let Resolved {
+            t: best_t,
+            geom: best_g,
+            prim: best_p,
+            n: [best_x, best_y, best_z],
+            unsure,
+            boxes,
+        } = out;
+        let best_t = S::as_mut_simd_f64s(&mut best_t[..n]).0;
+        let best_g = S::as_mut_simd_f64s(&mut best_g[..n]).0;
+        let best_p = S::as_mut_simd_f64s(&mut best_p[..n]).0;
+        let best_x = S::as_mut_simd_f64s(&mut best_x[..n]).0;
+        let best_y = S::as_mut_simd_f64s(&mut best_y[..n]).0;
+        let best_z = S::as_mut_simd_f64s(&mut best_z[..n]).0;
+        let unsure = S::as_mut_simd_f64s(&mut unsure[..n]).0;
+        let boxes = S::as_mut_simd_f64s(&mut boxes[..n]).0;
+        let (zero, one) = (simd.splat_f64s(0.0), simd.splat_f64s(1.0));
+        let no = v!(simd, less_than_f64s, one, zero);
+        for (index, p) in prims.iter().enumerate() {
             let (lo, hi) = p.bounds;
-            let (t0s, _) = S::as_mut_simd_f64s(&mut out.t0[..n]);
-            let (t1s, _) = S::as_mut_simd_f64s(&mut out.t1[..n]);
-            let (reals, _) = S::as_mut_simd_f64s(&mut out.real[..n]);
-            let mut any = false;
+            let bit = simd.splat_f64s((1u32 << index) as f64);
             for k in 0..o[0].len() {
                 // The slab test. A ray parallel to a face and lying in its
                 // plane (0·∞, NaN) may come out either way: the padded box
                 // holds the shape strictly inside, so that ray misses it.
                 let (mut near, mut far) = (t_lo[k], t_hi[k]);
                 for a in 0..3 {
-                    let ta = mul(sub(splat(lo[a]), o[a][k]), inv[a][k]);
-                    let tb = mul(sub(splat(hi[a]), o[a][k]), inv[a][k]);
-                    near = simd.max_f64s(near, simd.min_f64s(ta, tb));
-                    far = simd.min_f64s(far, simd.max_f64s(ta, tb));
+                    let ta = v!(
+                        simd,
+                        mul_f64s,
+                        v!(simd, sub_f64s, simd.splat_f64s(lo[a]), o[a][k]),
+                        inv[a][k]
+                    );
+                    let tb = v!(
+                        simd,
+                        mul_f64s,
+                        v!(simd, sub_f64s, simd.splat_f64s(hi[a]), o[a][k]),
+                        inv[a][k]
+                    );
+                    near = v!(simd, max_f64s, near, v!(simd, min_f64s, ta, tb));
+                    far = v!(simd, min_f64s, far, v!(simd, max_f64s, ta, tb));
                 }
-                let misses = simd.greater_than_f64s(near, far);
-                if simd.first_true_m64s(simd.not_m64s(misses)) == S::F64_LANES {
-                    reals[k] = zero;
+                let meets = v!(simd, less_than_or_equal_f64s, near, far);
+                if simd.first_true_m64s(meets) == S::F64_LANES {
                     continue;
                 }
-                any = true;
+                boxes[k] = v!(simd, add_f64s, boxes[k], v!(simd, select_f64s, meets, bit, zero));
+                // A lane occluded for sure needs no more answers.
+                let open = if occlusion {
+                    v!(simd, and_m64s, meets, v!(simd, less_than_f64s, best_g[k], zero))
+                } else {
+                    meets
+                };
                 let Some(quadric) = p.quadric else {
-                    reals[k] = simd.select_f64s(misses, zero, one);
+                    unsure[k] = v!(simd, select_f64s, open, one, unsure[k]);
                     continue;
                 };
-                // The quadric's offset from the origin and the direction: a
-                // sphere's whole, a wall's parts across the y axis (x, 0, z).
-                let (off, dir, radius) = match quadric {
-                    Quadric::Sphere { center, radius } => (
-                        [0, 1, 2].map(|a| sub(o[a][k], splat(center[a]))),
-                        [d[0][k], d[1][k], d[2][k]],
-                        radius,
-                    ),
-                    Quadric::WallY { base, radius } => (
-                        [sub(o[0][k], splat(base.x)), zero, sub(o[2][k], splat(base.z))],
-                        [d[0][k], zero, d[2][k]],
-                        radius,
-                    ),
+                // The roots, which of them the lanes keep (e0, e1), and the
+                // normal's parts that do not depend on the root.
+                let (t0, t1, e0, e1, mut normal);
+                match quadric {
                     Quadric::Rect {
                         corner,
-                        normal,
+                        normal: nr,
                         to_a,
                         to_b,
                     } => {
                         // t = (corner − o)·n / (d·n); p − corner = (o + d·t) − corner;
                         // inside when both its coordinates are in [0, 1], and never
-                        // for d·n == 0 (a NaN coordinate is outside). Written out:
-                        // closures and array maps here are not inlined into the
-                        // vector code.
-                        let (nx, ny, nz) = (splat(normal.x), splat(normal.y), splat(normal.z));
-                        let (kx, ky, kz) = (splat(corner.x), splat(corner.y), splat(corner.z));
-                        let dn = dot(d[0][k], d[1][k], d[2][k], nx, ny, nz);
-                        let (cx, cy, cz) = (sub(kx, o[0][k]), sub(ky, o[1][k]), sub(kz, o[2][k]));
-                        let t = simd.div_f64s(dot(cx, cy, cz, nx, ny, nz), dn);
-                        let qx = sub(add(o[0][k], mul(d[0][k], t)), kx);
-                        let qy = sub(add(o[1][k], mul(d[1][k], t)), ky);
-                        let qz = sub(add(o[2][k], mul(d[2][k], t)), kz);
-                        let a = dot(qx, qy, qz, splat(to_a.x), splat(to_a.y), splat(to_a.z));
-                        let b = dot(qx, qy, qz, splat(to_b.x), splat(to_b.y), splat(to_b.z));
-                        let a_in = simd.and_m64s(
-                            simd.greater_than_or_equal_f64s(a, zero),
-                            simd.less_than_or_equal_f64s(a, one),
+                        // for d·n == 0 (a NaN coordinate is outside).
+                        let (nx, ny, nz) = (
+                            simd.splat_f64s(nr.x),
+                            simd.splat_f64s(nr.y),
+                            simd.splat_f64s(nr.z),
                         );
-                        let b_in = simd.and_m64s(
-                            simd.greater_than_or_equal_f64s(b, zero),
-                            simd.less_than_or_equal_f64s(b, one),
+                        let (kx, ky, kz) = (
+                            simd.splat_f64s(corner.x),
+                            simd.splat_f64s(corner.y),
+                            simd.splat_f64s(corner.z),
                         );
-                        let inside = simd.and_m64s(
-                            simd.and_m64s(a_in, b_in),
-                            simd.not_m64s(simd.equal_f64s(dn, zero)),
+                        let dn = dot!(simd, d[0][k], d[1][k], d[2][k], nx, ny, nz);
+                        let (cx, cy, cz) = (
+                            v!(simd, sub_f64s, kx, o[0][k]),
+                            v!(simd, sub_f64s, ky, o[1][k]),
+                            v!(simd, sub_f64s, kz, o[2][k]),
+                        );
+                        let t = v!(simd, div_f64s, dot!(simd, cx, cy, cz, nx, ny, nz), dn);
+                        let qx = v!(
+                            simd,
+                            sub_f64s,
+                            v!(simd, add_f64s, o[0][k], v!(simd, mul_f64s, d[0][k], t)),
+                            kx
+                        );
+                        let qy = v!(
+                            simd,
+                            sub_f64s,
+                            v!(simd, add_f64s, o[1][k], v!(simd, mul_f64s, d[1][k], t)),
+                            ky
+                        );
+                        let qz = v!(
+                            simd,
+                            sub_f64s,
+                            v!(simd, add_f64s, o[2][k], v!(simd, mul_f64s, d[2][k], t)),
+                            kz
+                        );
+                        let (ax, ay, az) = (
+                            simd.splat_f64s(to_a.x),
+                            simd.splat_f64s(to_a.y),
+                            simd.splat_f64s(to_a.z),
+                        );
+                        let (bx, by, bz) = (
+                            simd.splat_f64s(to_b.x),
+                            simd.splat_f64s(to_b.y),
+                            simd.splat_f64s(to_b.z),
+                        );
+                        let a = dot!(simd, qx, qy, qz, ax, ay, az);
+                        let b = dot!(simd, qx, qy, qz, bx, by, bz);
+                        let inside = v!(
+                            simd,
+                            and_m64s,
+                            v!(
+                                simd,
+                                and_m64s,
+                                within!(simd, a, zero, one),
+                                within!(simd, b, zero, one)
+                            ),
+                            v!(simd, not_m64s, v!(simd, equal_f64s, dn, zero))
                         );
                         // Only a crossing within the lane's widened interval
                         // can be one the scalar code keeps (as for the quadrics).
-                        let kept = simd.and_m64s(
-                            simd.greater_than_or_equal_f64s(t, t_lo[k]),
-                            simd.less_than_or_equal_f64s(t, t_hi[k]),
+                        let real = v!(
+                            simd,
+                            and_m64s,
+                            v!(simd, and_m64s, inside, within!(simd, t, t_lo[k], t_hi[k])),
+                            open
                         );
-                        t0s[k] = t;
-                        reals[k] = simd.select_f64s(
-                            simd.and_m64s(simd.and_m64s(inside, kept), simd.not_m64s(misses)),
+                        let (kept, unsure_t) = keeps(simd, t, tn[k], lim[k]);
+                        unsure[k] = v!(
+                            simd,
+                            select_f64s,
+                            v!(simd, and_m64s, real, unsure_t),
                             one,
-                            zero,
+                            unsure[k]
                         );
-                        continue;
+                        (t0, t1) = (t, t);
+                        (e0, e1) = (v!(simd, and_m64s, real, kept), no);
+                        normal = [nx, ny, nz];
                     }
-                };
-                let [cx, cy, cz] = off;
-                let [dx, dy, dz] = dir;
-                let a = dot(dx, dy, dz, dx, dy, dz);
-                let b = dot(cx, cy, cz, dx, dy, dz);
-                let len = simd.sqrt_f64s(dot(cx, cy, cz, cx, cy, cz));
-                let r = splat(radius);
-                let c = mul(sub(len, r), add(len, r));
-                let disc = sub(mul(b, b), mul(a, c));
-                // !(disc < 0 || a == 0): a NaN discriminant counts as real, as in the scalar code.
-                let not_real = simd.or_m64s(simd.less_than_f64s(disc, zero), simd.equal_f64s(a, zero));
-                let s = simd.sqrt_f64s(disc);
-                let q = simd.select_f64s(
-                    simd.greater_than_f64s(b, zero),
-                    simd.neg_f64s(add(b, s)),
-                    add(simd.neg_f64s(b), s),
-                );
-                let q_zero = simd.equal_f64s(q, zero);
-                let t0 = simd.select_f64s(q_zero, zero, simd.div_f64s(q, a));
-                let t1 = simd.select_f64s(q_zero, zero, simd.div_f64s(c, q));
-                (t0s[k], t1s[k]) = match quadric {
-                    Quadric::Sphere { .. } => (simd.min_f64s(t0, t1), simd.max_f64s(t0, t1)),
-                    // The wall's roots stay in the quadratic's order.
-                    Quadric::WallY { .. } | Quadric::Rect { .. } => (t0, t1),
-                };
-                // A lane with neither root in its widened interval has no
-                // crossing the scalar code keeps (`Segment::keeps` compares
-                // within the exact one, which only narrows): not passed on.
-                let within = |t| {
-                    simd.and_m64s(
-                        simd.greater_than_or_equal_f64s(t, t_lo[k]),
-                        simd.less_than_or_equal_f64s(t, t_hi[k]),
+                    Quadric::Sphere { center, radius }
+                    | Quadric::WallY {
+                        base: center, radius, ..
+                    } => {
+                        // The quadric's offset from the origin and the
+                        // direction: a sphere's whole, a wall's parts
+                        // across the y axis (x, 0, z).
+                        let wall = matches!(quadric, Quadric::WallY { .. });
+                        let cx = v!(simd, sub_f64s, o[0][k], simd.splat_f64s(center.x));
+                        let cy = v!(simd, sub_f64s, o[1][k], simd.splat_f64s(center.y));
+                        let cz = v!(simd, sub_f64s, o[2][k], simd.splat_f64s(center.z));
+                        let (qy, dy) = if wall { (zero, zero) } else { (cy, d[1][k]) };
+                        let (dx, dz) = (d[0][k], d[2][k]);
+                        let a = dot!(simd, dx, dy, dz, dx, dy, dz);
+                        let b = dot!(simd, cx, qy, cz, dx, dy, dz);
+                        let len = v!(simd, sqrt_f64s, dot!(simd, cx, qy, cz, cx, qy, cz));
+                        let r = simd.splat_f64s(radius);
+                        let c = v!(
+                            simd,
+                            mul_f64s,
+                            v!(simd, sub_f64s, len, r),
+                            v!(simd, add_f64s, len, r)
+                        );
+                        let disc = v!(simd, sub_f64s, v!(simd, mul_f64s, b, b), v!(simd, mul_f64s, a, c));
+                        // !(disc < 0 || a == 0): a NaN discriminant counts as real, as in the scalar code.
+                        let not_real = v!(
+                            simd,
+                            or_m64s,
+                            v!(simd, less_than_f64s, disc, zero),
+                            v!(simd, equal_f64s, a, zero)
+                        );
+                        let s = v!(simd, sqrt_f64s, disc);
+                        let q = v!(
+                            simd,
+                            select_f64s,
+                            v!(simd, greater_than_f64s, b, zero),
+                            v!(simd, neg_f64s, v!(simd, add_f64s, b, s)),
+                            v!(simd, add_f64s, v!(simd, neg_f64s, b), s)
+                        );
+                        let q_zero = v!(simd, equal_f64s, q, zero);
+                        let r0 = v!(simd, select_f64s, q_zero, zero, v!(simd, div_f64s, q, a));
+                        let r1 = v!(simd, select_f64s, q_zero, zero, v!(simd, div_f64s, c, q));
+                        // The wall's roots stay in the quadratic's order.
+                        (t0, t1) = if wall {
+                            (r0, r1)
+                        } else {
+                            (v!(simd, min_f64s, r0, r1), v!(simd, max_f64s, r0, r1))
+                        };
+                        // A lane with neither root in its widened interval has no
+                        // crossing the scalar code keeps (`Segment::keeps` compares
+                        // within the exact one, which only narrows).
+                        let inside = v!(
+                            simd,
+                            or_m64s,
+                            within!(simd, t0, t_lo[k], t_hi[k]),
+                            within!(simd, t1, t_lo[k], t_hi[k])
+                        );
+                        let real = v!(
+                            simd,
+                            and_m64s,
+                            v!(simd, and_m64s, v!(simd, not_m64s, not_real), inside),
+                            open
+                        );
+                        if simd.first_true_m64s(real) == S::F64_LANES {
+                            continue;
+                        }
+                        // `push_crossings` / `Wall::emit`: the kept roots,
+                        // unless the two are one touch.
+                        let (k0, u0) = keeps(simd, t0, tn[k], lim[k]);
+                        let (k1, u1) = keeps(simd, t1, tn[k], lim[k]);
+                        let unsure_t = v!(simd, and_m64s, real, v!(simd, or_m64s, u0, u1));
+                        unsure[k] = v!(simd, select_f64s, unsure_t, one, unsure[k]);
+                        let touch = touches(simd, t0, t1, o_max[k], d_max[k], d_len[k]);
+                        let crosses = v!(simd, and_m64s, real, v!(simd, not_m64s, touch));
+                        (e0, e1) = match quadric {
+                            Quadric::WallY { base, height, .. } => {
+                                // Within [0, height] along the axis.
+                                let oy = v!(simd, sub_f64s, o[1][k], simd.splat_f64s(base.y));
+                                let h = simd.splat_f64s(height);
+                                let y0 = v!(simd, add_f64s, oy, v!(simd, mul_f64s, d[1][k], t0));
+                                let y1 = v!(simd, add_f64s, oy, v!(simd, mul_f64s, d[1][k], t1));
+                                (
+                                    v!(
+                                        simd,
+                                        and_m64s,
+                                        v!(simd, and_m64s, crosses, k0),
+                                        within!(simd, y0, zero, h)
+                                    ),
+                                    v!(
+                                        simd,
+                                        and_m64s,
+                                        v!(simd, and_m64s, crosses, k1),
+                                        within!(simd, y1, zero, h)
+                                    ),
+                                )
+                            }
+                            _ => (v!(simd, and_m64s, crosses, k0), v!(simd, and_m64s, crosses, k1)),
+                        };
+                        normal = [cx, cy, cz];
+                    }
+                }
+                // The nearest crossing (roots at the same f32 would be a touch).
+                let any = v!(simd, or_m64s, e0, e1);
+                if simd.first_true_m64s(any) == S::F64_LANES {
+                    continue;
+                }
+                let first = v!(
+                    simd,
+                    and_m64s,
+                    e0,
+                    v!(
+                        simd,
+                        or_m64s,
+                        v!(simd, not_m64s, e1),
+                        v!(simd, less_than_or_equal_f64s, t0, t1)
                     )
-                };
-                let outside = simd.not_m64s(simd.or_m64s(within(t0s[k]), within(t1s[k])));
-                reals[k] = simd.select_f64s(simd.or_m64s(simd.or_m64s(not_real, misses), outside), zero, one);
-            }
-            if any {
-                each(p, &out);
+                );
+                let t = v!(simd, select_f64s, first, t0, t1);
+                best_p[k] = v!(simd, select_f64s, any, simd.splat_f64s(p.prim as f64), best_p[k]);
+                best_g[k] = v!(simd, select_f64s, any, simd.splat_f64s(p.geom as f64), best_g[k]);
+                if occlusion {
+                    continue;
+                }
+                // The candidate's normal at t: a sphere's (o + d·t) − center,
+                // a wall's ((o − base) + d·t) across the axis (towards it
+                // when flipped), a rect's own.
+                match quadric {
+                    Quadric::Sphere { center, .. } => {
+                        normal = [
+                            v!(
+                                simd,
+                                sub_f64s,
+                                v!(simd, add_f64s, o[0][k], v!(simd, mul_f64s, d[0][k], t)),
+                                simd.splat_f64s(center.x)
+                            ),
+                            v!(
+                                simd,
+                                sub_f64s,
+                                v!(simd, add_f64s, o[1][k], v!(simd, mul_f64s, d[1][k], t)),
+                                simd.splat_f64s(center.y)
+                            ),
+                            v!(
+                                simd,
+                                sub_f64s,
+                                v!(simd, add_f64s, o[2][k], v!(simd, mul_f64s, d[2][k], t)),
+                                simd.splat_f64s(center.z)
+                            ),
+                        ];
+                    }
+                    Quadric::WallY { flip, .. } => {
+                        let x = v!(simd, add_f64s, normal[0], v!(simd, mul_f64s, d[0][k], t));
+                        let z = v!(simd, add_f64s, normal[2], v!(simd, mul_f64s, d[2][k], t));
+                        normal = if flip {
+                            [
+                                v!(simd, neg_f64s, x),
+                                v!(simd, neg_f64s, zero),
+                                v!(simd, neg_f64s, z),
+                            ]
+                        } else {
+                            [x, zero, z]
+                        };
+                    }
+                    Quadric::Rect { .. } => {}
+                }
+                best_t[k] = v!(simd, select_f64s, any, t, best_t[k]);
+                lim[k] = v!(simd, select_f64s, any, t, lim[k]);
+                best_x[k] = v!(simd, select_f64s, any, normal[0], best_x[k]);
+                best_y[k] = v!(simd, select_f64s, any, normal[1], best_y[k]);
+                best_z[k] = v!(simd, select_f64s, any, normal[2], best_z[k]);
             }
         }
     }
@@ -335,6 +731,8 @@ impl AnalyticSet {
                     Analytic::Cylinder(c) if prim == 0 && c.axis == DVec3::Y => Some(Quadric::WallY {
                         base: c.p0,
                         radius: c.radius,
+                        height: c.height,
+                        flip: c.inward,
                     }),
                     Analytic::Rect(r) => {
                         let (to_a, to_b) = r.dual();
@@ -362,6 +760,8 @@ impl AnalyticSet {
         (!prims.is_empty()).then(|| AnalyticSet {
             prims,
             arch: pulp::Arch::new(),
+            #[cfg(test)]
+            trust_kernel: false,
         })
     }
 
@@ -370,6 +770,16 @@ impl AnalyticSet {
     #[cfg(test)]
     fn with_arch(self, arch: pulp::Arch) -> Self {
         AnalyticSet { arch, ..self }
+    }
+
+    /// Is lane `k` of the kernel's answer `r` one to replay in scalar code?
+    #[inline(always)]
+    fn unsure<const N: usize>(&self, r: &Resolved<N>, k: usize) -> bool {
+        #[cfg(test)]
+        if self.trust_kernel {
+            return false;
+        }
+        r.unsure[k] != 0.0
     }
 
     /// Number of primitives.
@@ -382,56 +792,53 @@ impl AnalyticSet {
         self.prims.is_empty()
     }
 
-    /// For each primitive, the crossings of each active lane of `packet`
-    /// that has any, sorted by t, to `each(packet, primitive, lane,
-    /// crossings)`: what the user-geometry callback would offer Embree for
-    /// the lane's interval as it stands then (`each` may narrow it).
+    /// The kernel's answer for the active lanes of `packet`, into `out`
+    /// (which holds [`Resolved::NONE`]): how many lanes it covers.
     #[inline(always)]
-    fn crossings<const N: usize, P: RayPacket<N>>(
+    fn resolve<const N: usize, P: RayPacket<N>>(
+        &self,
+        packet: &P,
+        occlusion: bool,
+        out: &mut Resolved<N>,
+    ) -> usize {
+        let (lanes, m) = LaneArrays::<N>::of(&packet.rays());
+        if m > 0 {
+            self.arch.dispatch(SetKernel {
+                prims: &self.prims,
+                lanes: &lanes,
+                m,
+                occlusion,
+                out,
+            });
+        }
+        m
+    }
+
+    /// Lane `k` of `packet` answered one primitive at a time as Embree's
+    /// callbacks would (`boxes`: the primitives whose box it meets): each
+    /// primitive's crossings with the lane as it stands then, sorted by t,
+    /// to `each(packet, primitive, crossings)`, which may narrow it.
+    #[inline(never)]
+    fn replay<const N: usize, P: RayPacket<N>>(
         &self,
         packet: &mut P,
-        mut each: impl FnMut(&mut P, &Primitive, usize, &Candidates),
+        k: usize,
+        boxes: u32,
+        mut each: impl FnMut(&mut P, &Primitive, &Candidates),
     ) {
-        let (lanes, m) = LaneArrays::<N>::of(&packet.rays());
-        if m == 0 {
-            return;
+        for (i, p) in self.prims.iter().enumerate() {
+            if boxes & (1 << i) == 0 {
+                continue;
+            }
+            let Some(r) = packet.lane(k) else { return };
+            let mut c = Candidates::default();
+            p.shape
+                .intersect_in(p.prim, r.org, r.dir, r.tnear, r.tfar, &mut c);
+            if !c.as_slice().is_empty() {
+                c.sort();
+                each(packet, p, &c);
+            }
         }
-        self.arch.dispatch(SetKernel {
-            prims: &self.prims,
-            lanes: &lanes,
-            m,
-            each: |p: &Primitive, roots: &LaneRoots<N>| {
-                for k in 0..m {
-                    let lane_roots = roots.get(k);
-                    if !lane_roots.real {
-                        continue;
-                    }
-                    // The lane as it stands (an earlier primitive may have
-                    // narrowed it, or occluded it).
-                    let Some(r) = packet.lane(k) else { continue };
-                    let mut c = Candidates::default();
-                    match (&p.shape, p.quadric) {
-                        (Analytic::Sphere(s), Some(_)) => {
-                            s.push_crossings(&Segment::of(&r), lane_roots, &mut c)
-                        }
-                        (Analytic::Cylinder(cyl), Some(_)) => cyl.wall().push_crossings_about_y(
-                            cyl.inward,
-                            &Segment::of(&r),
-                            lane_roots,
-                            &mut c,
-                        ),
-                        (Analytic::Rect(rect), Some(_)) => {
-                            rect.push_crossing_at(&Segment::of(&r), lane_roots.t0, &mut c)
-                        }
-                        (shape, _) => shape.intersect_in(p.prim, r.org, r.dir, r.tnear, r.tfar, &mut c),
-                    }
-                    if !c.as_slice().is_empty() {
-                        c.sort();
-                        each(packet, p, k, &c);
-                    }
-                }
-            },
-        });
     }
 
     /// Complete a nearest-hit query of `packet` that Embree answered against
@@ -439,38 +846,56 @@ impl AnalyticSet {
     /// the set lies within `[tnear, tfar]` (tfar: the mesh hit, if any) gets
     /// that crossing as its hit.
     pub fn intersect<const N: usize, P: RayPacket<N>>(&self, packet: &mut P) {
-        self.crossings::<N, P>(packet, |packet, p, k, c| {
-            let rays = packet.rays();
-            let (tnear, tfar) = (rays.tnear[k], rays.tfar[k]);
-            // Sorted: the first crossing within the interval is the nearest.
-            if let Some(c) = c.as_slice().iter().find(|c| c.t >= tnear && c.t <= tfar) {
-                packet.set_hit(
-                    k,
-                    &Hit {
-                        geom_id: p.geom,
-                        prim_id: p.prim,
-                        t: c.t,
-                        ng: c.ng.into(),
-                        u: c.u,
-                        v: c.v,
-                    },
-                );
+        let mut r = Resolved::NONE;
+        for k in 0..self.resolve(packet, false, &mut r) {
+            if self.unsure(&r, k) {
+                self.replay(packet, k, r.boxes[k] as u32, |packet, p, c| {
+                    let rays = packet.rays();
+                    let (tnear, tfar) = (rays.tnear[k], rays.tfar[k]);
+                    // Sorted: the first crossing within the interval is the nearest.
+                    if let Some(c) = c.as_slice().iter().find(|c| c.t >= tnear && c.t <= tfar) {
+                        packet.set_hit(k, &hit(p.geom, p.prim, c));
+                    }
+                });
+            } else if r.geom[k] >= 0.0 {
+                let n = DVec3::new(r.n[0][k], r.n[1][k], r.n[2][k]);
+                packet.set_hit(k, &hit(r.geom[k] as u32, r.prim[k] as u32, &candidate(r.t[k], n)));
             }
-        });
+        }
     }
 
     /// Complete an occlusion query of `packet` that Embree answered against
     /// the meshes alone: a lane not yet occluded that crosses a primitive of
     /// the set within `[tnear, tfar]` becomes occluded.
     pub fn occlude<const N: usize, P: RayPacket<N>>(&self, packet: &mut P) {
-        self.crossings::<N, P>(packet, |packet, _, k, c| {
-            let rays = packet.rays();
-            let (tnear, tfar) = (rays.tnear[k], rays.tfar[k]);
-            if c.as_slice().iter().any(|c| c.t >= tnear && c.t <= tfar) {
-                // Later primitives skip the lane (`RayPacket::lane`).
+        let mut r = Resolved::NONE;
+        for k in 0..self.resolve(packet, true, &mut r) {
+            if r.geom[k] >= 0.0 {
                 packet.set_occluded(k);
+            } else if self.unsure(&r, k) {
+                self.replay(packet, k, r.boxes[k] as u32, |packet, _, c| {
+                    let rays = packet.rays();
+                    let (tnear, tfar) = (rays.tnear[k], rays.tfar[k]);
+                    if c.as_slice().iter().any(|c| c.t >= tnear && c.t <= tfar) {
+                        // Later primitives skip the lane (`RayPacket::lane`).
+                        packet.set_occluded(k);
+                    }
+                });
             }
-        });
+        }
+    }
+}
+
+/// The hit of a primitive (ids) at the crossing `c`.
+#[inline(always)]
+fn hit(geom_id: u32, prim_id: u32, c: &Candidate) -> Hit {
+    Hit {
+        geom_id,
+        prim_id,
+        t: c.t,
+        ng: c.ng.into(),
+        u: c.u,
+        v: c.v,
     }
 }
 
@@ -705,6 +1130,49 @@ material = { type = "dielectric", int_ior = 1.5, ext_ior = 1.0 }
                 assert!(bad > 0, "set {n}: rects with swapped edges went unnoticed");
             }
         }
+    }
+
+    /// Rays whose interval starts or ends exactly at the f32 distance of a
+    /// crossing (Embree's hit in the whole scene): where the rounding of a
+    /// root to f32 decides whether it is kept, the kernel is unsure and the
+    /// lane is answered in scalar code, as Embree answers it at every
+    /// level. Trusting the kernel's answer for those lanes instead is
+    /// caught.
+    #[test]
+    fn lanes_at_a_crossing_are_replayed() {
+        let with = scene(SETS[0], true);
+        let without = scene(SETS[0], false);
+        let mut rays = packets(5, 2000);
+        for batch in rays.iter_mut() {
+            let mut p = Packet8::new();
+            for (i, r) in batch.iter().enumerate() {
+                p.set_ray(i, r);
+            }
+            p.intersect(&without.embree, false);
+            for (i, r) in batch.iter_mut().enumerate() {
+                if let Some(h) = p.hit(i) {
+                    if i % 2 == 0 {
+                        r.tfar = h.t;
+                    } else {
+                        r.tnear = h.t;
+                    }
+                }
+            }
+        }
+        let set = with.analytic_set.clone().expect("a set of few shapes");
+        for arch in levels() {
+            let set = set.clone().with_arch(arch);
+            assert_eq!(disagreements(&set, &with, &rays), 0, "{arch:?}");
+        }
+        let trusting = AnalyticSet {
+            trust_kernel: true,
+            ..set
+        };
+        let bad = disagreements(&trusting, &with, &rays);
+        assert!(
+            bad > 500,
+            "trusting the kernel at the interval's ends: {bad} disagreements"
+        );
     }
 
     /// Too many primitives, or none: no set.

@@ -57,24 +57,6 @@ impl Wall<DVec3> {
         }
     }
 
-    /// The crossings given the segment's `roots` (found for many lanes at
-    /// once by `AnalyticSet`) of a wall about the y axis, onto `out`
-    /// (`flip`: normals towards the axis): what [`Self::intersect_lanes`]
-    /// pushes for the segment.
-    #[inline(always)]
-    pub(super) fn push_crossings_about_y(
-        &self,
-        flip: bool,
-        seg: &Segment,
-        roots: Roots,
-        out: &mut Candidates,
-    ) {
-        debug_assert!(self.axis == DVec3::Y);
-        self.about_y().emit(seg, roots, |t, radial| {
-            out.push(candidate(t, if flip { -radial } else { radial }))
-        })
-    }
-
     /// The unit normal at `p`, away from the axis.
     #[inline(always)]
     pub(super) fn normal(&self, p: DVec3) -> DVec3 {
