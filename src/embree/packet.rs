@@ -103,6 +103,14 @@ macro_rules! ray_packet {
             /// an invalid ray (non-finite, tfar < 0) leaves the lane inactive.
             #[inline]
             pub fn set(&mut self, i: usize, org: V3, dir: V3, tfar: f32) {
+                self.write(i, org, dir, 0.0, tfar);
+                let ok = org.is_finite() && dir.is_finite() && !tfar.is_nan() && tfar >= 0.0;
+                self.valid[i] = if ok { -1 } else { 0 };
+            }
+
+            /// Lane `i`'s ray and an empty hit, its validity left to the caller.
+            #[inline(always)]
+            fn write(&mut self, i: usize, org: V3, dir: V3, tnear: f32, tfar: f32) {
                 let r = &mut self.rh.ray;
                 r.org_x[i] = org.x;
                 r.org_y[i] = org.y;
@@ -110,12 +118,10 @@ macro_rules! ray_packet {
                 r.dir_x[i] = dir.x;
                 r.dir_y[i] = dir.y;
                 r.dir_z[i] = dir.z;
-                r.tnear[i] = 0.0;
+                r.tnear[i] = tnear;
                 r.tfar[i] = tfar;
                 self.rh.hit.geomID[i] = INVALID_ID;
                 self.rh.hit.primID[i] = INVALID_ID;
-                let ok = org.is_finite() && dir.is_finite() && !tfar.is_nan() && tfar >= 0.0;
-                self.valid[i] = if ok { -1 } else { 0 };
             }
 
             /// Lane `i`'s hit after a query (its `tfar` becomes the hit distance).
@@ -166,11 +172,9 @@ macro_rules! ray_packet {
             }
             #[inline]
             fn set_ray(&mut self, i: usize, ray: &crate::ray::Ray) {
-                self.set(i, ray.org, ray.dir, ray.tfar);
-                self.rh.ray.tnear[i] = ray.tnear;
-                if !ray.is_valid() {
-                    self.valid[i] = 0;
-                }
+                self.write(i, ray.org, ray.dir, ray.tnear, ray.tfar);
+                // `is_valid` covers `set`'s test too (0 <= tnear <= tfar).
+                self.valid[i] = if ray.is_valid() { -1 } else { 0 };
             }
             #[inline]
             fn hit(&self, i: usize) -> Option<Hit> {

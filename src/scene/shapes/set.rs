@@ -105,24 +105,27 @@ struct LaneArrays<const N: usize> {
 }
 
 impl<const N: usize> LaneArrays<N> {
-    /// The lanes of `rays` up to the last active one (how many: the second
-    /// value). Every lane is converted, active or not, so that the loops
-    /// vectorise; an inactive lane gets an empty interval (and is skipped by
-    /// the callers whatever its roots).
+    const EMPTY: LaneArrays<N> = LaneArrays {
+        o: [[0.0; N]; 3],
+        d: [[0.0; N]; 3],
+        inv_d: [[0.0; N]; 3],
+        t_lo: [0.0; N],
+        t_hi: [0.0; N],
+        tn: [0.0; N],
+        tf: [0.0; N],
+        o_max: [0.0; N],
+        d_max: [0.0; N],
+        d_len: [0.0; N],
+    };
+
+    /// The lanes of `rays` up to the last active one (how many: the
+    /// value), made in place (a returned copy showed in the profile). Every
+    /// lane is converted, active or not, so that the loops vectorise; an
+    /// inactive lane gets an empty interval (and is skipped by the callers
+    /// whatever its roots).
     #[inline(always)]
-    fn of(rays: &PacketRays<'_, N>) -> (Self, usize) {
-        let mut l = LaneArrays {
-            o: [[0.0; N]; 3],
-            d: [[0.0; N]; 3],
-            inv_d: [[0.0; N]; 3],
-            t_lo: [f64::INFINITY; N],
-            t_hi: [f64::NEG_INFINITY; N],
-            tn: [0.0; N],
-            tf: [0.0; N],
-            o_max: [0.0; N],
-            d_max: [0.0; N],
-            d_len: [0.0; N],
-        };
+    fn fill(&mut self, rays: &PacketRays<'_, N>) -> usize {
+        let l = self;
         for a in 0..3 {
             for k in 0..N {
                 l.o[a][k] = rays.org[a][k] as f64;
@@ -139,21 +142,25 @@ impl<const N: usize> LaneArrays<N> {
         }
         // A crossing is kept when its t rounded to f32 is within the
         // interval: a relative 1e-6 covers that rounding many times over.
-        for k in 0..N {
-            let (tn, tf) = (rays.tnear[k] as f64, rays.tfar[k] as f64);
-            (l.tn[k], l.tf[k]) = (tn, tf);
-            l.t_lo[k] = tn - tn.abs() * 1e-6 - 1e-9;
-            l.t_hi[k] = tf + tf.abs() * 1e-6 + 1e-9;
-        }
+        // Branch-free, so that the loop vectorises.
         let mut m = 0;
         for k in 0..N {
-            if rays.active(k) {
-                m = k + 1;
+            let (tn, tf) = (rays.tnear[k] as f64, rays.tfar[k] as f64);
+            let active = rays.active(k);
+            (l.tn[k], l.tf[k]) = (tn, tf);
+            l.t_lo[k] = if active {
+                tn - tn.abs() * 1e-6 - 1e-9
             } else {
-                (l.t_lo[k], l.t_hi[k]) = (f64::INFINITY, f64::NEG_INFINITY);
-            }
+                f64::INFINITY
+            };
+            l.t_hi[k] = if active {
+                tf + tf.abs() * 1e-6 + 1e-9
+            } else {
+                f64::NEG_INFINITY
+            };
+            m = if active { k + 1 } else { m };
         }
-        (l, m)
+        m
     }
 }
 
@@ -801,7 +808,8 @@ impl AnalyticSet {
         occlusion: bool,
         out: &mut Resolved<N>,
     ) -> usize {
-        let (lanes, m) = LaneArrays::<N>::of(&packet.rays());
+        let mut lanes = LaneArrays::EMPTY;
+        let m = lanes.fill(&packet.rays());
         if m > 0 {
             self.arch.dispatch(SetKernel {
                 prims: &self.prims,
