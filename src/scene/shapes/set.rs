@@ -172,9 +172,10 @@ impl<const N: usize> LaneArrays<N> {
 struct Resolved<const N: usize> {
     /// The crossing's t (its f32 is the hit's).
     t: [f64; N],
-    /// The crossing's geometry id, −1 for none (in occlusion: the lane is
-    /// occluded for sure).
-    geom: [f64; N],
+    /// The crossing's geometry id plus one, 0 for none (in occlusion: the
+    /// lane is occluded for sure). All zeros is no answer, an initial
+    /// value the compiler writes without a copy.
+    geom1: [f64; N],
     /// Its primitive id.
     prim: [f64; N],
     /// The crossing's normal before its conversion to f32.
@@ -189,7 +190,7 @@ struct Resolved<const N: usize> {
 impl<const N: usize> Resolved<N> {
     const NONE: Resolved<N> = Resolved {
         t: [0.0; N],
-        geom: [-1.0; N],
+        geom1: [0.0; N],
         prim: [0.0; N],
         n: [[0.0; N]; 3],
         unsure: [0.0; N],
@@ -357,24 +358,30 @@ fn touches<S: pulp::Simd>(
 /// only for a NaN, which a lane with real roots does not have.
 struct SetKernel<'a, const N: usize> {
     prims: &'a [Primitive],
-    lanes: &'a LaneArrays<N>,
-    m: usize,
+    rays: PacketRays<'a, N>,
     occlusion: bool,
     out: &'a mut Resolved<N>,
 }
 
-impl<'a, const N: usize> pulp::WithSimd for SetKernel<'a, N> {
-    type Output = ();
+impl<const N: usize> pulp::WithSimd for SetKernel<'_, N> {
+    /// How many lanes the answer covers (up to the last active one).
+    type Output = usize;
 
     #[inline(always)]
-    fn with_simd<S: pulp::Simd>(self, simd: S) {
+    fn with_simd<S: pulp::Simd>(self, simd: S) -> usize {
         let SetKernel {
             prims,
-            lanes: l,
-            m,
+            rays,
             occlusion,
             out,
         } = self;
+        // Converted here, where the loops vectorise to the full width.
+        let mut lanes = LaneArrays::EMPTY;
+        let m = lanes.fill(&rays);
+        if m == 0 {
+            return 0;
+        }
+        let l = &lanes;
         // Whole vectors over the first m lanes (N is a multiple of every width).
         let n = m.div_ceil(S::F64_LANES) * S::F64_LANES;
         let o = [
@@ -402,7 +409,7 @@ impl<'a, const N: usize> pulp::WithSimd for SetKernel<'a, N> {
         let lim = S::as_mut_simd_f64s(&mut lim_lanes[..n]).0;
         let Resolved {
             t: best_t,
-            geom: best_g,
+            geom1: best_g,
             prim: best_p,
             n: [best_x, best_y, best_z],
             unsure,
@@ -449,7 +456,7 @@ impl<'a, const N: usize> pulp::WithSimd for SetKernel<'a, N> {
                 boxes[k] = v!(simd, add_f64s, boxes[k], v!(simd, select_f64s, meets, bit, zero));
                 // A lane occluded for sure needs no more answers.
                 let open = if occlusion {
-                    v!(simd, and_m64s, meets, v!(simd, less_than_f64s, best_g[k], zero))
+                    v!(simd, and_m64s, meets, v!(simd, equal_f64s, best_g[k], zero))
                 } else {
                     meets
                 };
@@ -667,7 +674,13 @@ impl<'a, const N: usize> pulp::WithSimd for SetKernel<'a, N> {
                 );
                 let t = v!(simd, select_f64s, first, t0, t1);
                 best_p[k] = v!(simd, select_f64s, any, simd.splat_f64s(p.prim as f64), best_p[k]);
-                best_g[k] = v!(simd, select_f64s, any, simd.splat_f64s(p.geom as f64), best_g[k]);
+                best_g[k] = v!(
+                    simd,
+                    select_f64s,
+                    any,
+                    simd.splat_f64s(p.geom as f64 + 1.0),
+                    best_g[k]
+                );
                 if occlusion {
                     continue;
                 }
@@ -719,6 +732,7 @@ impl<'a, const N: usize> pulp::WithSimd for SetKernel<'a, N> {
                 best_z[k] = v!(simd, select_f64s, any, normal[2], best_z[k]);
             }
         }
+        m
     }
 }
 
@@ -808,18 +822,12 @@ impl AnalyticSet {
         occlusion: bool,
         out: &mut Resolved<N>,
     ) -> usize {
-        let mut lanes = LaneArrays::EMPTY;
-        let m = lanes.fill(&packet.rays());
-        if m > 0 {
-            self.arch.dispatch(SetKernel {
-                prims: &self.prims,
-                lanes: &lanes,
-                m,
-                occlusion,
-                out,
-            });
-        }
-        m
+        self.arch.dispatch(SetKernel {
+            prims: &self.prims,
+            rays: packet.rays(),
+            occlusion,
+            out,
+        })
     }
 
     /// Lane `k` of `packet` answered one primitive at a time as Embree's
@@ -865,9 +873,12 @@ impl AnalyticSet {
                         packet.set_hit(k, &hit(p.geom, p.prim, c));
                     }
                 });
-            } else if r.geom[k] >= 0.0 {
+            } else if r.geom1[k] > 0.0 {
                 let n = DVec3::new(r.n[0][k], r.n[1][k], r.n[2][k]);
-                packet.set_hit(k, &hit(r.geom[k] as u32, r.prim[k] as u32, &candidate(r.t[k], n)));
+                packet.set_hit(
+                    k,
+                    &hit(r.geom1[k] as u32 - 1, r.prim[k] as u32, &candidate(r.t[k], n)),
+                );
             }
         }
     }
@@ -878,7 +889,7 @@ impl AnalyticSet {
     pub fn occlude<const N: usize, P: RayPacket<N>>(&self, packet: &mut P) {
         let mut r = Resolved::NONE;
         for k in 0..self.resolve(packet, true, &mut r) {
-            if r.geom[k] >= 0.0 {
+            if r.geom1[k] > 0.0 {
                 packet.set_occluded(k);
             } else if self.unsure(&r, k) {
                 self.replay(packet, k, r.boxes[k] as u32, |packet, _, c| {
