@@ -58,6 +58,11 @@ pub struct PacketRays<'a, const N: usize> {
     pub tfar: &'a [f32; N],
     /// Embree's lane mask: −1 active, 0 not.
     pub valid: &'a [i32; N],
+    /// The hits' geometry ids after a nearest-hit query (`INVALID_ID`:
+    /// none).
+    pub geom_id: &'a [u32; N],
+    /// The hits' primitive ids.
+    pub prim_id: &'a [u32; N],
 }
 
 impl<const N: usize> PacketRays<'_, N> {
@@ -235,6 +240,8 @@ macro_rules! ray_packet {
                     tnear: &r.tnear,
                     tfar: &r.tfar,
                     valid: &self.valid,
+                    geom_id: &self.rh.hit.geomID,
+                    prim_id: &self.rh.hit.primID,
                 }
             }
         }

@@ -9,6 +9,7 @@ use crate::dielectric::{self, InteriorList};
 use crate::embree::RayPacket;
 use crate::error::Result;
 use crate::sampling::Rng;
+use crate::scene::shapes::SurfaceLanes;
 use crate::scene::{IntegratorKind, RenderScene, SurfacePoint};
 use glam::Vec3A as V3;
 
@@ -155,6 +156,7 @@ pub fn path_stream<const N: usize, P: RayPacket<N>>(
         own,
         waiting,
     } = packets;
+    let surfaces = &mut SurfaceLanes::<N>::default();
     front.clear();
     while let Some(PathStart { ray: (o, d), rng }) = next() {
         front.push(Lane {
@@ -202,6 +204,13 @@ pub fn path_stream<const N: usize, P: RayPacket<N>>(
             occupancy.packet_slots += if sent > 0 { N as u64 } else { 0 };
             occupancy.packet_lanes += sent;
             intersect_packet(scene, near, coherent);
+            // The surface points of hits on the analytic set's primitives,
+            // all lanes' side by side in vector registers.
+            let set_points = scene
+                .analytic_set
+                .as_ref()
+                .map(|set| set.surface_points(near, surfaces))
+                .is_some();
             // Which lanes the packet answered (the others are cast one by one
             // below), and the surface points of their hits, every lane's
             // before any lane is shaded: independent f64 square roots and
@@ -222,7 +231,16 @@ pub fn path_stream<const N: usize, P: RayPacket<N>>(
                     continue;
                 }
                 if let Some(h) = &hit {
-                    sps[i] = Some(scene.surface_point(&p.ray, h));
+                    let solved = (set_points && surfaces.done[i] != 0.0)
+                        .then(|| {
+                            let s = &*surfaces;
+                            let pd = glam::DVec3::new(s.pd[0][i], s.pd[1][i], s.pd[2][i]);
+                            let p = V3::new(s.p[0][i], s.p[1][i], s.p[2][i]);
+                            let ng = V3::new(s.ng[0][i], s.ng[1][i], s.ng[2][i]);
+                            scene.analytic_surface_point(h, pd, p, ng)
+                        })
+                        .flatten();
+                    sps[i] = Some(solved.unwrap_or_else(|| scene.surface_point(&p.ray, h)));
                 }
                 known[i] = true;
             }

@@ -614,16 +614,22 @@ impl RenderScene {
             Shape::Analytic(a) => {
                 let p = ray.org + ray.dir * hit.t;
                 let pd = a.project(hit.prim_id, p.as_dvec3());
-                let p = pd.as_vec3a();
                 let n = a.normal(hit.prim_id, pd);
-                let ng = n.as_vec3a();
-                SurfacePoint {
-                    p,
-                    ng,
-                    ns: ng,
-                    uv: if rec.needs_uv() { a.uv(pd) } else { [0.0, 0.0] },
-                }
+                analytic_point(rec, a, pd, pd.as_vec3a(), n.as_vec3a())
             }
+        }
+    }
+
+    /// [`Self::surface_point`] of `hit` on an analytic shape whose point
+    /// `pd` (f64; `p` in f32) and unit geometric normal `ng` are known
+    /// ([`AnalyticSet::surface_points`](super::shapes::AnalyticSet::surface_points));
+    /// `None` for a mesh hit.
+    #[inline]
+    pub fn analytic_surface_point(&self, hit: &Hit, pd: DVec3, p: V3, ng: V3) -> Option<SurfacePoint> {
+        let rec = &self.geoms[hit.geom_id as usize];
+        match &rec.shape {
+            Shape::Analytic(a) => Some(analytic_point(rec, a, pd, p, ng)),
+            Shape::Mesh(_) => None,
         }
     }
 
@@ -875,6 +881,18 @@ impl RenderScene {
             pdf: per_light(pdf, n, nf),
             delta: false,
         })
+    }
+}
+
+/// The surface point on `rec`'s analytic shape `a` at `pd` (`p` in f32) with
+/// unit geometric normal `ng`, texture coordinates only where read.
+#[inline(always)]
+fn analytic_point(rec: &GeomRecord, a: &Analytic, pd: DVec3, p: V3, ng: V3) -> SurfacePoint {
+    SurfacePoint {
+        p,
+        ng,
+        ns: ng,
+        uv: if rec.needs_uv() { a.uv(pd) } else { [0.0, 0.0] },
     }
 }
 

@@ -736,6 +736,278 @@ impl<const N: usize> pulp::WithSimd for SetKernel<'_, N> {
     }
 }
 
+/// The surface points of a packet's hits on the set's quadrics and rects,
+/// in arrays ([`AnalyticSet::surface_points`]): what
+/// `RenderScene::surface_point` makes of each, but the texture coordinates.
+pub struct SurfaceLanes<const N: usize> {
+    /// The hit point moved onto the surface (f64).
+    pub pd: [[f64; N]; 3],
+    /// The same point in f32.
+    pub p: [[f32; N]; 3],
+    /// The unit geometric normal (f32).
+    pub ng: [[f32; N]; 3],
+    /// Nonzero: the lane's hit is on one of those primitives, and the
+    /// arrays hold its point.
+    pub done: [f64; N],
+}
+
+impl<const N: usize> Default for SurfaceLanes<N> {
+    fn default() -> Self {
+        SurfaceLanes {
+            pd: [[0.0; N]; 3],
+            p: [[0.0; N]; 3],
+            ng: [[0.0; N]; 3],
+            done: [0.0; N],
+        }
+    }
+}
+
+/// [`AnalyticSet::surface_points`] at a vector level: each lane's f32 hit
+/// point, moved onto the primitive it hit in f64 (`project`), and the
+/// normal there (`normal`, `normalize_or_f64`), operation for operation.
+struct SurfaceKernel<'a, const N: usize> {
+    prims: &'a [Primitive],
+    rays: PacketRays<'a, N>,
+    out: &'a mut SurfaceLanes<N>,
+}
+
+impl<const N: usize> pulp::WithSimd for SurfaceKernel<'_, N> {
+    type Output = ();
+
+    // Lanes indexed in parallel arrays, in loops the compiler vectorises.
+    #[allow(clippy::needless_range_loop)]
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, simd: S) {
+        let SurfaceKernel { prims, rays, out } = self;
+        // The f32 hit point `org + dir·t` (unfused, as glam's vectors
+        // compute it) and the hit's ids, in f64; plain loops, vectorised here.
+        let mut pf = [[0.0f64; N]; 3];
+        let (mut gid, mut pid) = ([0.0f64; N], [0.0f64; N]);
+        for a in 0..3 {
+            for k in 0..N {
+                pf[a][k] = (rays.org[a][k] + rays.dir[a][k] * rays.tfar[k]) as f64;
+            }
+        }
+        for k in 0..N {
+            gid[k] = rays.geom_id[k] as f64;
+            pid[k] = rays.prim_id[k] as f64;
+        }
+        let mut nd = [[0.0f64; N]; 3];
+        {
+            let [px, py, pz] = &pf;
+            let (px, py, pz) = (
+                S::as_simd_f64s(px).0,
+                S::as_simd_f64s(py).0,
+                S::as_simd_f64s(pz).0,
+            );
+            let (gid, pid) = (S::as_simd_f64s(&gid).0, S::as_simd_f64s(&pid).0);
+            let [ox, oy, oz] = &mut out.pd;
+            let (ox, oy, oz) = (
+                S::as_mut_simd_f64s(ox).0,
+                S::as_mut_simd_f64s(oy).0,
+                S::as_mut_simd_f64s(oz).0,
+            );
+            let [nx_out, ny_out, nz_out] = &mut nd;
+            let (nx_out, ny_out, nz_out) = (
+                S::as_mut_simd_f64s(nx_out).0,
+                S::as_mut_simd_f64s(ny_out).0,
+                S::as_mut_simd_f64s(nz_out).0,
+            );
+            let done = S::as_mut_simd_f64s(&mut out.done).0;
+            let (zero, one) = (simd.splat_f64s(0.0), simd.splat_f64s(1.0));
+            done.fill(zero);
+            for p in prims {
+                let Some(quadric) = p.quadric else { continue };
+                let (g, pr) = (simd.splat_f64s(p.geom as f64), simd.splat_f64s(p.prim as f64));
+                for k in 0..done.len() {
+                    let on = v!(
+                        simd,
+                        and_m64s,
+                        v!(simd, equal_f64s, gid[k], g),
+                        v!(simd, equal_f64s, pid[k], pr)
+                    );
+                    if simd.first_true_m64s(on) == S::F64_LANES {
+                        continue;
+                    }
+                    let (x, y, z) = (px[k], py[k], pz[k]);
+                    let (sx, sy, sz, nx, ny, nz);
+                    match quadric {
+                        Quadric::Sphere { center, radius } => {
+                            // `Sphere::project`: center + q·(r/|q|), q = p − center.
+                            let (cx, cy, cz) = (
+                                simd.splat_f64s(center.x),
+                                simd.splat_f64s(center.y),
+                                simd.splat_f64s(center.z),
+                            );
+                            let (qx, qy, qz) = (
+                                v!(simd, sub_f64s, x, cx),
+                                v!(simd, sub_f64s, y, cy),
+                                v!(simd, sub_f64s, z, cz),
+                            );
+                            let l = v!(simd, sqrt_f64s, dot!(simd, qx, qy, qz, qx, qy, qz));
+                            let s = v!(simd, div_f64s, simd.splat_f64s(radius), l);
+                            let pos = v!(simd, greater_than_f64s, l, zero);
+                            sx = v!(
+                                simd,
+                                select_f64s,
+                                pos,
+                                v!(simd, add_f64s, cx, v!(simd, mul_f64s, qx, s)),
+                                x
+                            );
+                            sy = v!(
+                                simd,
+                                select_f64s,
+                                pos,
+                                v!(simd, add_f64s, cy, v!(simd, mul_f64s, qy, s)),
+                                y
+                            );
+                            sz = v!(
+                                simd,
+                                select_f64s,
+                                pos,
+                                v!(simd, add_f64s, cz, v!(simd, mul_f64s, qz, s)),
+                                z
+                            );
+                            // `Sphere::normal`: normalize_or_f64(pd − center, y).
+                            let (vx, vy, vz) = (
+                                v!(simd, sub_f64s, sx, cx),
+                                v!(simd, sub_f64s, sy, cy),
+                                v!(simd, sub_f64s, sz, cz),
+                            );
+                            let rcp = v!(
+                                simd,
+                                div_f64s,
+                                one,
+                                v!(simd, sqrt_f64s, dot!(simd, vx, vy, vz, vx, vy, vz))
+                            );
+                            let ok = unit_scale(simd, rcp);
+                            nx = v!(simd, select_f64s, ok, v!(simd, mul_f64s, vx, rcp), zero);
+                            ny = v!(simd, select_f64s, ok, v!(simd, mul_f64s, vy, rcp), one);
+                            nz = v!(simd, select_f64s, ok, v!(simd, mul_f64s, vz, rcp), zero);
+                        }
+                        Quadric::WallY {
+                            base, radius, flip, ..
+                        } => {
+                            // `Wall::project_about` (y axis): (base.x, base.y + y,
+                            // base.z) + (qx, 0, qz)·(r/l), l = |(qx, 0, qz)|.
+                            let (bx, by, bz) = (
+                                simd.splat_f64s(base.x),
+                                simd.splat_f64s(base.y),
+                                simd.splat_f64s(base.z),
+                            );
+                            let (qx, qy, qz) = (
+                                v!(simd, sub_f64s, x, bx),
+                                v!(simd, sub_f64s, y, by),
+                                v!(simd, sub_f64s, z, bz),
+                            );
+                            let l = v!(simd, sqrt_f64s, dot!(simd, qx, zero, qz, qx, zero, qz));
+                            let s = v!(simd, div_f64s, simd.splat_f64s(radius), l);
+                            let pos = v!(simd, greater_than_f64s, l, zero);
+                            sx = v!(
+                                simd,
+                                select_f64s,
+                                pos,
+                                v!(simd, add_f64s, bx, v!(simd, mul_f64s, qx, s)),
+                                x
+                            );
+                            sy = v!(
+                                simd,
+                                select_f64s,
+                                pos,
+                                v!(
+                                    simd,
+                                    add_f64s,
+                                    v!(simd, add_f64s, by, qy),
+                                    v!(simd, mul_f64s, zero, s)
+                                ),
+                                y
+                            );
+                            sz = v!(
+                                simd,
+                                select_f64s,
+                                pos,
+                                v!(simd, add_f64s, bz, v!(simd, mul_f64s, qz, s)),
+                                z
+                            );
+                            // `Cylinder::normal` of the wall: normalize_or_f64 of
+                            // (pd − base) across the axis, x as the fallback,
+                            // negated towards the axis.
+                            let (vx, vz) = (v!(simd, sub_f64s, sx, bx), v!(simd, sub_f64s, sz, bz));
+                            let rcp = v!(
+                                simd,
+                                div_f64s,
+                                one,
+                                v!(simd, sqrt_f64s, dot!(simd, vx, zero, vz, vx, zero, vz))
+                            );
+                            let ok = unit_scale(simd, rcp);
+                            let (ax, ay, az) = (
+                                v!(simd, select_f64s, ok, v!(simd, mul_f64s, vx, rcp), one),
+                                v!(simd, select_f64s, ok, v!(simd, mul_f64s, zero, rcp), zero),
+                                v!(simd, select_f64s, ok, v!(simd, mul_f64s, vz, rcp), zero),
+                            );
+                            (nx, ny, nz) = if flip {
+                                (
+                                    v!(simd, neg_f64s, ax),
+                                    v!(simd, neg_f64s, ay),
+                                    v!(simd, neg_f64s, az),
+                                )
+                            } else {
+                                (ax, ay, az)
+                            };
+                        }
+                        Quadric::Rect { corner, normal, .. } => {
+                            // `Rect::project`: p − n·((p − corner)·n).
+                            let (kx, ky, kz) = (
+                                simd.splat_f64s(normal.x),
+                                simd.splat_f64s(normal.y),
+                                simd.splat_f64s(normal.z),
+                            );
+                            let d = dot!(
+                                simd,
+                                v!(simd, sub_f64s, x, simd.splat_f64s(corner.x)),
+                                v!(simd, sub_f64s, y, simd.splat_f64s(corner.y)),
+                                v!(simd, sub_f64s, z, simd.splat_f64s(corner.z)),
+                                kx,
+                                ky,
+                                kz
+                            );
+                            sx = v!(simd, sub_f64s, x, v!(simd, mul_f64s, kx, d));
+                            sy = v!(simd, sub_f64s, y, v!(simd, mul_f64s, ky, d));
+                            sz = v!(simd, sub_f64s, z, v!(simd, mul_f64s, kz, d));
+                            (nx, ny, nz) = (kx, ky, kz);
+                        }
+                    }
+                    ox[k] = v!(simd, select_f64s, on, sx, ox[k]);
+                    oy[k] = v!(simd, select_f64s, on, sy, oy[k]);
+                    oz[k] = v!(simd, select_f64s, on, sz, oz[k]);
+                    nx_out[k] = v!(simd, select_f64s, on, nx, nx_out[k]);
+                    ny_out[k] = v!(simd, select_f64s, on, ny, ny_out[k]);
+                    nz_out[k] = v!(simd, select_f64s, on, nz, nz_out[k]);
+                    done[k] = v!(simd, select_f64s, on, one, done[k]);
+                }
+            }
+        }
+        for a in 0..3 {
+            for k in 0..N {
+                out.p[a][k] = out.pd[a][k] as f32;
+                out.ng[a][k] = nd[a][k] as f32;
+            }
+        }
+    }
+}
+
+/// Is `rcp` (a reciprocal length) one `normalize_or_f64` scales by:
+/// positive, not zero, finite?
+#[inline(always)]
+fn unit_scale<S: pulp::Simd>(simd: S, rcp: S::f64s) -> S::m64s {
+    v!(
+        simd,
+        and_m64s,
+        v!(simd, greater_than_f64s, rcp, simd.splat_f64s(0.0)),
+        v!(simd, less_than_or_equal_f64s, rcp, simd.splat_f64s(f64::MAX))
+    )
+}
+
 impl AnalyticSet {
     /// The set of `shapes` (geometry id, shape); `None` when they have more
     /// than [`MAX_SET_PRIMITIVES`] primitives together, or none.
@@ -905,6 +1177,21 @@ impl AnalyticSet {
     }
 }
 
+impl AnalyticSet {
+    /// The surface points of the hits of `packet` (after a nearest-hit
+    /// query) on the set's spheres, walls about the y axis and rects, into
+    /// `out`, side by side: as `RenderScene::surface_point` makes them,
+    /// bit for bit, but for the texture coordinates (`done` says which
+    /// lanes; the others' hits are elsewhere, or on other primitives).
+    pub fn surface_points<const N: usize, P: RayPacket<N>>(&self, packet: &P, out: &mut SurfaceLanes<N>) {
+        self.arch.dispatch(SurfaceKernel {
+            prims: &self.prims,
+            rays: packet.rays(),
+            out,
+        })
+    }
+}
+
 /// The hit of a primitive (ids) at the crossing `c`.
 #[inline(always)]
 fn hit(geom_id: u32, prim_id: u32, c: &Candidate) -> Hit {
@@ -922,7 +1209,7 @@ fn hit(geom_id: u32, prim_id: u32, c: &Candidate) -> Hit {
 mod tests {
     use super::*;
     use crate::embree::{Packet8, Ray};
-    use crate::scene::{load_scene_str, BuildOptions, RenderScene, Shape};
+    use crate::scene::{load_scene_str, BuildOptions, RenderScene, Shape, SurfacePoint};
     use glam::Vec3A as V3;
 
     /// Every vector level this CPU runs, the scalar one first.
@@ -1192,6 +1479,73 @@ material = { type = "dielectric", int_ior = 1.5, ext_ior = 1.0 }
             bad > 500,
             "trusting the kernel at the interval's ends: {bad} disagreements"
         );
+    }
+
+    /// The surface points of a packet's hits on the set's spheres, walls
+    /// about y and rects are `RenderScene::surface_point`'s bit for bit (point,
+    /// normals, texture coordinates) at every vector level; hits on other
+    /// primitives are left to it. Taking the hit point unprojected instead is
+    /// caught by the same comparison.
+    #[test]
+    fn surface_points_are_the_scenes() {
+        let with = scene(SETS[0], true);
+        let set = with.analytic_set.clone().expect("a set of few shapes");
+        let rays = packets(9, 3000);
+        let bits = |sp: &SurfacePoint| {
+            (
+                sp.p.to_array().map(f32::to_bits),
+                sp.ng.to_array().map(f32::to_bits),
+                sp.ns.to_array().map(f32::to_bits),
+                sp.uv.map(f32::to_bits),
+            )
+        };
+        for arch in levels() {
+            let set = set.clone().with_arch(arch);
+            let (mut solved, mut bad, mut unprojected) = (0, 0, 0);
+            for batch in &rays {
+                let mut p = Packet8::new();
+                for (i, r) in batch.iter().enumerate() {
+                    p.set_ray(i, r);
+                }
+                p.intersect_meshes(&with.embree, false);
+                set.intersect(&mut p);
+                let mut s = SurfaceLanes::<8>::default();
+                set.surface_points(&p, &mut s);
+                for (i, r) in batch.iter().enumerate() {
+                    let Some(h) = p.hit(i) else {
+                        assert_eq!(s.done[i], 0.0, "{arch:?}: a lane without a hit");
+                        continue;
+                    };
+                    let quadric = set
+                        .prims
+                        .iter()
+                        .any(|q| q.geom == h.geom_id && q.prim == h.prim_id && q.quadric.is_some());
+                    assert_eq!(s.done[i] != 0.0, quadric, "{arch:?}: lane {i}, hit {h:?}");
+                    if !quadric {
+                        continue;
+                    }
+                    solved += 1;
+                    let pd = DVec3::new(s.pd[0][i], s.pd[1][i], s.pd[2][i]);
+                    let point = V3::new(s.p[0][i], s.p[1][i], s.p[2][i]);
+                    let ng = V3::new(s.ng[0][i], s.ng[1][i], s.ng[2][i]);
+                    let got = with
+                        .analytic_surface_point(&h, pd, point, ng)
+                        .expect("an analytic hit");
+                    let want = with.surface_point(r, &h);
+                    bad += (bits(&got) != bits(&want)) as usize;
+                    // The wrong variant: the hit point as found, not projected.
+                    let raw = (r.org + r.dir * h.t).as_dvec3();
+                    let wrong = with.analytic_surface_point(&h, raw, raw.as_vec3a(), ng).unwrap();
+                    unprojected += (bits(&wrong) != bits(&want)) as usize;
+                }
+            }
+            assert!(solved > 5000, "{arch:?}: {solved} lanes solved");
+            assert_eq!(bad, 0, "{arch:?}: {bad} of {solved} differ");
+            assert!(
+                unprojected > solved / 10,
+                "{arch:?}: unprojected points: {unprojected} of {solved} differ"
+            );
+        }
     }
 
     /// Too many primitives, or none: no set.
