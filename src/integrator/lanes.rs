@@ -304,15 +304,22 @@ pub fn path_stream<const N: usize, P: RayPacket<N>>(
 
 /// Nearest hits of the active lanes of `packet` in `scene`: Embree's, or
 /// with an [`AnalyticSet`](crate::scene::shapes::AnalyticSet), Embree's
-/// among the meshes completed by the set's.
+/// among the meshes completed by the set's. Whether any hit is the set's.
 #[inline]
-fn intersect_packet<const N: usize, P: RayPacket<N>>(scene: &RenderScene, packet: &mut P, coherent: bool) {
+fn intersect_packet<const N: usize, P: RayPacket<N>>(
+    scene: &RenderScene,
+    packet: &mut P,
+    coherent: bool,
+) -> bool {
     match &scene.analytic_set {
         Some(set) => {
             packet.intersect_meshes(&scene.embree, coherent);
-            set.intersect(packet);
+            set.intersect(packet)
         }
-        None => packet.intersect(&scene.embree, coherent),
+        None => {
+            packet.intersect(&scene.embree, coherent);
+            false
+        }
     }
 }
 

@@ -49,7 +49,7 @@ impl Cylinder {
     /// Primitive 1 (at `p0`) or 2 (at the far end), whose normal points
     /// out of the solid along ∓`axis`; the disk's own normal is `axis`.
     #[inline(always)]
-    fn cap(&self, prim: u32) -> Disk {
+    pub(super) fn cap(&self, prim: u32) -> Disk {
         self.wall().end(prim != 1, 0.0)
     }
 

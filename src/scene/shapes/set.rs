@@ -57,6 +57,16 @@ enum Quadric {
         to_a: DVec3,
         to_b: DVec3,
     },
+    /// `Disk::crossing` but the segment's interval (a disk, or a
+    /// cylinder's cap): the plane's crossing, real only within the radii
+    /// (squared); `facing` is the candidate's normal.
+    Disk {
+        center: DVec3,
+        normal: DVec3,
+        radius2: f64,
+        inner2: f64,
+        facing: DVec3,
+    },
 }
 
 /// One primitive of an analytic shape, with the geometry id Embree knows it
@@ -469,14 +479,17 @@ impl<const N: usize> pulp::WithSimd for SetKernel<'_, N> {
                 let (t0, t1, e0, e1, mut normal);
                 match quadric {
                     Quadric::Rect {
-                        corner,
+                        corner, normal: nr, ..
+                    }
+                    | Quadric::Disk {
+                        center: corner,
                         normal: nr,
-                        to_a,
-                        to_b,
+                        ..
                     } => {
                         // t = (corner − o)·n / (d·n); p − corner = (o + d·t) − corner;
-                        // inside when both its coordinates are in [0, 1], and never
-                        // for d·n == 0 (a NaN coordinate is outside).
+                        // inside a rect when both its coordinates are in [0, 1],
+                        // inside a disk when |p − center|² is within the radii
+                        // squared; never for d·n == 0 (a NaN is outside).
                         let (nx, ny, nz) = (
                             simd.splat_f64s(nr.x),
                             simd.splat_f64s(nr.y),
@@ -512,27 +525,37 @@ impl<const N: usize> pulp::WithSimd for SetKernel<'_, N> {
                             v!(simd, add_f64s, o[2][k], v!(simd, mul_f64s, d[2][k], t)),
                             kz
                         );
-                        let (ax, ay, az) = (
-                            simd.splat_f64s(to_a.x),
-                            simd.splat_f64s(to_a.y),
-                            simd.splat_f64s(to_a.z),
-                        );
-                        let (bx, by, bz) = (
-                            simd.splat_f64s(to_b.x),
-                            simd.splat_f64s(to_b.y),
-                            simd.splat_f64s(to_b.z),
-                        );
-                        let a = dot!(simd, qx, qy, qz, ax, ay, az);
-                        let b = dot!(simd, qx, qy, qz, bx, by, bz);
+                        let inside = match quadric {
+                            Quadric::Rect { to_a, to_b, .. } => {
+                                let (ax, ay, az) = (
+                                    simd.splat_f64s(to_a.x),
+                                    simd.splat_f64s(to_a.y),
+                                    simd.splat_f64s(to_a.z),
+                                );
+                                let (bx, by, bz) = (
+                                    simd.splat_f64s(to_b.x),
+                                    simd.splat_f64s(to_b.y),
+                                    simd.splat_f64s(to_b.z),
+                                );
+                                let a = dot!(simd, qx, qy, qz, ax, ay, az);
+                                let b = dot!(simd, qx, qy, qz, bx, by, bz);
+                                v!(
+                                    simd,
+                                    and_m64s,
+                                    within!(simd, a, zero, one),
+                                    within!(simd, b, zero, one)
+                                )
+                            }
+                            Quadric::Disk { radius2, inner2, .. } => {
+                                let q = dot!(simd, qx, qy, qz, qx, qy, qz);
+                                within!(simd, q, simd.splat_f64s(inner2), simd.splat_f64s(radius2))
+                            }
+                            _ => no,
+                        };
                         let inside = v!(
                             simd,
                             and_m64s,
-                            v!(
-                                simd,
-                                and_m64s,
-                                within!(simd, a, zero, one),
-                                within!(simd, b, zero, one)
-                            ),
+                            inside,
                             v!(simd, not_m64s, v!(simd, equal_f64s, dn, zero))
                         );
                         // Only a crossing within the lane's widened interval
@@ -553,7 +576,14 @@ impl<const N: usize> pulp::WithSimd for SetKernel<'_, N> {
                         );
                         (t0, t1) = (t, t);
                         (e0, e1) = (v!(simd, and_m64s, real, kept), no);
-                        normal = [nx, ny, nz];
+                        normal = match quadric {
+                            Quadric::Disk { facing, .. } => [
+                                simd.splat_f64s(facing.x),
+                                simd.splat_f64s(facing.y),
+                                simd.splat_f64s(facing.z),
+                            ],
+                            _ => [nx, ny, nz],
+                        };
                     }
                     Quadric::Sphere { center, radius }
                     | Quadric::WallY {
@@ -723,7 +753,7 @@ impl<const N: usize> pulp::WithSimd for SetKernel<'_, N> {
                             [x, zero, z]
                         };
                     }
-                    Quadric::Rect { .. } => {}
+                    Quadric::Rect { .. } | Quadric::Disk { .. } => {}
                 }
                 best_t[k] = v!(simd, select_f64s, any, t, best_t[k]);
                 lim[k] = v!(simd, select_f64s, any, t, lim[k]);
@@ -955,8 +985,13 @@ impl<const N: usize> pulp::WithSimd for SurfaceKernel<'_, N> {
                                 (ax, ay, az)
                             };
                         }
-                        Quadric::Rect { corner, normal, .. } => {
-                            // `Rect::project`: p − n·((p − corner)·n).
+                        Quadric::Rect { corner, normal, .. }
+                        | Quadric::Disk {
+                            center: corner,
+                            normal,
+                            ..
+                        } => {
+                            // `Rect::project`, `Disk::project`: p − n·((p − corner)·n).
                             let (kx, ky, kz) = (
                                 simd.splat_f64s(normal.x),
                                 simd.splat_f64s(normal.y),
@@ -974,7 +1009,14 @@ impl<const N: usize> pulp::WithSimd for SurfaceKernel<'_, N> {
                             sx = v!(simd, sub_f64s, x, v!(simd, mul_f64s, kx, d));
                             sy = v!(simd, sub_f64s, y, v!(simd, mul_f64s, ky, d));
                             sz = v!(simd, sub_f64s, z, v!(simd, mul_f64s, kz, d));
-                            (nx, ny, nz) = (kx, ky, kz);
+                            (nx, ny, nz) = match quadric {
+                                Quadric::Disk { facing, .. } => (
+                                    simd.splat_f64s(facing.x),
+                                    simd.splat_f64s(facing.y),
+                                    simd.splat_f64s(facing.z),
+                                ),
+                                _ => (kx, ky, kz),
+                            };
                         }
                     }
                     ox[k] = v!(simd, select_f64s, on, sx, ox[k]);
@@ -1026,6 +1068,23 @@ impl AnalyticSet {
                         radius: c.radius,
                         height: c.height,
                         flip: c.inward,
+                    }),
+                    Analytic::Cylinder(c) if prim > 0 => {
+                        let cap = c.cap(prim);
+                        Some(Quadric::Disk {
+                            center: cap.center,
+                            normal: cap.normal,
+                            radius2: cap.radius * cap.radius,
+                            inner2: cap.inner * cap.inner,
+                            facing: c.normal(prim, cap.center),
+                        })
+                    }
+                    Analytic::Disk(k) => Some(Quadric::Disk {
+                        center: k.center,
+                        normal: k.normal,
+                        radius2: k.radius * k.radius,
+                        inner2: k.inner * k.inner,
+                        facing: k.normal,
                     }),
                     Analytic::Rect(r) => {
                         let (to_a, to_b) = r.dual();
@@ -1133,8 +1192,10 @@ impl AnalyticSet {
     /// the meshes alone: a lane whose nearest crossing with a primitive of
     /// the set lies within `[tnear, tfar]` (tfar: the mesh hit, if any) gets
     /// that crossing as its hit.
-    pub fn intersect<const N: usize, P: RayPacket<N>>(&self, packet: &mut P) {
+    /// Whether any lane's hit is now on the set.
+    pub fn intersect<const N: usize, P: RayPacket<N>>(&self, packet: &mut P) -> bool {
         let mut r = Resolved::NONE;
+        let mut any = false;
         for k in 0..self.resolve(packet, false, &mut r) {
             if self.unsure(&r, k) {
                 self.replay(packet, k, r.boxes[k] as u32, |packet, p, c| {
@@ -1143,6 +1204,7 @@ impl AnalyticSet {
                     // Sorted: the first crossing within the interval is the nearest.
                     if let Some(c) = c.as_slice().iter().find(|c| c.t >= tnear && c.t <= tfar) {
                         packet.set_hit(k, &hit(p.geom, p.prim, c));
+                        any = true;
                     }
                 });
             } else if r.geom1[k] > 0.0 {
@@ -1151,8 +1213,10 @@ impl AnalyticSet {
                     k,
                     &hit(r.geom1[k] as u32 - 1, r.prim[k] as u32, &candidate(r.t[k], n)),
                 );
+                any = true;
             }
         }
+        any
     }
 
     /// Complete an occlusion query of `packet` that Embree answered against
