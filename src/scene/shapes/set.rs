@@ -107,11 +107,6 @@ struct LaneArrays<const N: usize> {
     /// The interval as the packet holds it (f32 values).
     tn: [f64; N],
     tf: [f64; N],
-    /// `|o|` and `|d|` by their largest components, and `|d|`
-    /// (`Segment::is_touch`).
-    o_max: [f64; N],
-    d_max: [f64; N],
-    d_len: [f64; N],
 }
 
 impl<const N: usize> LaneArrays<N> {
@@ -123,9 +118,6 @@ impl<const N: usize> LaneArrays<N> {
         t_hi: [0.0; N],
         tn: [0.0; N],
         tf: [0.0; N],
-        o_max: [0.0; N],
-        d_max: [0.0; N],
-        d_len: [0.0; N],
     };
 
     /// The lanes of `rays` up to the last active one (how many: the
@@ -142,13 +134,6 @@ impl<const N: usize> LaneArrays<N> {
                 l.d[a][k] = rays.dir[a][k] as f64;
                 l.inv_d[a][k] = 1.0 / rays.dir[a][k] as f64;
             }
-        }
-        for k in 0..N {
-            let (o, d) = (&l.o, &l.d);
-            l.o_max[k] = o[0][k].abs().max(o[1][k].abs().max(o[2][k].abs()));
-            l.d_max[k] = d[0][k].abs().max(d[1][k].abs().max(d[2][k].abs()));
-            // glam's `length`: the dot product summed left to right.
-            l.d_len[k] = (d[0][k] * d[0][k] + d[1][k] * d[1][k] + d[2][k] * d[2][k]).sqrt();
         }
         // A crossing is kept when its t rounded to f32 is within the
         // interval: a relative 1e-6 covers that rounding many times over.
@@ -293,16 +278,27 @@ fn keeps<S: pulp::Simd>(simd: S, t: S::f64s, tn: S::f64s, lim: S::f64s) -> (S::m
     (kept, v!(simd, not_m64s, v!(simd, or_m64s, kept, dropped)))
 }
 
-/// `Segment::is_touch` of the lanes' roots, operation for operation.
+/// `Segment::is_touch` of the lanes' roots `t0`, `t1` on the rays `o + t·d`,
+/// operation for operation.
 #[inline(always)]
-fn touches<S: pulp::Simd>(
-    simd: S,
-    t0: S::f64s,
-    t1: S::f64s,
-    o_max: S::f64s,
-    d_max: S::f64s,
-    d_len: S::f64s,
-) -> S::m64s {
+fn touches<S: pulp::Simd>(simd: S, t0: S::f64s, t1: S::f64s, o: [S::f64s; 3], d: [S::f64s; 3]) -> S::m64s {
+    // |o| and |d| by their largest components (`max_element` of `abs`).
+    macro_rules! largest {
+        ($v:expr) => {
+            v!(
+                simd,
+                max_f64s,
+                v!(simd, abs_f64s, $v[0]),
+                v!(
+                    simd,
+                    max_f64s,
+                    v!(simd, abs_f64s, $v[1]),
+                    v!(simd, abs_f64s, $v[2])
+                )
+            )
+        };
+    }
+    let (o_max, d_max) = (largest!(o), largest!(d));
     const K: f64 = 2.0 * crate::ray::OFFSET_ULPS as f64 * f32::EPSILON as f64;
     const KM: f64 = K * (1.0 + 1e-9);
     let gap = v!(simd, abs_f64s, v!(simd, sub_f64s, t1, t0));
@@ -336,7 +332,18 @@ fn touches<S: pulp::Simd>(
             v!(simd, add_f64s, o_max, simd.splat_f64s(0.5))
         )
     );
-    // `ray::crossing_window_f64(o, d, t_max)`.
+    // Only lanes neither small nor beyond need the window (a division).
+    let near = v!(
+        simd,
+        and_m64s,
+        v!(simd, not_m64s, small),
+        v!(simd, not_m64s, beyond)
+    );
+    if simd.first_true_m64s(near) == S::F64_LANES {
+        return small;
+    }
+    // `ray::crossing_window_f64(o, d, t_max)`, with glam's `length`.
+    let d_len = v!(simd, sqrt_f64s, dot!(simd, d[0], d[1], d[2], d[0], d[1], d[2]));
     let sum = v!(
         simd,
         add_f64s,
@@ -351,7 +358,7 @@ fn touches<S: pulp::Simd>(
         v!(
             simd,
             and_m64s,
-            v!(simd, not_m64s, beyond),
+            near,
             v!(simd, less_than_or_equal_f64s, gap, window)
         )
     )
@@ -412,9 +419,6 @@ impl<const N: usize> pulp::WithSimd for SetKernel<'_, N> {
         let t_lo = S::as_simd_f64s(&l.t_lo[..n]).0;
         let t_hi = S::as_simd_f64s(&l.t_hi[..n]).0;
         let tn = S::as_simd_f64s(&l.tn[..n]).0;
-        let o_max = S::as_simd_f64s(&l.o_max[..n]).0;
-        let d_max = S::as_simd_f64s(&l.d_max[..n]).0;
-        let d_len = S::as_simd_f64s(&l.d_len[..n]).0;
         let mut lim_lanes = l.tf;
         let lim = S::as_mut_simd_f64s(&mut lim_lanes[..n]).0;
         let Resolved {
@@ -657,7 +661,13 @@ impl<const N: usize> pulp::WithSimd for SetKernel<'_, N> {
                         let (k1, u1) = keeps(simd, t1, tn[k], lim[k]);
                         let unsure_t = v!(simd, and_m64s, real, v!(simd, or_m64s, u0, u1));
                         unsure[k] = v!(simd, select_f64s, unsure_t, one, unsure[k]);
-                        let touch = touches(simd, t0, t1, o_max[k], d_max[k], d_len[k]);
+                        let touch = touches(
+                            simd,
+                            t0,
+                            t1,
+                            [o[0][k], o[1][k], o[2][k]],
+                            [d[0][k], d[1][k], d[2][k]],
+                        );
                         let crosses = v!(simd, and_m64s, real, v!(simd, not_m64s, touch));
                         (e0, e1) = match quadric {
                             Quadric::WallY { base, height, .. } => {
