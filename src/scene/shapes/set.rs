@@ -225,6 +225,17 @@ macro_rules! dot {
     };
 }
 
+/// A vector's three components, each splat across the lanes.
+macro_rules! splat3 {
+    ($simd:ident, $v:expr) => {
+        (
+            $simd.splat_f64s($v.x),
+            $simd.splat_f64s($v.y),
+            $simd.splat_f64s($v.z),
+        )
+    };
+}
+
 /// Is `t` within `[lo, hi]`?
 macro_rules! within {
     ($simd:ident, $t:expr, $lo:expr, $hi:expr) => {
@@ -494,16 +505,8 @@ impl<const N: usize> pulp::WithSimd for SetKernel<'_, N> {
                         // inside a rect when both its coordinates are in [0, 1],
                         // inside a disk when |p − center|² is within the radii
                         // squared; never for d·n == 0 (a NaN is outside).
-                        let (nx, ny, nz) = (
-                            simd.splat_f64s(nr.x),
-                            simd.splat_f64s(nr.y),
-                            simd.splat_f64s(nr.z),
-                        );
-                        let (kx, ky, kz) = (
-                            simd.splat_f64s(corner.x),
-                            simd.splat_f64s(corner.y),
-                            simd.splat_f64s(corner.z),
-                        );
+                        let (nx, ny, nz) = splat3!(simd, nr);
+                        let (kx, ky, kz) = splat3!(simd, corner);
                         let dn = dot!(simd, d[0][k], d[1][k], d[2][k], nx, ny, nz);
                         let (cx, cy, cz) = (
                             v!(simd, sub_f64s, kx, o[0][k]),
@@ -531,16 +534,8 @@ impl<const N: usize> pulp::WithSimd for SetKernel<'_, N> {
                         );
                         let inside = match quadric {
                             Quadric::Rect { to_a, to_b, .. } => {
-                                let (ax, ay, az) = (
-                                    simd.splat_f64s(to_a.x),
-                                    simd.splat_f64s(to_a.y),
-                                    simd.splat_f64s(to_a.z),
-                                );
-                                let (bx, by, bz) = (
-                                    simd.splat_f64s(to_b.x),
-                                    simd.splat_f64s(to_b.y),
-                                    simd.splat_f64s(to_b.z),
-                                );
+                                let (ax, ay, az) = splat3!(simd, to_a);
+                                let (bx, by, bz) = splat3!(simd, to_b);
                                 let a = dot!(simd, qx, qy, qz, ax, ay, az);
                                 let b = dot!(simd, qx, qy, qz, bx, by, bz);
                                 v!(
@@ -870,50 +865,51 @@ impl<const N: usize> pulp::WithSimd for SurfaceKernel<'_, N> {
                         continue;
                     }
                     let (x, y, z) = (px[k], py[k], pz[k]);
-                    let (sx, sy, sz, nx, ny, nz);
+                    let (sx, sy, sz, mut nx, mut ny, mut nz);
                     match quadric {
-                        Quadric::Sphere { center, radius } => {
-                            // `Sphere::project`: center + q·(r/|q|), q = p − center.
-                            let (cx, cy, cz) = (
-                                simd.splat_f64s(center.x),
-                                simd.splat_f64s(center.y),
-                                simd.splat_f64s(center.z),
-                            );
+                        Quadric::Sphere { center, radius }
+                        | Quadric::WallY {
+                            base: center, radius, ..
+                        } => {
+                            // `Sphere::project`: center + q·(r/|q|), q = p − center;
+                            // `Wall::project_about` (y axis): (base.x, base.y + q.y,
+                            // base.z) + (qx, 0, qz)·(r/l), l = |(qx, 0, qz)|.
+                            let wall = matches!(quadric, Quadric::WallY { .. });
+                            let (cx, cy, cz) = splat3!(simd, center);
                             let (qx, qy, qz) = (
                                 v!(simd, sub_f64s, x, cx),
                                 v!(simd, sub_f64s, y, cy),
                                 v!(simd, sub_f64s, z, cz),
                             );
-                            let l = v!(simd, sqrt_f64s, dot!(simd, qx, qy, qz, qx, qy, qz));
+                            let ry = if wall { zero } else { qy };
+                            let l = v!(simd, sqrt_f64s, dot!(simd, qx, ry, qz, qx, ry, qz));
                             let s = v!(simd, div_f64s, simd.splat_f64s(radius), l);
                             let pos = v!(simd, greater_than_f64s, l, zero);
-                            sx = v!(
-                                simd,
-                                select_f64s,
-                                pos,
-                                v!(simd, add_f64s, cx, v!(simd, mul_f64s, qx, s)),
-                                x
-                            );
-                            sy = v!(
-                                simd,
-                                select_f64s,
-                                pos,
-                                v!(simd, add_f64s, cy, v!(simd, mul_f64s, qy, s)),
-                                y
-                            );
-                            sz = v!(
-                                simd,
-                                select_f64s,
-                                pos,
-                                v!(simd, add_f64s, cz, v!(simd, mul_f64s, qz, s)),
-                                z
-                            );
-                            // `Sphere::normal`: normalize_or_f64(pd − center, y).
-                            let (vx, vy, vz) = (
-                                v!(simd, sub_f64s, sx, cx),
-                                v!(simd, sub_f64s, sy, cy),
-                                v!(simd, sub_f64s, sz, cz),
-                            );
+                            // c + q·s, where the radius is positive, else the point.
+                            macro_rules! onto {
+                                ($c:expr, $q:expr, $p:expr) => {
+                                    v!(
+                                        simd,
+                                        select_f64s,
+                                        pos,
+                                        v!(simd, add_f64s, $c, v!(simd, mul_f64s, $q, s)),
+                                        $p
+                                    )
+                                };
+                            }
+                            sx = onto!(cx, qx, x);
+                            sy = if wall {
+                                onto!(v!(simd, add_f64s, cy, qy), zero, y)
+                            } else {
+                                onto!(cy, qy, y)
+                            };
+                            sz = onto!(cz, qz, z);
+                            // `Sphere::normal`: normalize_or_f64(pd − center, y);
+                            // the wall's (`Cylinder::normal`): of (pd − base)
+                            // across the axis, x as the fallback, negated
+                            // towards the axis.
+                            let (vx, vz) = (v!(simd, sub_f64s, sx, cx), v!(simd, sub_f64s, sz, cz));
+                            let vy = if wall { zero } else { v!(simd, sub_f64s, sy, cy) };
                             let rcp = v!(
                                 simd,
                                 div_f64s,
@@ -921,79 +917,19 @@ impl<const N: usize> pulp::WithSimd for SurfaceKernel<'_, N> {
                                 v!(simd, sqrt_f64s, dot!(simd, vx, vy, vz, vx, vy, vz))
                             );
                             let ok = unit_scale(simd, rcp);
-                            nx = v!(simd, select_f64s, ok, v!(simd, mul_f64s, vx, rcp), zero);
-                            ny = v!(simd, select_f64s, ok, v!(simd, mul_f64s, vy, rcp), one);
-                            nz = v!(simd, select_f64s, ok, v!(simd, mul_f64s, vz, rcp), zero);
-                        }
-                        Quadric::WallY {
-                            base, radius, flip, ..
-                        } => {
-                            // `Wall::project_about` (y axis): (base.x, base.y + y,
-                            // base.z) + (qx, 0, qz)·(r/l), l = |(qx, 0, qz)|.
-                            let (bx, by, bz) = (
-                                simd.splat_f64s(base.x),
-                                simd.splat_f64s(base.y),
-                                simd.splat_f64s(base.z),
-                            );
-                            let (qx, qy, qz) = (
-                                v!(simd, sub_f64s, x, bx),
-                                v!(simd, sub_f64s, y, by),
-                                v!(simd, sub_f64s, z, bz),
-                            );
-                            let l = v!(simd, sqrt_f64s, dot!(simd, qx, zero, qz, qx, zero, qz));
-                            let s = v!(simd, div_f64s, simd.splat_f64s(radius), l);
-                            let pos = v!(simd, greater_than_f64s, l, zero);
-                            sx = v!(
-                                simd,
-                                select_f64s,
-                                pos,
-                                v!(simd, add_f64s, bx, v!(simd, mul_f64s, qx, s)),
-                                x
-                            );
-                            sy = v!(
-                                simd,
-                                select_f64s,
-                                pos,
-                                v!(
-                                    simd,
-                                    add_f64s,
-                                    v!(simd, add_f64s, by, qy),
-                                    v!(simd, mul_f64s, zero, s)
-                                ),
-                                y
-                            );
-                            sz = v!(
-                                simd,
-                                select_f64s,
-                                pos,
-                                v!(simd, add_f64s, bz, v!(simd, mul_f64s, qz, s)),
-                                z
-                            );
-                            // `Cylinder::normal` of the wall: normalize_or_f64 of
-                            // (pd − base) across the axis, x as the fallback,
-                            // negated towards the axis.
-                            let (vx, vz) = (v!(simd, sub_f64s, sx, bx), v!(simd, sub_f64s, sz, bz));
-                            let rcp = v!(
-                                simd,
-                                div_f64s,
-                                one,
-                                v!(simd, sqrt_f64s, dot!(simd, vx, zero, vz, vx, zero, vz))
-                            );
-                            let ok = unit_scale(simd, rcp);
-                            let (ax, ay, az) = (
-                                v!(simd, select_f64s, ok, v!(simd, mul_f64s, vx, rcp), one),
-                                v!(simd, select_f64s, ok, v!(simd, mul_f64s, zero, rcp), zero),
+                            let (fx, fy) = if wall { (one, zero) } else { (zero, one) };
+                            (nx, ny, nz) = (
+                                v!(simd, select_f64s, ok, v!(simd, mul_f64s, vx, rcp), fx),
+                                v!(simd, select_f64s, ok, v!(simd, mul_f64s, vy, rcp), fy),
                                 v!(simd, select_f64s, ok, v!(simd, mul_f64s, vz, rcp), zero),
                             );
-                            (nx, ny, nz) = if flip {
-                                (
-                                    v!(simd, neg_f64s, ax),
-                                    v!(simd, neg_f64s, ay),
-                                    v!(simd, neg_f64s, az),
-                                )
-                            } else {
-                                (ax, ay, az)
-                            };
+                            if let Quadric::WallY { flip: true, .. } = quadric {
+                                (nx, ny, nz) = (
+                                    v!(simd, neg_f64s, nx),
+                                    v!(simd, neg_f64s, ny),
+                                    v!(simd, neg_f64s, nz),
+                                );
+                            }
                         }
                         Quadric::Rect { corner, normal, .. }
                         | Quadric::Disk {
@@ -1002,11 +938,7 @@ impl<const N: usize> pulp::WithSimd for SurfaceKernel<'_, N> {
                             ..
                         } => {
                             // `Rect::project`, `Disk::project`: p − n·((p − corner)·n).
-                            let (kx, ky, kz) = (
-                                simd.splat_f64s(normal.x),
-                                simd.splat_f64s(normal.y),
-                                simd.splat_f64s(normal.z),
-                            );
+                            let (kx, ky, kz) = splat3!(simd, normal);
                             let d = dot!(
                                 simd,
                                 v!(simd, sub_f64s, x, simd.splat_f64s(corner.x)),
@@ -1020,11 +952,7 @@ impl<const N: usize> pulp::WithSimd for SurfaceKernel<'_, N> {
                             sy = v!(simd, sub_f64s, y, v!(simd, mul_f64s, ky, d));
                             sz = v!(simd, sub_f64s, z, v!(simd, mul_f64s, kz, d));
                             (nx, ny, nz) = match quadric {
-                                Quadric::Disk { facing, .. } => (
-                                    simd.splat_f64s(facing.x),
-                                    simd.splat_f64s(facing.y),
-                                    simd.splat_f64s(facing.z),
-                                ),
+                                Quadric::Disk { facing, .. } => splat3!(simd, facing),
                                 _ => (kx, ky, kz),
                             };
                         }
