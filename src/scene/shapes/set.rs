@@ -12,14 +12,14 @@
 //! The answer is Embree's, bit for bit: lanes that miss a primitive's
 //! bounds (the padded box Embree culls with) are left out, and for the
 //! others the same f64 roots (spheres and walls about the y axis, and the
-//! plane crossings of rects: the scalar arithmetic in every vector lane)
-//! give the same crossings, the touch test decides the same, and the kept
-//! crossing nearest within the lane's `[tnear, tfar]` (`tfar` narrowed by
-//! each primitive's hit in turn) becomes its hit, all in vector registers.
-//! Where the f32 rounding of a root could decide whether it is kept (a root
-//! within two f32 ulps of an end of the interval), or a lane meets a
-//! primitive without a vector form (caps, disks, tubes, tilted walls), the
-//! lane is answered again by the scalar `intersect_in`, one primitive at a
+//! plane crossings of rects, disks and caps: the scalar arithmetic in every
+//! vector lane) give the same crossings, the touch test decides the same,
+//! and the kept crossing nearest within the lane's `[tnear, tfar]` (`tfar`
+//! narrowed by each primitive's hit in turn) becomes its hit, all in vector
+//! registers. Where the f32 rounding of a root could decide whether it is
+//! kept (a root within two f32 ulps of an end of the interval), or a lane
+//! meets a primitive without a vector form (tubes, tilted walls), the lane
+//! is answered again by the scalar `intersect_in`, one primitive at a
 //! time. Only a tie at exactly the same f32 distance between two primitives
 //! may be broken otherwise (Embree's order is its traversal's; here it is
 //! the primitives' order).
@@ -36,7 +36,8 @@ use glam::DVec3;
 pub const MAX_SET_PRIMITIVES: usize = 8;
 
 /// A quadric whose roots [`SetKernel`] finds for many lanes at once (or a
-/// parallelogram: its one root, the plane's crossing, where it lies inside).
+/// parallelogram or disk: its one root, the plane's crossing, where it lies
+/// inside).
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Quadric {
     /// `Sphere::roots`.
