@@ -203,14 +203,16 @@ pub fn path_stream<const N: usize, P: RayPacket<N>>(
             let sent = plain.iter().flatten().count() as u64;
             occupancy.packet_slots += if sent > 0 { N as u64 } else { 0 };
             occupancy.packet_lanes += sent;
-            intersect_packet(scene, near, coherent);
+            let set_hits = intersect_packet(scene, near, coherent);
             // The surface points of hits on the analytic set's primitives,
-            // all lanes' side by side in vector registers.
-            let set_points = scene
-                .analytic_set
-                .as_ref()
-                .map(|set| set.surface_points(near, surfaces))
-                .is_some();
+            // all lanes' side by side in vector registers (when there are any).
+            let set_points = match (&scene.analytic_set, set_hits) {
+                (Some(set), true) => {
+                    set.surface_points(near, surfaces);
+                    true
+                }
+                _ => false,
+            };
             // Which lanes the packet answered (the others are cast one by one
             // below), and the surface points of their hits, every lane's
             // before any lane is shaded: independent f64 square roots and
