@@ -298,6 +298,25 @@ pub struct RenderOptions {
     /// How camera rays fly through a 3-D gradient-index field (the path
     /// tracer's). The image does not depend on it.
     pub flights: Flights,
+    /// How the path tracer shades a packet's paths (vector shading where
+    /// the scene's materials and lights allow it).
+    pub shading: Shading,
+}
+
+/// How the path tracer shades a packet's paths ([`RenderOptions::shading`]).
+/// The two give the same image up to rounding: vector shading is f32
+/// throughout, scalar shading solves Fresnel and Snell in f64 (a path
+/// whose random number falls within rounding of a Fresnel reflectance
+/// takes the other lobe).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum Shading {
+    /// A packet's paths side by side in vector registers where the scene
+    /// allows it (Lambertian, black and smooth-interface materials, at most
+    /// one rectangular light, no priority solids or medium), else one by one.
+    #[default]
+    Vector,
+    /// One path at a time (`PathState::advance`).
+    Scalar,
 }
 
 /// How the path tracer's camera rays cross a 3-D gradient-index field where
@@ -348,6 +367,7 @@ impl std::fmt::Debug for RenderOptions {
             .field("observer", &self.observer.as_ref().map(|_| "RayObserver"))
             .field("packet_width", &self.packet_width)
             .field("flights", &self.flights)
+            .field("shading", &self.shading)
             .finish()
     }
 }
@@ -506,10 +526,11 @@ enum Lanes {
 }
 
 impl Lanes {
-    fn of_width(lanes: usize) -> Lanes {
+    fn of_width(lanes: usize, shading: Shading) -> Lanes {
+        let vector = shading == Shading::Vector;
         match lanes {
-            16 => Lanes::Sixteen(Box::default()),
-            _ => Lanes::Eight(Box::default()),
+            16 => Lanes::Sixteen(Box::new(LanePackets::with_vector_shading(vector))),
+            _ => Lanes::Eight(Box::new(LanePackets::with_vector_shading(vector))),
         }
     }
 
@@ -986,7 +1007,7 @@ pub fn render_part(
             .par_iter()
             // Each thread's packets and wavefront storage, kept from tile to tile.
             .map_init(
-                || Lanes::of_width(job.packet_lanes),
+                || Lanes::of_width(job.packet_lanes, opts.shading),
                 |lanes, &(x, y)| {
                     let t = job.tile(lanes, x, y, opts.cancel.is_cancelled())?;
                     let s = samples_done.fetch_add(t.stats.samples, Ordering::Relaxed) + t.stats.samples;
@@ -1118,6 +1139,9 @@ mod light_tests;
 
 #[cfg(test)]
 mod material_tests;
+
+#[cfg(test)]
+mod shading_tests;
 
 #[cfg(test)]
 mod tests {

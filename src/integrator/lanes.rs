@@ -3,6 +3,7 @@
 //! shaded by the same step as a single ray ([`PathState::advance`]).
 use super::cast::{cast, known_segment, NO_COINCIDENT};
 use super::path::{PathState, PendingShadow};
+use super::shade_lanes::{Prepared, ShadeLanes};
 use super::Tracer;
 use crate::counters::Counters;
 use crate::dielectric::{self, InteriorList};
@@ -25,7 +26,7 @@ pub fn path_lanes_apply(tr: Tracer<'_>) -> bool {
 /// The two Embree packets [`path_lanes`] fills (nearest-hit segments and
 /// shadow rays), made once per thread's batch of calls: zeroing a packet
 /// per call shows in a render's profile. With how full they went out.
-#[derive(Default)]
+/// The default shades in vector registers where the scene allows it.
 pub struct LanePackets<P> {
     near: P,
     shadow: P,
@@ -38,6 +39,33 @@ pub struct LanePackets<P> {
     /// connection (kept apart from the paths, which move as the front
     /// shrinks).
     waiting: Vec<(u32, PendingShadow)>,
+    /// The lanes of a packet between the phases of vector shading.
+    shade: Box<ShadeLanes>,
+    /// Shade in vector registers where [`ShadeLanes::applies`].
+    vector_shading: bool,
+}
+
+impl<P: Default> Default for LanePackets<P> {
+    fn default() -> Self {
+        LanePackets::with_vector_shading(true)
+    }
+}
+
+impl<P: Default> LanePackets<P> {
+    /// Packets whose paths are shaded in vector registers (`vector`, where
+    /// the scene allows it) or one by one.
+    pub fn with_vector_shading(vector: bool) -> Self {
+        LanePackets {
+            near: P::default(),
+            shadow: P::default(),
+            occupancy: Counters::default(),
+            front: Vec::new(),
+            own: Vec::new(),
+            waiting: Vec::new(),
+            shade: Box::default(),
+            vector_shading: vector,
+        }
+    }
 }
 
 impl<P> LanePackets<P> {
@@ -155,8 +183,14 @@ pub fn path_stream<const N: usize, P: RayPacket<N>>(
         front,
         own,
         waiting,
+        shade,
+        vector_shading,
     } = packets;
     let surfaces = &mut SurfaceLanes::<N>::default();
+    let vector = *vector_shading && ShadeLanes::applies(tr);
+    if vector {
+        shade.start(scene);
+    }
     front.clear();
     while let Some(PathStart { ray: (o, d), rng }) = next() {
         front.push(Lane {
@@ -246,10 +280,20 @@ pub fn path_stream<const N: usize, P: RayPacket<N>>(
                 }
                 known[i] = true;
             }
+            // Lanes that wait for the vector kernel.
+            let mut kernel = [false; N];
             for (i, lane) in chunk.iter_mut().enumerate() {
                 let st = counts!(lane);
                 let p = &mut lane.path;
                 st.segments += 1;
+                if vector && known[i] {
+                    st.queries += 1;
+                    let hit = near.hit(i);
+                    let prep = shade.prepare(i, tr, p, hit.as_ref(), sps[i].as_ref(), &mut lane.rng, st);
+                    kernel[i] = prep == Prepared::Kernel;
+                    lane.ended = !kernel[i];
+                    continue;
+                }
                 let sigma = tr.medium(&p.list);
                 // The segment is built in place and shaded right here (a
                 // segment moved out of a `match` was copied twice per lane).
@@ -266,6 +310,19 @@ pub fn path_stream<const N: usize, P: RayPacket<N>>(
                     waiting.push(((c * N + i) as u32, sh));
                 }
                 lane.ended = !go;
+            }
+            if kernel.contains(&true) {
+                shade.shade(chunk.len());
+                for (i, lane) in chunk.iter_mut().enumerate() {
+                    if !kernel[i] {
+                        continue;
+                    }
+                    let (sh, go) = shade.finish(i, scene, &mut lane.path, &mut lane.rng, counts!(lane));
+                    if let Some(sh) = sh {
+                        waiting.push(((c * N + i) as u32, sh));
+                    }
+                    lane.ended = !go;
+                }
             }
         }
         // The step's shadow rays, packed: each path's before its next segment.

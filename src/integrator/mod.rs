@@ -29,6 +29,7 @@ mod observer;
 mod path;
 mod refraction_path;
 mod scatter;
+mod shade_lanes;
 mod whitted;
 
 pub use cast::MAX_CHORDS_PER_SEGMENT;

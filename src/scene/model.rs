@@ -36,6 +36,9 @@ pub(crate) enum BsdfVariant {
     /// Sampled transmissions are weighed with the reflection's Jacobian of
     /// the half vector, 1 / (4 |wi·m|), in place of refraction's.
     WrongJacobian,
+    /// A smooth interface in vector shading reflects with half its
+    /// Fresnel reflectance (its lobes still weighed as if drawn right).
+    WrongHalfFresnel,
 }
 
 /// Surface response.

@@ -117,6 +117,13 @@ pub struct RenderArgs {
     /// The image is the same at every width.
     #[arg(long, value_enum, default_value = "auto")]
     pub packet_width: PacketWidthArg,
+    /// How the path tracer shades a packet's paths: `vector` (side by side
+    /// in vector registers, f32, where every material is Lambertian, black
+    /// or a smooth interface and the only light a rectangle; one by one
+    /// otherwise) or `scalar` (one by one, Fresnel and Snell in f64). The
+    /// images agree up to rounding.
+    #[arg(long, value_enum, default_value = "vector")]
+    pub shading: ShadingArg,
     /// How the path tracer's camera rays fly through a 3-D gradient-index
     /// field (a plume) where no geometry is near: `side-by-side` (a tile
     /// row's rays together, their field evaluations eight per vector
@@ -354,6 +361,22 @@ pub struct WarpRenderArgs {
     pub stats_json: Option<PathBuf>,
     #[arg(long)]
     pub quiet: bool,
+}
+
+/// `--shading` of `snell render`.
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum ShadingArg {
+    Vector,
+    Scalar,
+}
+
+impl From<ShadingArg> for snell::render::Shading {
+    fn from(s: ShadingArg) -> Self {
+        match s {
+            ShadingArg::Vector => Self::Vector,
+            ShadingArg::Scalar => Self::Scalar,
+        }
+    }
 }
 
 /// `--packet-width` of `snell render`.

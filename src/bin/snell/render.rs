@@ -63,6 +63,7 @@ pub fn render(mut a: RenderArgs) -> Result<()> {
             observer: None,
             packet_width: a.packet_width.into(),
             flights: a.flights.into(),
+            shading: a.shading.into(),
         },
         &plan.spec,
     )?;

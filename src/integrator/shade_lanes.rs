@@ -1,0 +1,957 @@
+//! The path tracer's shading of a packet's lanes side by side in vector
+//! registers, for scenes whose every material is in the simple class:
+//! Lambertian (any texture), black, or a smooth interface between two
+//! different indices, lit by at most one rectangular light (and any
+//! environment), without priority solids or a gradient-index medium
+//! ([`ShadeLanes::applies`]).
+//!
+//! Each lane goes through three phases, as `PathState::advance` does for one
+//! path in turn:
+//!
+//! 1. [`ShadeLanes::prepare`] (scalar, per lane): the hit's material,
+//!    texture and emission, the environment on a miss, and every random
+//!    number the step draws, in the order `advance` draws them (so a path's
+//!    numbers are the same whichever of the two shades it);
+//! 2. the kernel (all lanes at once, f32, pulp's widest level): next-event
+//!    estimation's point on the light, its weight and shadow ray, the
+//!    cosine-weighted bounce, Fresnel reflectance, reflection and
+//!    refraction, the spawn offsets and the throughput;
+//! 3. [`ShadeLanes::finish`] (scalar, per lane): the shadow ray handed back,
+//!    the new ray and Russian roulette.
+//!
+//! Arithmetic is f32 throughout (as Mitsuba's `llvm_ad_rgb`), where
+//! `advance` solves Fresnel and Snell in f64: a path's radiance differs from
+//! `advance`'s by rounding, and where a random number falls within rounding
+//! of a Fresnel reflectance, or a direction within rounding of the critical
+//! angle, the two pick different lobes (the tests bound how often).
+use super::path::{PathState, PendingShadow};
+use super::Tracer;
+use crate::counters::Counters;
+use crate::ray::{front_facing, Hit, Ray, OFFSET_ULPS};
+use crate::sampling::{power_heuristic, Rng};
+use crate::scene::texture::Texture;
+use crate::scene::{Environment, Light, Material, RenderScene, SurfacePoint};
+use glam::Vec3A as V3;
+use std::f32::consts::{FRAC_1_PI, PI};
+
+/// The most lanes shaded side by side (the widest packet).
+const MAX: usize = 16;
+
+/// What [`ShadeLanes::prepare`] left for a lane.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub(super) enum Prepared {
+    /// The path ended in the scalar phase (a miss, an absorbing surface,
+    /// the depth limit).
+    Ended,
+    /// The lane waits for the kernel.
+    Kernel,
+}
+
+/// The single rectangular light of a scene in the class, as the kernel
+/// samples it (`RenderScene::sample_light`).
+#[derive(Clone, Copy)]
+struct RectLight {
+    corner: V3,
+    edge_u: V3,
+    edge_v: V3,
+    normal: V3,
+    area: f32,
+    radiance: V3,
+}
+
+/// A packet's lanes between the phases, component by component.
+pub(super) struct ShadeLanes {
+    /// Per lane: 1 for a Lambertian hit, 0 for an interface (only lanes
+    /// `prepare` sent to the kernel are read).
+    diffuse: [f32; MAX],
+    /// Lambertian lanes that drew a light sample.
+    nee: [f32; MAX],
+    /// Interface lanes past the critical angle (no random number drawn).
+    tir: [f32; MAX],
+    d: [[f32; MAX]; 3],
+    p: [[f32; MAX]; 3],
+    /// The geometric normal on the incident side.
+    side: [[f32; MAX]; 3],
+    /// The shading normal on the incident side.
+    n: [[f32; MAX]; 3],
+    albedo: [[f32; MAX]; 3],
+    n1: [f32; MAX],
+    n2: [f32; MAX],
+    /// The step's random numbers: the light's two (`u[0]`, `u[1]`) and the
+    /// bounce's two (`u[2]`, `u[3]`) at a Lambertian lane, the lobe's
+    /// (`u[0]`) at an interface.
+    u: [[f32; MAX]; 4],
+    beta: [[f32; MAX]; 3],
+    eta_scale: [f32; MAX],
+    // The kernel's answers.
+    org: [[f32; MAX]; 3],
+    dir: [[f32; MAX]; 3],
+    prev_pdf: [f32; MAX],
+    /// The bounce fell below the surface: the path ends.
+    below: [f32; MAX],
+    /// 1: the connection needs its shadow ray; 2: too short to hold
+    /// anything, its contribution counts as it is; 0: none.
+    shadow: [f32; MAX],
+    shadow_org: [[f32; MAX]; 3],
+    shadow_dir: [[f32; MAX]; 3],
+    shadow_tfar: [f32; MAX],
+    contrib: [[f32; MAX]; 3],
+    arch: pulp::Arch,
+    light: Option<RectLight>,
+    /// The render tests' known-wrong variant.
+    #[cfg(test)]
+    variant: crate::scene::model::BsdfVariant,
+}
+
+impl Default for ShadeLanes {
+    fn default() -> Self {
+        ShadeLanes {
+            diffuse: [0.0; MAX],
+            nee: [0.0; MAX],
+            tir: [0.0; MAX],
+            d: [[0.0; MAX]; 3],
+            p: [[0.0; MAX]; 3],
+            side: [[0.0; MAX]; 3],
+            n: [[0.0; MAX]; 3],
+            albedo: [[0.0; MAX]; 3],
+            n1: [1.0; MAX],
+            n2: [1.0; MAX],
+            u: [[0.0; MAX]; 4],
+            beta: [[0.0; MAX]; 3],
+            eta_scale: [1.0; MAX],
+            org: [[0.0; MAX]; 3],
+            dir: [[0.0; MAX]; 3],
+            prev_pdf: [0.0; MAX],
+            below: [0.0; MAX],
+            shadow: [0.0; MAX],
+            shadow_org: [[0.0; MAX]; 3],
+            shadow_dir: [[0.0; MAX]; 3],
+            shadow_tfar: [0.0; MAX],
+            contrib: [[0.0; MAX]; 3],
+            arch: pulp::Arch::new(),
+            light: None,
+            #[cfg(test)]
+            variant: Default::default(),
+        }
+    }
+}
+
+fn set3(a: &mut [[f32; MAX]; 3], i: usize, v: V3) {
+    a[0][i] = v.x;
+    a[1][i] = v.y;
+    a[2][i] = v.z;
+}
+
+fn get3(a: &[[f32; MAX]; 3], i: usize) -> V3 {
+    V3::new(a[0][i], a[1][i], a[2][i])
+}
+
+impl ShadeLanes {
+    /// Can the lanes of a render of `tr` be shaded here? The path tracer with
+    /// next-event estimation, without priority solids, a gradient-index
+    /// medium or an observer; every material Lambertian, black or a smooth
+    /// interface between different indices; no light but (at most) one
+    /// rectangle (others only where no surface samples them), and no sun
+    /// for next-event estimation to sample.
+    pub(super) fn applies(tr: Tracer<'_>) -> bool {
+        let s = tr.scene;
+        let materials = s.geoms.iter().all(|g| match &g.material {
+            Material::Diffuse { .. } | Material::Black => true,
+            Material::Interface { int_ior, ext_ior } => int_ior != ext_ior,
+            _ => false,
+        });
+        // Other lights only where no surface would sample them (every
+        // Lambertian one black: cylinder_refraction's emitting plane).
+        let lights = match s.lights.as_slice() {
+            [] | [Light::Rect { .. }] => true,
+            _ => s.geoms.iter().all(|g| match &g.material {
+                Material::Diffuse { reflectance, .. } => {
+                    matches!(reflectance, Texture::Constant(c) if *c == V3::ZERO)
+                }
+                _ => true,
+            }),
+        };
+        materials
+            && lights
+            && tr.nee()
+            && tr.observer.is_none()
+            && s.medium.is_none()
+            && s.solids.is_empty()
+            && !s.has_overlap
+            && s.environment.sun_nee().is_none()
+            && !matches!(s.environment, Environment::Sky(_))
+    }
+
+    /// Ready for a step of `scene` (once per wavefront).
+    pub(super) fn start(&mut self, scene: &RenderScene) {
+        #[cfg(test)]
+        {
+            self.variant = scene.bsdf_variant;
+        }
+        self.light = match scene.lights.first() {
+            Some(&Light::Rect {
+                corner,
+                edge_u,
+                edge_v,
+                normal,
+                area,
+                radiance,
+            }) => Some(RectLight {
+                corner,
+                edge_u,
+                edge_v,
+                normal,
+                area,
+                radiance,
+            }),
+            _ => None,
+        };
+    }
+
+    /// Phase 1 for lane `i`: the segment of `path` ended at `hit` (the
+    /// surface point `sp`). Emission and a miss are added to the path here,
+    /// the step's random numbers drawn, and what the kernel needs stored.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    pub(super) fn prepare(
+        &mut self,
+        i: usize,
+        tr: Tracer<'_>,
+        path: &mut PathState,
+        hit: Option<&Hit>,
+        sp: Option<&SurfacePoint>,
+        rng: &mut Rng,
+        st: &mut Counters,
+    ) -> Prepared {
+        let scene = tr.scene;
+        let (Some(hit), Some(sp)) = (hit, sp) else {
+            // Next-event estimation samples no environment here: weight 1.
+            path.l += path.beta * scene.escaped_radiance(path.ray.dir, None);
+            st.ended_escaped += 1;
+            return Prepared::Ended;
+        };
+        let dir = path.ray.dir;
+        let rec = &scene.geoms[hit.geom_id as usize];
+        let front = front_facing(sp.ng, dir);
+        if let Some(em) = &rec.emission {
+            if front || rec.emission_two_sided {
+                let le = em.eval(sp.p, sp.uv);
+                let w = match rec.light {
+                    Some(li) if !path.specular => {
+                        let lp = scene.light_pdf(li, path.prev_p, sp.p, sp.ng, dir);
+                        power_heuristic(path.prev_pdf, lp)
+                    }
+                    _ => 1.0,
+                };
+                path.l += path.beta * le * w;
+            }
+        }
+        if path.depth >= scene.max_depth {
+            st.ended_max_depth += 1;
+            return Prepared::Ended;
+        }
+        let side = if front { sp.ng } else { -sp.ng };
+        let n = if front { sp.ns } else { -sp.ns };
+        match &rec.material {
+            Material::Diffuse {
+                reflectance,
+                two_sided,
+            } if front || *two_sided => {
+                let albedo = reflectance.eval(sp.p, sp.uv);
+                st.nee_draws += (albedo != V3::ZERO) as u64;
+                let nee = albedo != V3::ZERO && self.light.is_some();
+                if nee {
+                    // The light's choice (one light: drawn, not read), then its point.
+                    rng.uniform();
+                    self.u[0][i] = rng.uniform();
+                    self.u[1][i] = rng.uniform();
+                }
+                // A black reflectance ends the path without a bounce (as `advance`).
+                if albedo == V3::ZERO && path.beta.is_finite() {
+                    st.ended_absorbed += 1;
+                    return Prepared::Ended;
+                }
+                self.u[2][i] = rng.uniform();
+                self.u[3][i] = rng.uniform();
+                self.diffuse[i] = 1.0;
+                self.nee[i] = if nee { 1.0 } else { 0.0 };
+                set3(&mut self.albedo, i, albedo);
+            }
+            Material::Interface { int_ior, ext_ior } => {
+                let (n1, n2) = if front {
+                    (*ext_ior, *int_ior)
+                } else {
+                    (*int_ior, *ext_ior)
+                };
+                // Past the critical angle no number is drawn (`Interface::sample`).
+                let cos_i = dir.dot(n).abs().min(1.0);
+                let eta = n1 / n2;
+                let tir = eta * eta * (1.0 - cos_i * cos_i).max(0.0) > 1.0;
+                if tir {
+                    st.tir += 1;
+                } else {
+                    self.u[0][i] = rng.uniform();
+                }
+                self.diffuse[i] = 0.0;
+                self.tir[i] = if tir { 1.0 } else { 0.0 };
+                self.n1[i] = n1;
+                self.n2[i] = n2;
+            }
+            _ => {
+                st.ended_absorbed += 1;
+                return Prepared::Ended;
+            }
+        }
+        set3(&mut self.d, i, dir);
+        set3(&mut self.p, i, sp.p);
+        set3(&mut self.side, i, side);
+        set3(&mut self.n, i, n);
+        set3(&mut self.beta, i, path.beta);
+        self.eta_scale[i] = path.eta_scale;
+        Prepared::Kernel
+    }
+
+    /// The known-wrong variants the kernel can be (tests only): next-event
+    /// estimation weighed against twice the bounce's density, and an
+    /// interface reflecting with half its Fresnel reflectance.
+    #[inline(always)]
+    fn wrong(&self) -> (bool, bool) {
+        #[cfg(test)]
+        {
+            use crate::scene::model::BsdfVariant;
+            (
+                self.variant == BsdfVariant::WrongMisPdf,
+                self.variant == BsdfVariant::WrongHalfFresnel,
+            )
+        }
+        #[cfg(not(test))]
+        (false, false)
+    }
+
+    /// Phase 2: the kernel over the first `lanes` lanes.
+    pub(super) fn shade(&mut self, lanes: usize) {
+        let arch = self.arch;
+        arch.dispatch(Kernel { s: self, lanes });
+    }
+
+    /// Phase 3 for lane `i`, which `prepare` sent to the kernel: the
+    /// connection (a shadow ray to resolve before the next segment, or a
+    /// contribution added now), the next ray, Russian roulette. `false`: the
+    /// path has ended.
+    #[inline(always)]
+    pub(super) fn finish(
+        &self,
+        i: usize,
+        scene: &RenderScene,
+        path: &mut PathState,
+        rng: &mut Rng,
+        st: &mut Counters,
+    ) -> (Option<PendingShadow>, bool) {
+        let mut shadow = None;
+        let p = get3(&self.p, i);
+        if self.diffuse[i] != 0.0 {
+            if self.shadow[i] != 0.0 {
+                st.shadow_rays += 1;
+                let contrib = get3(&self.contrib, i);
+                if self.shadow[i] == 2.0 {
+                    path.l += contrib;
+                } else {
+                    let mut ray = Ray::new(get3(&self.shadow_org, i), get3(&self.shadow_dir, i));
+                    ray.tfar = self.shadow_tfar[i];
+                    shadow = Some(PendingShadow { ray, contrib });
+                }
+            }
+            if self.below[i] != 0.0 {
+                st.ended_absorbed += 1;
+                return (shadow, false);
+            }
+            let wi = get3(&self.dir, i);
+            path.prev_pdf = self.prev_pdf[i];
+            path.prev_wi = wi;
+            path.prev_lambert = true;
+            path.specular = false;
+            path.only_specular = false;
+            path.ray = Ray::new(get3(&self.org, i), wi);
+        } else {
+            path.eta_scale = self.eta_scale[i];
+            path.specular = true;
+            path.ray = Ray::new(get3(&self.org, i), get3(&self.dir, i));
+        }
+        path.beta = get3(&self.beta, i);
+        path.prev_p = p;
+        path.depth += 1;
+        if path.beta.max_element() <= 0.0 {
+            st.ended_absorbed += 1;
+            return (shadow, false);
+        }
+        if path.depth > scene.rr_depth {
+            let q = (path.beta.max_element() * path.eta_scale).min(0.95);
+            if rng.uniform() >= q {
+                st.ended_roulette += 1;
+                return (shadow, false);
+            }
+            path.beta /= q;
+        }
+        (shadow, true)
+    }
+}
+
+/// Phase 2's vector code.
+struct Kernel<'a> {
+    s: &'a mut ShadeLanes,
+    lanes: usize,
+}
+
+type Vec3s<S> = [<S as pulp::Simd>::f32s; 3];
+
+#[inline(always)]
+fn dot<S: pulp::Simd>(simd: S, a: Vec3s<S>, b: Vec3s<S>) -> S::f32s {
+    simd.add_f32s(
+        simd.add_f32s(simd.mul_f32s(a[0], b[0]), simd.mul_f32s(a[1], b[1])),
+        simd.mul_f32s(a[2], b[2]),
+    )
+}
+
+#[inline(always)]
+fn scale<S: pulp::Simd>(simd: S, a: Vec3s<S>, k: S::f32s) -> Vec3s<S> {
+    [
+        simd.mul_f32s(a[0], k),
+        simd.mul_f32s(a[1], k),
+        simd.mul_f32s(a[2], k),
+    ]
+}
+
+#[inline(always)]
+fn add<S: pulp::Simd>(simd: S, a: Vec3s<S>, b: Vec3s<S>) -> Vec3s<S> {
+    [
+        simd.add_f32s(a[0], b[0]),
+        simd.add_f32s(a[1], b[1]),
+        simd.add_f32s(a[2], b[2]),
+    ]
+}
+
+#[inline(always)]
+fn sub<S: pulp::Simd>(simd: S, a: Vec3s<S>, b: Vec3s<S>) -> Vec3s<S> {
+    [
+        simd.sub_f32s(a[0], b[0]),
+        simd.sub_f32s(a[1], b[1]),
+        simd.sub_f32s(a[2], b[2]),
+    ]
+}
+
+#[inline(always)]
+fn mul<S: pulp::Simd>(simd: S, a: Vec3s<S>, b: Vec3s<S>) -> Vec3s<S> {
+    [
+        simd.mul_f32s(a[0], b[0]),
+        simd.mul_f32s(a[1], b[1]),
+        simd.mul_f32s(a[2], b[2]),
+    ]
+}
+
+#[inline(always)]
+fn select<S: pulp::Simd>(simd: S, m: S::m32s, a: Vec3s<S>, b: Vec3s<S>) -> Vec3s<S> {
+    [
+        simd.select_f32s(m, a[0], b[0]),
+        simd.select_f32s(m, a[1], b[1]),
+        simd.select_f32s(m, a[2], b[2]),
+    ]
+}
+
+#[inline(always)]
+fn splat<S: pulp::Simd>(simd: S, v: V3) -> Vec3s<S> {
+    [simd.splat_f32s(v.x), simd.splat_f32s(v.y), simd.splat_f32s(v.z)]
+}
+
+#[inline(always)]
+fn normalize<S: pulp::Simd>(simd: S, a: Vec3s<S>) -> Vec3s<S> {
+    let inv = simd.div_f32s(simd.splat_f32s(1.0), simd.sqrt_f32s(dot(simd, a, a)));
+    scale(simd, a, inv)
+}
+
+/// `d` reflected about the plane of normal `n` (either orientation).
+#[inline(always)]
+fn reflect<S: pulp::Simd>(simd: S, d: Vec3s<S>, n: Vec3s<S>) -> Vec3s<S> {
+    let k = simd.mul_f32s(simd.splat_f32s(2.0), dot(simd, d, n));
+    sub(simd, d, scale(simd, n, k))
+}
+
+/// `optics::refract` where it does not totally reflect, unnormalised: the
+/// normal oriented against `d`, `eta = n1/n2`.
+#[inline(always)]
+fn refract<S: pulp::Simd>(simd: S, d: Vec3s<S>, n: Vec3s<S>, eta: S::f32s) -> Vec3s<S> {
+    let c = simd.neg_f32s(dot(simd, d, n));
+    let flip = simd.less_than_f32s(c, simd.splat_f32s(0.0));
+    let n = select(simd, flip, scale(simd, n, simd.splat_f32s(-1.0)), n);
+    let cos_i = simd.abs_f32s(c);
+    let one = simd.splat_f32s(1.0);
+    let sin2 = simd.mul_f32s(
+        simd.mul_f32s(eta, eta),
+        simd.max_f32s(
+            simd.sub_f32s(one, simd.mul_f32s(cos_i, cos_i)),
+            simd.splat_f32s(0.0),
+        ),
+    );
+    let cos_t = simd.sqrt_f32s(simd.max_f32s(simd.sub_f32s(one, sin2), simd.splat_f32s(0.0)));
+    add(
+        simd,
+        scale(simd, d, eta),
+        scale(simd, n, simd.sub_f32s(simd.mul_f32s(eta, cos_i), cos_t)),
+    )
+}
+
+/// The sine and cosine of 2π`u` for `u` in [0, 1]: the nearest quarter turn
+/// taken out, then Taylor polynomials on [−π/4, π/4] (their truncation is
+/// below 2·10⁻⁹, under half an f32 ulp of 1).
+#[inline(always)]
+fn sincos_turns<S: pulp::Simd>(simd: S, u: S::f32s) -> (S::f32s, S::f32s) {
+    // Round to nearest by adding and removing 1.5·2²³ (|4u| < 2²²).
+    let magic = simd.splat_f32s(12_582_912.0);
+    let q = simd.sub_f32s(
+        simd.add_f32s(simd.mul_f32s(u, simd.splat_f32s(4.0)), magic),
+        magic,
+    );
+    // u − q/4 is exact (Sterbenz), so x carries one rounding.
+    let x = simd.mul_f32s(
+        simd.sub_f32s(u, simd.mul_f32s(q, simd.splat_f32s(0.25))),
+        simd.splat_f32s(2.0 * PI),
+    );
+    let x2 = simd.mul_f32s(x, x);
+    // sin x = x(1 − x²/3! + x⁴/5! − x⁶/7! + x⁸/9!)
+    let mut s = simd.splat_f32s(1.0 / 362_880.0);
+    s = simd.mul_add_f32s(s, x2, simd.splat_f32s(-1.0 / 5_040.0));
+    s = simd.mul_add_f32s(s, x2, simd.splat_f32s(1.0 / 120.0));
+    s = simd.mul_add_f32s(s, x2, simd.splat_f32s(-1.0 / 6.0));
+    s = simd.mul_add_f32s(s, x2, simd.splat_f32s(1.0));
+    let s = simd.mul_f32s(s, x);
+    // cos x = 1 − x²/2! + x⁴/4! − x⁶/6! + x⁸/8! − x¹⁰/10!
+    let mut k = simd.splat_f32s(-1.0 / 3_628_800.0);
+    k = simd.mul_add_f32s(k, x2, simd.splat_f32s(1.0 / 40_320.0));
+    k = simd.mul_add_f32s(k, x2, simd.splat_f32s(-1.0 / 720.0));
+    k = simd.mul_add_f32s(k, x2, simd.splat_f32s(1.0 / 24.0));
+    k = simd.mul_add_f32s(k, x2, simd.splat_f32s(-0.5));
+    let k = simd.mul_add_f32s(k, x2, simd.splat_f32s(1.0));
+    // Quarter turn q (4 is 0): (sin, cos) of x + qπ/2.
+    let q1 = simd.equal_f32s(q, simd.splat_f32s(1.0));
+    let q2 = simd.equal_f32s(q, simd.splat_f32s(2.0));
+    let q3 = simd.equal_f32s(q, simd.splat_f32s(3.0));
+    let swap = simd.or_m32s(q1, q3);
+    let (sin, cos) = (simd.select_f32s(swap, k, s), simd.select_f32s(swap, s, k));
+    let neg_sin = simd.or_m32s(q2, q3);
+    let neg_cos = simd.or_m32s(q1, q2);
+    (
+        simd.select_f32s(neg_sin, simd.neg_f32s(sin), sin),
+        simd.select_f32s(neg_cos, simd.neg_f32s(cos), cos),
+    )
+}
+
+impl pulp::WithSimd for Kernel<'_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, simd: S) {
+        let s = self.s;
+        let w = S::F32_LANES;
+        let chunks = self.lanes.div_ceil(w);
+        let light = s.light;
+        let (wrong_mis, wrong_fresnel) = s.wrong();
+        for j in 0..chunks {
+            let r = j * w..(j + 1) * w;
+            macro_rules! ld {
+                ($a:expr) => {
+                    S::as_simd_f32s(&$a[r.clone()]).0[0]
+                };
+            }
+            macro_rules! ld3 {
+                ($a:expr) => {
+                    [ld!($a[0]), ld!($a[1]), ld!($a[2])]
+                };
+            }
+            macro_rules! st {
+                ($a:expr, $v:expr) => {
+                    S::as_mut_simd_f32s(&mut $a[r.clone()]).0[0] = $v
+                };
+            }
+            macro_rules! st3 {
+                ($a:expr, $v:expr) => {{
+                    let v = $v;
+                    st!($a[0], v[0]);
+                    st!($a[1], v[1]);
+                    st!($a[2], v[2]);
+                }};
+            }
+            let zero = simd.splat_f32s(0.0);
+            let one = simd.splat_f32s(1.0);
+            let diffuse = simd.not_m32s(simd.equal_f32s(ld!(s.diffuse), zero));
+            let d = ld3!(s.d);
+            let p = ld3!(s.p);
+            let side = ld3!(s.side);
+            let n = ld3!(s.n);
+            let beta = ld3!(s.beta);
+            // `offset_size(p)`: the spawn offset.
+            let big = simd.max_f32s(
+                simd.max_f32s(simd.abs_f32s(p[0]), simd.abs_f32s(p[1])),
+                simd.abs_f32s(p[2]),
+            );
+            let off = simd.mul_f32s(
+                simd.splat_f32s(OFFSET_ULPS * f32::EPSILON),
+                simd.add_f32s(big, simd.splat_f32s(0.5)),
+            );
+            let above = add(simd, p, scale(simd, side, off));
+            let beneath = sub(simd, p, scale(simd, side, off));
+
+            // Lambertian lanes: the light's point and the bounce.
+            let albedo = ld3!(s.albedo);
+            if let Some(l) = light {
+                let (u1, u2) = (ld!(s.u[0]), ld!(s.u[1]));
+                let q = add(
+                    simd,
+                    add(
+                        simd,
+                        splat(simd, l.corner),
+                        scale(simd, splat(simd, l.edge_u), u1),
+                    ),
+                    scale(simd, splat(simd, l.edge_v), u2),
+                );
+                let to = sub(simd, q, p);
+                let dist2 = dot(simd, to, to);
+                let dist = simd.sqrt_f32s(dist2);
+                let wi = scale(simd, to, simd.div_f32s(one, dist));
+                let cos_l = simd.neg_f32s(dot(simd, splat(simd, l.normal), wi));
+                let pdf = simd.div_f32s(
+                    simd.mul_f32s(dist, dist),
+                    simd.mul_f32s(simd.splat_f32s(l.area), cos_l),
+                );
+                let cos = dot(simd, n, wi);
+                let seen = simd.and_m32s(
+                    simd.and_m32s(
+                        simd.greater_than_f32s(cos_l, zero),
+                        simd.greater_than_f32s(dist, zero),
+                    ),
+                    simd.and_m32s(
+                        simd.greater_than_f32s(cos, zero),
+                        simd.greater_than_f32s(dot(simd, side, wi), zero),
+                    ),
+                );
+                let seen = simd.and_m32s(
+                    seen,
+                    simd.and_m32s(diffuse, simd.not_m32s(simd.equal_f32s(ld!(s.nee), zero))),
+                );
+                // The power heuristic against the bounce's density cos/π.
+                let mut bsdf_pdf = simd.mul_f32s(cos, simd.splat_f32s(FRAC_1_PI));
+                if wrong_mis {
+                    bsdf_pdf = simd.add_f32s(bsdf_pdf, bsdf_pdf);
+                }
+                let (a, b) = (simd.mul_f32s(pdf, pdf), simd.mul_f32s(bsdf_pdf, bsdf_pdf));
+                let sum = simd.add_f32s(a, b);
+                let mis = simd.select_f32s(simd.equal_f32s(sum, zero), zero, simd.div_f32s(a, sum));
+                let k = simd.div_f32s(simd.mul_f32s(cos, mis), pdf);
+                let f = scale(simd, albedo, simd.splat_f32s(FRAC_1_PI));
+                let contrib = scale(simd, mul(simd, mul(simd, beta, f), splat(simd, l.radiance)), k);
+                let tfar = simd.sub_f32s(
+                    simd.mul_f32s(dist, simd.splat_f32s(1.0 - 1e-4)),
+                    simd.mul_f32s(simd.splat_f32s(2.0), off),
+                );
+                let short = simd.less_than_or_equal_f32s(tfar, zero);
+                let kind = simd.select_f32s(short, simd.splat_f32s(2.0), one);
+                st!(s.shadow, simd.select_f32s(seen, kind, zero));
+                st3!(s.shadow_org, above);
+                st3!(s.shadow_dir, wi);
+                st!(s.shadow_tfar, tfar);
+                st3!(s.contrib, contrib);
+            } else {
+                st!(s.shadow, zero);
+            }
+            let (r2, phi) = (ld!(s.u[2]), ld!(s.u[3]));
+            let r = simd.sqrt_f32s(r2);
+            let (sin, cos) = sincos_turns(simd, phi);
+            // `sampling::basis(n)`.
+            // `1.0f32.copysign(n.z)`: the sign bit of n.z on 1.
+            let sign = simd.or_f32s(one, simd.and_f32s(n[2], simd.splat_f32s(-0.0)));
+            let a = simd.div_f32s(simd.splat_f32s(-1.0), simd.add_f32s(sign, n[2]));
+            let b = simd.mul_f32s(simd.mul_f32s(n[0], n[1]), a);
+            let t = [
+                simd.add_f32s(
+                    one,
+                    simd.mul_f32s(simd.mul_f32s(simd.mul_f32s(sign, n[0]), n[0]), a),
+                ),
+                simd.mul_f32s(sign, b),
+                simd.neg_f32s(simd.mul_f32s(sign, n[0])),
+            ];
+            let bt = [
+                b,
+                simd.add_f32s(sign, simd.mul_f32s(simd.mul_f32s(n[1], n[1]), a)),
+                simd.neg_f32s(n[1]),
+            ];
+            let z = simd.sqrt_f32s(simd.max_f32s(simd.sub_f32s(one, r2), zero));
+            let bounce = normalize(
+                simd,
+                add(
+                    simd,
+                    add(
+                        simd,
+                        scale(simd, t, simd.mul_f32s(r, cos)),
+                        scale(simd, bt, simd.mul_f32s(r, sin)),
+                    ),
+                    scale(simd, n, z),
+                ),
+            );
+            let below = simd.less_than_or_equal_f32s(dot(simd, side, bounce), zero);
+            st!(s.below, simd.select_f32s(below, one, zero));
+            st!(
+                s.prev_pdf,
+                simd.mul_f32s(dot(simd, n, bounce), simd.splat_f32s(FRAC_1_PI))
+            );
+
+            // Interface lanes: Fresnel's choice between the mirror and the
+            // refracted direction, each about the shading normal unless that
+            // puts it on the wrong side of the surface.
+            let (n1, n2) = (ld!(s.n1), ld!(s.n2));
+            let eta = simd.div_f32s(n1, n2);
+            let cos_i = simd.min_f32s(simd.abs_f32s(dot(simd, d, n)), one);
+            let sin2 = simd.mul_f32s(
+                simd.mul_f32s(eta, eta),
+                simd.max_f32s(simd.sub_f32s(one, simd.mul_f32s(cos_i, cos_i)), zero),
+            );
+            let cos_t = simd.sqrt_f32s(simd.max_f32s(simd.sub_f32s(one, sin2), zero));
+            let (a1, a2) = (simd.mul_f32s(n1, cos_i), simd.mul_f32s(n2, cos_t));
+            let rs = simd.div_f32s(simd.sub_f32s(a1, a2), simd.add_f32s(a1, a2));
+            let (b1, b2) = (simd.mul_f32s(n2, cos_i), simd.mul_f32s(n1, cos_t));
+            let rp = simd.div_f32s(simd.sub_f32s(b1, b2), simd.add_f32s(b1, b2));
+            let fresnel = simd.min_f32s(
+                simd.max_f32s(
+                    simd.mul_f32s(
+                        simd.splat_f32s(0.5),
+                        simd.add_f32s(simd.mul_f32s(rs, rs), simd.mul_f32s(rp, rp)),
+                    ),
+                    zero,
+                ),
+                one,
+            );
+            let fresnel = if wrong_fresnel {
+                simd.mul_f32s(fresnel, simd.splat_f32s(0.5))
+            } else {
+                fresnel
+            };
+            let tir = simd.not_m32s(simd.equal_f32s(ld!(s.tir), zero));
+            let mirror = simd.or_m32s(tir, simd.less_than_f32s(ld!(s.u[0]), fresnel));
+            let wr = normalize(simd, reflect(simd, d, n));
+            let wr_wrong = simd.less_than_or_equal_f32s(dot(simd, wr, side), zero);
+            let wr = select(simd, wr_wrong, normalize(simd, reflect(simd, d, side)), wr);
+            let wt = normalize(simd, refract(simd, d, n, eta));
+            let wt_wrong = simd.greater_than_or_equal_f32s(dot(simd, wt, side), zero);
+            // (Through the geometric normal too far for refraction: on along `d`.)
+            let wg = refract(simd, d, side, eta);
+            let cg = simd.abs_f32s(dot(simd, d, side));
+            let tir_g = simd.greater_than_f32s(
+                simd.mul_f32s(
+                    simd.mul_f32s(eta, eta),
+                    simd.max_f32s(simd.sub_f32s(one, simd.mul_f32s(cg, cg)), zero),
+                ),
+                one,
+            );
+            let wt = select(simd, wt_wrong, normalize(simd, select(simd, tir_g, d, wg)), wt);
+            let k2 = simd.mul_f32s(eta, eta);
+            let transmit = simd.not_m32s(mirror);
+            let beta_i = select(simd, transmit, scale(simd, beta, k2), beta);
+            let eta_scale = ld!(s.eta_scale);
+            st!(
+                s.eta_scale,
+                simd.select_f32s(transmit, simd.div_f32s(eta_scale, k2), eta_scale)
+            );
+
+            // Both kinds' next ray and throughput.
+            let spec_dir = select(simd, mirror, wr, wt);
+            let spec_org = select(simd, mirror, above, beneath);
+            st3!(s.dir, select(simd, diffuse, bounce, spec_dir));
+            st3!(s.org, select(simd, diffuse, above, spec_org));
+            st3!(s.beta, select(simd, diffuse, mul(simd, beta, albedo), beta_i));
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::optics;
+    use crate::sampling::{cosine_hemisphere, uniform_sphere};
+
+    /// Every vector level this CPU runs, the scalar one first.
+    fn levels() -> Vec<pulp::Arch> {
+        #[cfg(target_arch = "x86_64")]
+        {
+            let mut v = vec![pulp::Arch::Scalar];
+            v.extend(pulp::x86::V3::try_new().map(pulp::Arch::V3));
+            v.extend(pulp::x86::V4::try_new().map(pulp::Arch::V4));
+            v
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        vec![pulp::Arch::new()]
+    }
+
+    /// Sixteen random lanes, even ones Lambertian, odd ones interfaces, as
+    /// `prepare` leaves them (the shading normal tilted from the geometric
+    /// one at some), lit by a rect light above.
+    fn random_lanes(rng: &mut Rng, arch: pulp::Arch) -> ShadeLanes {
+        let mut s = ShadeLanes {
+            arch,
+            light: Some(RectLight {
+                corner: V3::new(-1.0, 4.0, -1.0),
+                edge_u: V3::new(2.0, 0.0, 0.0),
+                edge_v: V3::new(0.0, 0.0, 2.0),
+                normal: V3::new(0.0, -1.0, 0.0),
+                area: 4.0,
+                radiance: V3::new(5.0, 4.0, 3.0),
+            }),
+            ..ShadeLanes::default()
+        };
+        let pairs = [(1.0, 1.5), (1.5, 1.0), (1.33, 1.5), (1.5, 1.33)];
+        for i in 0..MAX {
+            let side = uniform_sphere(rng.uniform(), rng.uniform());
+            let tilt = if i % 4 < 2 { 0.0 } else { 0.2 };
+            let n = (side + uniform_sphere(rng.uniform(), rng.uniform()) * tilt).normalize();
+            let mut d = uniform_sphere(rng.uniform(), rng.uniform());
+            if d.dot(side) > 0.0 {
+                d = -d;
+            }
+            let p = V3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 4.0 - 2.0;
+            set3(&mut s.d, i, d);
+            set3(&mut s.p, i, p);
+            set3(&mut s.side, i, side);
+            set3(&mut s.n, i, n);
+            set3(&mut s.beta, i, V3::new(0.9, 0.5, 0.7));
+            set3(&mut s.albedo, i, V3::new(0.8, 0.6, 0.4));
+            for u in &mut s.u {
+                u[i] = rng.uniform();
+            }
+            let (n1, n2) = pairs[i / 2 % 4];
+            (s.n1[i], s.n2[i]) = (n1, n2);
+            let cos_i = d.dot(n).abs().min(1.0);
+            let eta = n1 / n2;
+            s.tir[i] = (eta * eta * (1.0 - cos_i * cos_i).max(0.0) > 1.0) as u8 as f32;
+            s.diffuse[i] = (i % 2 == 0) as u8 as f32;
+            s.nee[i] = s.diffuse[i];
+        }
+        s
+    }
+
+    fn close(a: V3, b: V3) -> bool {
+        (a - b).abs().max_element() <= 2e-5
+    }
+
+    /// The kernel at every vector level against the scalar model it
+    /// replaces: the bounce against `sampling::cosine_hemisphere`, the
+    /// interface against `optics` in f64 (Fresnel's choice, reflection,
+    /// refraction, the radiance scale), the light sample against its
+    /// definition. A bounce with its two numbers swapped is caught.
+    #[test]
+    fn the_kernel_is_the_scalar_model_at_every_level() {
+        for arch in levels() {
+            let mut rng = Rng::new(7);
+            let (mut checked, mut swapped_caught, mut diffuse) = (0, 0, 0);
+            for _ in 0..500 {
+                let mut s = random_lanes(&mut rng, arch);
+                let before = (s.beta, s.eta_scale);
+                s.shade(MAX);
+                for i in 0..MAX {
+                    let (d, n, side, p) = (get3(&s.d, i), get3(&s.n, i), get3(&s.side, i), get3(&s.p, i));
+                    let dir = get3(&s.dir, i);
+                    let beta0 = get3(&before.0, i);
+                    if s.diffuse[i] != 0.0 {
+                        let wi = cosine_hemisphere(n, s.u[2][i], s.u[3][i]);
+                        assert_eq!(s.below[i] != 0.0, side.dot(wi) <= 0.0, "{arch:?} lane {i}");
+                        assert!(close(dir, wi), "{arch:?} lane {i}: {dir} vs {wi}");
+                        diffuse += 1;
+                        swapped_caught += !close(dir, cosine_hemisphere(n, s.u[3][i], s.u[2][i])) as u32;
+                        assert!((s.prev_pdf[i] - n.dot(wi) * FRAC_1_PI).abs() < 1e-5);
+                        assert!(close(get3(&s.beta, i), beta0 * get3(&s.albedo, i)));
+                        // The light sample: its point, weight and shadow ray.
+                        let l = s.light.unwrap();
+                        let q = l.corner + l.edge_u * s.u[0][i] + l.edge_v * s.u[1][i];
+                        let to = q - p;
+                        let lw = to.normalize();
+                        let (cos, cos_l) = (n.dot(lw), -l.normal.dot(lw));
+                        let seen = cos > 0.0 && cos_l > 0.0 && side.dot(lw) > 0.0;
+                        assert_eq!(s.shadow[i] != 0.0, seen, "{arch:?} lane {i}");
+                        if seen {
+                            let pdf = to.length_squared() / (l.area * cos_l);
+                            let w = power_heuristic(pdf, cos * FRAC_1_PI);
+                            let c = beta0 * get3(&s.albedo, i) * FRAC_1_PI * l.radiance * (cos * w / pdf);
+                            let got = get3(&s.contrib, i);
+                            assert!(
+                                (got - c).abs().max_element() <= 1e-4 * c.max_element(),
+                                "{got} vs {c}"
+                            );
+                            assert!(close(get3(&s.shadow_dir, i), lw));
+                        }
+                    } else {
+                        let (dd, nd) = (d.as_dvec3(), n.as_dvec3());
+                        let (n1, n2) = (s.n1[i] as f64, s.n2[i] as f64);
+                        let f = optics::fresnel_dielectric(dd.dot(nd).abs(), n1, n2);
+                        let u = s.u[0][i] as f64;
+                        if s.tir[i] == 0.0 && (u - f).abs() < 1e-5 {
+                            continue; // a tie within rounding
+                        }
+                        let reflect = s.tir[i] != 0.0 || u < f;
+                        let want = if reflect {
+                            optics::reflect(dd, nd).normalize()
+                        } else {
+                            optics::refract(dd, nd, n1, n2).unwrap().normalize()
+                        };
+                        // Where the shading normal sends it to the wrong side,
+                        // the kernel turns to the geometric normal: not checked here.
+                        let right_side = (want.as_vec3a().dot(side) > 0.0) == reflect;
+                        if right_side {
+                            assert!(close(dir, want.as_vec3a()), "{arch:?} lane {i}: {dir} vs {want}");
+                        }
+                        let k = if reflect { 1.0 } else { (n1 / n2).powi(2) as f32 };
+                        assert!(close(get3(&s.beta, i), beta0 * k));
+                        let off = if reflect { side } else { -side };
+                        assert!(get3(&s.org, i).distance(p) < 1e-5 && (get3(&s.org, i) - p).dot(off) > 0.0);
+                    }
+                    checked += 1;
+                }
+            }
+            assert!(checked > 7000, "{arch:?}: {checked}");
+            // Swapping the bounce's numbers moves nearly every direction.
+            assert!(
+                swapped_caught * 10 > diffuse * 9,
+                "{arch:?}: {swapped_caught} of {diffuse}"
+            );
+        }
+    }
+
+    /// The kernel's sine and cosine of whole turns against the library's.
+    #[test]
+    fn sincos_of_turns_is_accurate_at_every_level() {
+        struct Probe(Vec<f32>);
+        impl pulp::WithSimd for Probe {
+            type Output = Vec<(f32, f32)>;
+            #[inline(always)]
+            fn with_simd<S: pulp::Simd>(self, simd: S) -> Self::Output {
+                let mut out = Vec::new();
+                for c in self.0.chunks(S::F32_LANES) {
+                    let u = simd.partial_load_f32s(c);
+                    let (sin, cos) = sincos_turns(simd, u);
+                    let (mut a, mut b) = (vec![0.0; c.len()], vec![0.0; c.len()]);
+                    simd.partial_store_f32s(&mut a, sin);
+                    simd.partial_store_f32s(&mut b, cos);
+                    out.extend(a.into_iter().zip(b));
+                }
+                out
+            }
+        }
+        let us: Vec<f32> = (0..=1 << 16).map(|k| k as f32 / (1 << 16) as f32).collect();
+        for arch in levels() {
+            let got = arch.dispatch(Probe(us.clone()));
+            let worst = us
+                .iter()
+                .zip(&got)
+                .map(|(&u, &(s, c))| {
+                    let phi = 2.0 * std::f64::consts::PI * u as f64;
+                    (s as f64 - phi.sin()).abs().max((c as f64 - phi.cos()).abs())
+                })
+                .fold(0.0, f64::max);
+            assert!(worst < 3e-7, "{arch:?}: {worst}");
+        }
+    }
+}

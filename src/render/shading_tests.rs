@@ -1,0 +1,93 @@
+//! Vector shading (`integrator::shade_lanes`) against scalar shading
+//! (`PathState::advance`) on the three reference scenes. Both draw each
+//! path's random numbers in the same order, so the same path gives the same
+//! radiance up to rounding (f32 against f64 Fresnel and Snell), but where a
+//! number falls within rounding of a Fresnel reflectance or a direction
+//! within rounding of the critical angle: then the path takes the other
+//! lobe, and its pixel differs by noise. The tests bound the share of
+//! pixels that differ, and show that known-wrong kernels (an interface
+//! reflecting with half its Fresnel reflectance; next-event estimation
+//! weighed against twice the bounce's density) are caught by the same bound.
+use super::{render, PacketWidth, RenderOptions, RenderSettings, Shading};
+use crate::scene::model::BsdfVariant;
+use crate::scene::{load_scene, BuildOptions, RenderScene};
+use std::path::Path;
+
+fn scene(name: &str) -> RenderScene {
+    load_scene(
+        Path::new(&format!("scenes/{name}.toml")),
+        &BuildOptions::default(),
+    )
+    .expect("scene")
+}
+
+/// The scene rendered at 80×60, 4 spp, with `shading`, in packets of 16.
+fn pixels(s: &RenderScene, shading: Shading) -> Vec<glam::Vec3A> {
+    pixels_in(s, shading, PacketWidth::Sixteen)
+}
+
+fn pixels_in(s: &RenderScene, shading: Shading, packet_width: PacketWidth) -> Vec<glam::Vec3A> {
+    let set = RenderSettings::from_scene(s)
+        .with_resolution(80, 60)
+        .unwrap()
+        .with_spp(4);
+    let opts = RenderOptions {
+        threads: Some(2),
+        shading,
+        packet_width,
+        ..Default::default()
+    };
+    render(s, &set, &opts).expect("render").pixels
+}
+
+/// The share of pixels whose channels differ by more than 10⁻⁴ relative
+/// (and 10⁻⁶ absolute): rounding stays far below, a different lobe far above.
+fn differing(a: &[glam::Vec3A], b: &[glam::Vec3A]) -> f64 {
+    let n = a
+        .iter()
+        .zip(b)
+        .filter(|(p, q)| {
+            let tol = (p.abs() + q.abs()) * 1e-4 + 1e-6;
+            ((*p - *q).abs() - tol).max_element() > 0.0
+        })
+        .count();
+    n as f64 / a.len() as f64
+}
+
+/// At most this share of pixels may differ: the paths that pick another
+/// lobe at a Fresnel or critical-angle tie (a few in 10⁴ here).
+const LIMIT: f64 = 0.01;
+
+#[test]
+fn vector_shading_gives_the_scalar_paths_and_wrong_kernels_do_not() {
+    for name in ["three_spheres", "glass_of_water", "cylinder_refraction"] {
+        let mut s = scene(name);
+        let scalar = pixels(&s, Shading::Scalar);
+        let vector = pixels(&s, Shading::Vector);
+        let right = differing(&scalar, &vector);
+        // Eight lanes side by side (the kernel's chunks, AVX2's width).
+        let eight = differing(&scalar, &pixels_in(&s, Shading::Vector, PacketWidth::Eight));
+        assert!(eight <= LIMIT, "{name}, packets of 8: {eight}");
+        s.bsdf_variant = BsdfVariant::WrongHalfFresnel;
+        let half_fresnel = differing(&scalar, &pixels(&s, Shading::Vector));
+        // The variant only changes vector shading: scalar shading of the
+        // same scene still agrees with itself (the comparison is of kernels).
+        assert_eq!(differing(&scalar, &pixels(&s, Shading::Scalar)), 0.0, "{name}");
+        s.bsdf_variant = BsdfVariant::WrongMisPdf;
+        let mis = differing(&scalar, &pixels(&s, Shading::Vector));
+        eprintln!(
+            "{name}: pixels differing from scalar shading: vector {right:.4}, \
+             half Fresnel reflectance {half_fresnel:.4}, doubled bounce density in MIS {mis:.4}"
+        );
+        assert!(right <= LIMIT, "{name}: {right}");
+        assert!(
+            half_fresnel > LIMIT,
+            "{name}: half the Fresnel reflectance passes: {half_fresnel}"
+        );
+        // cylinder_refraction has no next-event estimation (its only surface
+        // that could sample a light is black).
+        if name != "cylinder_refraction" {
+            assert!(mis > LIMIT, "{name}: the wrong MIS passes: {mis}");
+        }
+    }
+}
