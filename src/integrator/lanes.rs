@@ -254,6 +254,7 @@ pub fn path_stream<const N: usize, P: RayPacket<N>>(
             // processor overlaps, where each lane's shading waited on its own.
             let mut known = [false; N];
             let mut sps: [Option<SurfacePoint>; N] = [None; N];
+            let mut geoms = [0u32; N];
             for (i, lane) in chunk.iter_mut().enumerate() {
                 let Some(check) = plain[i] else { continue };
                 let p = &lane.path;
@@ -277,6 +278,7 @@ pub fn path_stream<const N: usize, P: RayPacket<N>>(
                         })
                         .flatten();
                     sps[i] = Some(solved.unwrap_or_else(|| scene.surface_point(&p.ray, h)));
+                    geoms[i] = h.geom_id;
                 }
                 known[i] = true;
             }
@@ -288,8 +290,8 @@ pub fn path_stream<const N: usize, P: RayPacket<N>>(
                 st.segments += 1;
                 if vector && known[i] {
                     st.queries += 1;
-                    let hit = near.hit(i);
-                    let prep = shade.prepare(i, tr, p, hit.as_ref(), sps[i].as_ref(), &mut lane.rng, st);
+                    let hit = sps[i].as_ref().map(|sp| (geoms[i], sp));
+                    let prep = shade.prepare(i, tr, p, hit, &mut lane.rng, st);
                     kernel[i] = prep == Prepared::Kernel;
                     lane.ended = !kernel[i];
                     continue;

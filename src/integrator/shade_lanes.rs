@@ -27,7 +27,7 @@
 use super::path::{PathState, PendingShadow};
 use super::Tracer;
 use crate::counters::Counters;
-use crate::ray::{front_facing, Hit, Ray, OFFSET_ULPS};
+use crate::ray::{front_facing, Ray, OFFSET_ULPS};
 use crate::sampling::{power_heuristic, Rng};
 use crate::scene::texture::Texture;
 use crate::scene::{Environment, Light, Material, RenderScene, SurfacePoint};
@@ -209,29 +209,28 @@ impl ShadeLanes {
     }
 
     /// Phase 1 for lane `i`: the segment of `path` ended at `hit` (the
-    /// surface point `sp`). Emission and a miss are added to the path here,
-    /// the step's random numbers drawn, and what the kernel needs stored.
-    #[allow(clippy::too_many_arguments)]
+    /// geometry's id and the surface point; `None`: a miss). Emission and
+    /// a miss are added to the path here, the step's random numbers drawn,
+    /// and what the kernel needs stored.
     #[inline(always)]
     pub(super) fn prepare(
         &mut self,
         i: usize,
         tr: Tracer<'_>,
         path: &mut PathState,
-        hit: Option<&Hit>,
-        sp: Option<&SurfacePoint>,
+        hit: Option<(u32, &SurfacePoint)>,
         rng: &mut Rng,
         st: &mut Counters,
     ) -> Prepared {
         let scene = tr.scene;
-        let (Some(hit), Some(sp)) = (hit, sp) else {
+        let Some((geom, sp)) = hit else {
             // Next-event estimation samples no environment here: weight 1.
             path.l += path.beta * scene.escaped_radiance(path.ray.dir, None);
             st.ended_escaped += 1;
             return Prepared::Ended;
         };
         let dir = path.ray.dir;
-        let rec = &scene.geoms[hit.geom_id as usize];
+        let rec = &scene.geoms[geom as usize];
         let front = front_facing(sp.ng, dir);
         if let Some(em) = &rec.emission {
             if front || rec.emission_two_sided {

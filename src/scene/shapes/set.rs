@@ -111,52 +111,51 @@ struct LaneArrays<const N: usize> {
 }
 
 impl<const N: usize> LaneArrays<N> {
-    const EMPTY: LaneArrays<N> = LaneArrays {
-        o: [[0.0; N]; 3],
-        d: [[0.0; N]; 3],
-        inv_d: [[0.0; N]; 3],
-        t_lo: [0.0; N],
-        t_hi: [0.0; N],
-        tn: [0.0; N],
-        tf: [0.0; N],
-    };
-
     /// The lanes of `rays` up to the last active one (how many: the
-    /// value), made in place (a returned copy showed in the profile). Every
-    /// lane is converted, active or not, so that the loops vectorise; an
-    /// inactive lane gets an empty interval (and is skipped by the callers
-    /// whatever its roots).
+    /// second value). Every lane is converted, active or not, so that the
+    /// loops vectorise; an inactive lane gets an empty interval (and is
+    /// skipped by the callers whatever its roots). Each array is made where
+    /// it stays (a zeroed struct filled afterwards cost a memset per call).
     #[inline(always)]
-    fn fill(&mut self, rays: &PacketRays<'_, N>) -> usize {
-        let l = self;
-        for a in 0..3 {
-            for k in 0..N {
-                l.o[a][k] = rays.org[a][k] as f64;
-                l.d[a][k] = rays.dir[a][k] as f64;
-                l.inv_d[a][k] = 1.0 / rays.dir[a][k] as f64;
-            }
-        }
+    fn of(rays: &PacketRays<'_, N>) -> (Self, usize) {
+        let conv = |x: &[f32; N]| x.map(f64::from);
+        let o = [conv(rays.org[0]), conv(rays.org[1]), conv(rays.org[2])];
+        let d = [conv(rays.dir[0]), conv(rays.dir[1]), conv(rays.dir[2])];
+        let inv = |x: &[f32; N]| x.map(|v| 1.0 / v as f64);
+        let inv_d = [inv(rays.dir[0]), inv(rays.dir[1]), inv(rays.dir[2])];
+        let (tn, tf) = (conv(rays.tnear), conv(rays.tfar));
         // A crossing is kept when its t rounded to f32 is within the
         // interval: a relative 1e-6 covers that rounding many times over.
         // Branch-free, so that the loop vectorises.
+        let mut t_lo = [0.0; N];
+        let mut t_hi = [0.0; N];
         let mut m = 0;
         for k in 0..N {
-            let (tn, tf) = (rays.tnear[k] as f64, rays.tfar[k] as f64);
             let active = rays.active(k);
-            (l.tn[k], l.tf[k]) = (tn, tf);
-            l.t_lo[k] = if active {
-                tn - tn.abs() * 1e-6 - 1e-9
+            t_lo[k] = if active {
+                tn[k] - tn[k].abs() * 1e-6 - 1e-9
             } else {
                 f64::INFINITY
             };
-            l.t_hi[k] = if active {
-                tf + tf.abs() * 1e-6 + 1e-9
+            t_hi[k] = if active {
+                tf[k] + tf[k].abs() * 1e-6 + 1e-9
             } else {
                 f64::NEG_INFINITY
             };
             m = if active { k + 1 } else { m };
         }
-        m
+        (
+            LaneArrays {
+                o,
+                d,
+                inv_d,
+                t_lo,
+                t_hi,
+                tn,
+                tf,
+            },
+            m,
+        )
     }
 }
 
@@ -405,8 +404,7 @@ impl<const N: usize> pulp::WithSimd for SetKernel<'_, N> {
             out,
         } = self;
         // Converted here, where the loops vectorise to the full width.
-        let mut lanes = LaneArrays::EMPTY;
-        let m = lanes.fill(&rays);
+        let (lanes, m) = LaneArrays::of(&rays);
         if m == 0 {
             return 0;
         }
