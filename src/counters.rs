@@ -56,6 +56,11 @@ pub struct Counters {
     pub shadow_packet_slots: u64,
     /// Shadow rays those packets carried.
     pub shadow_packet_lanes: u64,
+    /// Lanes of the vector shading kernel's calls (calls × packet width):
+    /// `shade_lanes / shade_slots` is the share of them that shaded a path.
+    pub shade_slots: u64,
+    /// Paths those calls shaded.
+    pub shade_lanes: u64,
     /// Light samples drawn for next-event estimation (at non-delta vertices
     /// that reflect something, before the last depth); those facing away
     /// from the surface or the light cast no shadow ray.
@@ -103,6 +108,8 @@ impl AddAssign for Counters {
             packet_lanes,
             shadow_packet_slots,
             shadow_packet_lanes,
+            shade_slots,
+            shade_lanes,
             nee_draws,
             ended_escaped,
             ended_max_depth,
@@ -129,6 +136,8 @@ impl AddAssign for Counters {
         self.packet_lanes += packet_lanes;
         self.shadow_packet_slots += shadow_packet_slots;
         self.shadow_packet_lanes += shadow_packet_lanes;
+        self.shade_slots += shade_slots;
+        self.shade_lanes += shade_lanes;
         self.nee_draws += nee_draws;
         self.ended_escaped += ended_escaped;
         self.ended_max_depth += ended_max_depth;

@@ -269,7 +269,7 @@ pub fn sum_stats<'a>(
     stats: impl Iterator<Item = Option<&'a serde_json::Value>>,
     parts: usize,
 ) -> serde_json::Value {
-    const SUMMED: [&str; 29] = [
+    const SUMMED: [&str; 31] = [
         "wall_s",
         "cpu_s",
         "tiles_cpu_s",
@@ -293,6 +293,8 @@ pub fn sum_stats<'a>(
         "packet_lanes",
         "shadow_packet_slots",
         "shadow_packet_lanes",
+        "shade_slots",
+        "shade_lanes",
         "nee_draws",
         "ended_escaped",
         "ended_max_depth",
@@ -336,6 +338,7 @@ pub fn sum_stats<'a>(
         "false_hits_per_ray": get("false_hits") / queries.max(1.0),
         "packet_lane_share": get("packet_lanes") / get("packet_slots").max(1.0),
         "shadow_packet_lane_share": get("shadow_packet_lanes") / get("shadow_packet_slots").max(1.0),
+        "shade_lane_share": get("shade_lanes") / get("shade_slots").max(1.0),
         "provenance": crate::provenance::json(),
     });
     if let serde_json::Value::Object(d) = derived {

@@ -172,6 +172,7 @@ impl RenderStats {
             "evals_per_medium_segment": per(c.field_evals, c.medium_segments),
             "packet_lane_share": per(c.packet_lanes, c.packet_slots),
             "shadow_packet_lane_share": per(c.shadow_packet_lanes, c.shadow_packet_slots),
+            "shade_lane_share": per(c.shade_lanes, c.shade_slots),
             "provenance": crate::provenance::json(),
         });
         if let (Some(o), serde_json::Value::Object(d)) = (j.as_object_mut(), derived) {

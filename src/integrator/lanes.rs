@@ -1,6 +1,8 @@
 //! Paths traced side by side: their plain-query segments and shadow rays go
 //! to Embree (or to the scene's analytic set) in packets, and each path is
-//! shaded by the same step as a single ray ([`PathState::advance`]).
+//! shaded by the same step as a single ray ([`PathState::advance`]), or,
+//! where the scene allows it, all of a packet's paths at once in vector
+//! registers (`shade_lanes`).
 use super::cast::{cast, known_segment, NO_COINCIDENT};
 use super::path::{PathState, PendingShadow};
 use super::shade_lanes::{Prepared, ShadeLanes};
@@ -155,9 +157,11 @@ pub fn path_lanes<const N: usize, P: RayPacket<N>>(
 /// coherent one while each of its paths has only met smooth surfaces), the
 /// others through [`dielectric::trace`]; the step's shadow rays follow, in
 /// packets of `N` of their own. Each path gives the same radiance, bit for
-/// bit, as [`radiance`](super::radiance) with its own generator: the shading
-/// is `PathState::advance` in both, each path's random numbers are its own,
-/// and a path's shadow ray is resolved before its next segment. Every ended
+/// bit, as [`radiance`](super::radiance) with its own generator when
+/// `packets` shade one lane at a time (the shading is `PathState::advance`
+/// in both, each path's random numbers are its own, and a path's shadow ray
+/// is resolved before its next segment); with vector shading
+/// (`shade_lanes`), up to rounding. Every ended
 /// path goes to `done` with its index in the order `next` gave it, its
 /// radiance and (`per_path`) its own counters, else zeros; all counts also
 /// add to `stats`. Only where
@@ -315,6 +319,8 @@ pub fn path_stream<const N: usize, P: RayPacket<N>>(
             }
             if kernel.contains(&true) {
                 shade.shade(chunk.len());
+                occupancy.shade_slots += N as u64;
+                occupancy.shade_lanes += kernel.iter().filter(|&&k| k).count() as u64;
                 for (i, lane) in chunk.iter_mut().enumerate() {
                     if !kernel[i] {
                         continue;
