@@ -271,6 +271,21 @@ pub use render::{
 pub use scene::{load_scene, load_scene_source, load_scene_str, BuildOptions, ImportOptions, RenderScene};
 pub use warp::{HollowCylinder, Plate};
 
+/// Every pulp vector level this CPU runs, the scalar one first: the tests
+/// of the vector kernels compare them.
+#[cfg(test)]
+pub(crate) fn vector_levels() -> Vec<pulp::Arch> {
+    #[cfg(target_arch = "x86_64")]
+    {
+        let mut v = vec![pulp::Arch::Scalar];
+        v.extend(pulp::x86::V3::try_new().map(pulp::Arch::V3));
+        v.extend(pulp::x86::V4::try_new().map(pulp::Arch::V4));
+        v
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    vec![pulp::Arch::new()]
+}
+
 /// The header line every benchmark prints first.
 pub fn bench_header() -> String {
     format!("provenance: {}", provenance::line())

@@ -60,6 +60,7 @@ struct RectLight {
 }
 
 /// A packet's lanes between the phases, component by component.
+#[derive(Default)]
 pub(super) struct ShadeLanes {
     /// Per lane: 1 for a Lambertian hit, 0 for an interface (only lanes
     /// `prepare` sent to the kernel are read).
@@ -101,39 +102,6 @@ pub(super) struct ShadeLanes {
     /// The render tests' known-wrong variant.
     #[cfg(test)]
     variant: crate::scene::model::BsdfVariant,
-}
-
-impl Default for ShadeLanes {
-    fn default() -> Self {
-        ShadeLanes {
-            diffuse: [0.0; MAX],
-            nee: [0.0; MAX],
-            tir: [0.0; MAX],
-            d: [[0.0; MAX]; 3],
-            p: [[0.0; MAX]; 3],
-            side: [[0.0; MAX]; 3],
-            n: [[0.0; MAX]; 3],
-            albedo: [[0.0; MAX]; 3],
-            n1: [1.0; MAX],
-            n2: [1.0; MAX],
-            u: [[0.0; MAX]; 4],
-            beta: [[0.0; MAX]; 3],
-            eta_scale: [1.0; MAX],
-            org: [[0.0; MAX]; 3],
-            dir: [[0.0; MAX]; 3],
-            prev_pdf: [0.0; MAX],
-            below: [0.0; MAX],
-            shadow: [0.0; MAX],
-            shadow_org: [[0.0; MAX]; 3],
-            shadow_dir: [[0.0; MAX]; 3],
-            shadow_tfar: [0.0; MAX],
-            contrib: [[0.0; MAX]; 3],
-            arch: pulp::Arch::new(),
-            light: None,
-            #[cfg(test)]
-            variant: Default::default(),
-        }
-    }
 }
 
 fn set3(a: &mut [[f32; MAX]; 3], i: usize, v: V3) {
@@ -774,18 +742,7 @@ mod tests {
     use crate::optics;
     use crate::sampling::{cosine_hemisphere, uniform_sphere};
 
-    /// Every vector level this CPU runs, the scalar one first.
-    fn levels() -> Vec<pulp::Arch> {
-        #[cfg(target_arch = "x86_64")]
-        {
-            let mut v = vec![pulp::Arch::Scalar];
-            v.extend(pulp::x86::V3::try_new().map(pulp::Arch::V3));
-            v.extend(pulp::x86::V4::try_new().map(pulp::Arch::V4));
-            v
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        vec![pulp::Arch::new()]
-    }
+    use crate::vector_levels as levels;
 
     /// Sixteen random lanes, even ones Lambertian, odd ones interfaces, as
     /// `prepare` leaves them (the shading normal tilted from the geometric

@@ -1213,18 +1213,7 @@ mod tests {
     use crate::scene::{load_scene_str, BuildOptions, RenderScene, Shape, SurfacePoint};
     use glam::Vec3A as V3;
 
-    /// Every vector level this CPU runs, the scalar one first.
-    fn levels() -> Vec<pulp::Arch> {
-        #[cfg(target_arch = "x86_64")]
-        {
-            let mut v = vec![pulp::Arch::Scalar];
-            v.extend(pulp::x86::V3::try_new().map(pulp::Arch::V3));
-            v.extend(pulp::x86::V4::try_new().map(pulp::Arch::V4));
-            v
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        vec![pulp::Arch::new()]
-    }
+    use crate::vector_levels as levels;
 
     fn scene(objects: &str, analytic_set: bool) -> RenderScene {
         let text = format!(
