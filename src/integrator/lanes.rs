@@ -288,6 +288,9 @@ pub fn path_stream<const N: usize, P: RayPacket<N>>(
             }
             // Lanes that wait for the vector kernel.
             let mut kernel = [false; N];
+            if vector {
+                shade.begin();
+            }
             for (i, lane) in chunk.iter_mut().enumerate() {
                 let st = counts!(lane);
                 let p = &mut lane.path;

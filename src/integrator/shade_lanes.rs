@@ -62,8 +62,8 @@ struct RectLight {
 /// A packet's lanes between the phases, component by component.
 #[derive(Default)]
 pub(super) struct ShadeLanes {
-    /// Per lane: 1 for a Lambertian hit, 0 for an interface (only lanes
-    /// `prepare` sent to the kernel are read).
+    /// Per lane: 1 for a Lambertian hit, 0 for an interface, −1 for a lane
+    /// `prepare` did not send to the kernel ([`ShadeLanes::begin`]).
     diffuse: [f32; MAX],
     /// Lambertian lanes that drew a light sample.
     nee: [f32; MAX],
@@ -174,6 +174,12 @@ impl ShadeLanes {
             }),
             _ => None,
         };
+    }
+
+    /// Before a packet's lanes are prepared: none waits for the kernel.
+    #[inline(always)]
+    pub(super) fn begin(&mut self) {
+        self.diffuse = [-1.0; MAX];
     }
 
     /// Phase 1 for lane `i`: the segment of `path` ended at `hit` (the
@@ -316,7 +322,7 @@ impl ShadeLanes {
     ) -> (Option<PendingShadow>, bool) {
         let mut shadow = None;
         let p = get3(&self.p, i);
-        if self.diffuse[i] != 0.0 {
+        if self.diffuse[i] == 1.0 {
             if self.shadow[i] != 0.0 {
                 st.shadow_rays += 1;
                 let contrib = get3(&self.contrib, i);
@@ -548,7 +554,16 @@ impl pulp::WithSimd for Kernel<'_> {
             }
             let zero = simd.splat_f32s(0.0);
             let one = simd.splat_f32s(1.0);
-            let diffuse = simd.not_m32s(simd.equal_f32s(ld!(s.diffuse), zero));
+            let kind = ld!(s.diffuse);
+            let diffuse = simd.equal_f32s(kind, one);
+            let iface = simd.equal_f32s(kind, zero);
+            // A chunk of one kind (a pixel's camera rays on one surface)
+            // skips the other's arithmetic.
+            macro_rules! any {
+                ($m:expr) => {
+                    simd.first_true_m32s($m) < w
+                };
+            }
             let d = ld3!(s.d);
             let p = ld3!(s.p);
             let side = ld3!(s.side);
@@ -567,171 +582,186 @@ impl pulp::WithSimd for Kernel<'_> {
             let beneath = sub(simd, p, scale(simd, side, off));
 
             // Lambertian lanes: the light's point and the bounce.
-            let albedo = ld3!(s.albedo);
-            if let Some(l) = light {
-                let (u1, u2) = (ld!(s.u[0]), ld!(s.u[1]));
-                let q = add(
-                    simd,
-                    add(
+            let mut next_dir = d;
+            let mut next_org = above;
+            let mut next_beta = beta;
+            if any!(diffuse) {
+                let albedo = ld3!(s.albedo);
+                if let Some(l) = light {
+                    let (u1, u2) = (ld!(s.u[0]), ld!(s.u[1]));
+                    let q = add(
                         simd,
-                        splat(simd, l.corner),
-                        scale(simd, splat(simd, l.edge_u), u1),
-                    ),
-                    scale(simd, splat(simd, l.edge_v), u2),
-                );
-                let to = sub(simd, q, p);
-                let dist2 = dot(simd, to, to);
-                let dist = simd.sqrt_f32s(dist2);
-                let wi = scale(simd, to, simd.div_f32s(one, dist));
-                let cos_l = simd.neg_f32s(dot(simd, splat(simd, l.normal), wi));
-                let pdf = simd.div_f32s(
-                    simd.mul_f32s(dist, dist),
-                    simd.mul_f32s(simd.splat_f32s(l.area), cos_l),
-                );
-                let cos = dot(simd, n, wi);
-                let seen = simd.and_m32s(
-                    simd.and_m32s(
-                        simd.greater_than_f32s(cos_l, zero),
-                        simd.greater_than_f32s(dist, zero),
-                    ),
-                    simd.and_m32s(
-                        simd.greater_than_f32s(cos, zero),
-                        simd.greater_than_f32s(dot(simd, side, wi), zero),
-                    ),
-                );
-                let seen = simd.and_m32s(
-                    seen,
-                    simd.and_m32s(diffuse, simd.not_m32s(simd.equal_f32s(ld!(s.nee), zero))),
-                );
-                // The power heuristic against the bounce's density cos/π.
-                let mut bsdf_pdf = simd.mul_f32s(cos, simd.splat_f32s(FRAC_1_PI));
-                if wrong_mis {
-                    bsdf_pdf = simd.add_f32s(bsdf_pdf, bsdf_pdf);
+                        add(
+                            simd,
+                            splat(simd, l.corner),
+                            scale(simd, splat(simd, l.edge_u), u1),
+                        ),
+                        scale(simd, splat(simd, l.edge_v), u2),
+                    );
+                    let to = sub(simd, q, p);
+                    let dist2 = dot(simd, to, to);
+                    let dist = simd.sqrt_f32s(dist2);
+                    let wi = scale(simd, to, simd.div_f32s(one, dist));
+                    let cos_l = simd.neg_f32s(dot(simd, splat(simd, l.normal), wi));
+                    let pdf = simd.div_f32s(
+                        simd.mul_f32s(dist, dist),
+                        simd.mul_f32s(simd.splat_f32s(l.area), cos_l),
+                    );
+                    let cos = dot(simd, n, wi);
+                    let seen = simd.and_m32s(
+                        simd.and_m32s(
+                            simd.greater_than_f32s(cos_l, zero),
+                            simd.greater_than_f32s(dist, zero),
+                        ),
+                        simd.and_m32s(
+                            simd.greater_than_f32s(cos, zero),
+                            simd.greater_than_f32s(dot(simd, side, wi), zero),
+                        ),
+                    );
+                    let seen = simd.and_m32s(
+                        seen,
+                        simd.and_m32s(diffuse, simd.not_m32s(simd.equal_f32s(ld!(s.nee), zero))),
+                    );
+                    // The power heuristic against the bounce's density cos/π.
+                    let mut bsdf_pdf = simd.mul_f32s(cos, simd.splat_f32s(FRAC_1_PI));
+                    if wrong_mis {
+                        bsdf_pdf = simd.add_f32s(bsdf_pdf, bsdf_pdf);
+                    }
+                    let (a, b) = (simd.mul_f32s(pdf, pdf), simd.mul_f32s(bsdf_pdf, bsdf_pdf));
+                    let sum = simd.add_f32s(a, b);
+                    let mis = simd.select_f32s(simd.equal_f32s(sum, zero), zero, simd.div_f32s(a, sum));
+                    let k = simd.div_f32s(simd.mul_f32s(cos, mis), pdf);
+                    let f = scale(simd, albedo, simd.splat_f32s(FRAC_1_PI));
+                    let contrib = scale(simd, mul(simd, mul(simd, beta, f), splat(simd, l.radiance)), k);
+                    let tfar = simd.sub_f32s(
+                        simd.mul_f32s(dist, simd.splat_f32s(1.0 - 1e-4)),
+                        simd.mul_f32s(simd.splat_f32s(2.0), off),
+                    );
+                    let short = simd.less_than_or_equal_f32s(tfar, zero);
+                    let kind = simd.select_f32s(short, simd.splat_f32s(2.0), one);
+                    st!(s.shadow, simd.select_f32s(seen, kind, zero));
+                    st3!(s.shadow_org, above);
+                    st3!(s.shadow_dir, wi);
+                    st!(s.shadow_tfar, tfar);
+                    st3!(s.contrib, contrib);
+                } else {
+                    st!(s.shadow, zero);
                 }
-                let (a, b) = (simd.mul_f32s(pdf, pdf), simd.mul_f32s(bsdf_pdf, bsdf_pdf));
-                let sum = simd.add_f32s(a, b);
-                let mis = simd.select_f32s(simd.equal_f32s(sum, zero), zero, simd.div_f32s(a, sum));
-                let k = simd.div_f32s(simd.mul_f32s(cos, mis), pdf);
-                let f = scale(simd, albedo, simd.splat_f32s(FRAC_1_PI));
-                let contrib = scale(simd, mul(simd, mul(simd, beta, f), splat(simd, l.radiance)), k);
-                let tfar = simd.sub_f32s(
-                    simd.mul_f32s(dist, simd.splat_f32s(1.0 - 1e-4)),
-                    simd.mul_f32s(simd.splat_f32s(2.0), off),
-                );
-                let short = simd.less_than_or_equal_f32s(tfar, zero);
-                let kind = simd.select_f32s(short, simd.splat_f32s(2.0), one);
-                st!(s.shadow, simd.select_f32s(seen, kind, zero));
-                st3!(s.shadow_org, above);
-                st3!(s.shadow_dir, wi);
-                st!(s.shadow_tfar, tfar);
-                st3!(s.contrib, contrib);
-            } else {
-                st!(s.shadow, zero);
-            }
-            let (r2, phi) = (ld!(s.u[2]), ld!(s.u[3]));
-            let r = simd.sqrt_f32s(r2);
-            let (sin, cos) = sincos_turns(simd, phi);
-            // `sampling::basis(n)`.
-            // `1.0f32.copysign(n.z)`: the sign bit of n.z on 1.
-            let sign = simd.or_f32s(one, simd.and_f32s(n[2], simd.splat_f32s(-0.0)));
-            let a = simd.div_f32s(simd.splat_f32s(-1.0), simd.add_f32s(sign, n[2]));
-            let b = simd.mul_f32s(simd.mul_f32s(n[0], n[1]), a);
-            let t = [
-                simd.add_f32s(
-                    one,
-                    simd.mul_f32s(simd.mul_f32s(simd.mul_f32s(sign, n[0]), n[0]), a),
-                ),
-                simd.mul_f32s(sign, b),
-                simd.neg_f32s(simd.mul_f32s(sign, n[0])),
-            ];
-            let bt = [
-                b,
-                simd.add_f32s(sign, simd.mul_f32s(simd.mul_f32s(n[1], n[1]), a)),
-                simd.neg_f32s(n[1]),
-            ];
-            let z = simd.sqrt_f32s(simd.max_f32s(simd.sub_f32s(one, r2), zero));
-            let bounce = normalize(
-                simd,
-                add(
+                let (r2, phi) = (ld!(s.u[2]), ld!(s.u[3]));
+                let r = simd.sqrt_f32s(r2);
+                let (sin, cos) = sincos_turns(simd, phi);
+                // `sampling::basis(n)`.
+                // `1.0f32.copysign(n.z)`: the sign bit of n.z on 1.
+                let sign = simd.or_f32s(one, simd.and_f32s(n[2], simd.splat_f32s(-0.0)));
+                let a = simd.div_f32s(simd.splat_f32s(-1.0), simd.add_f32s(sign, n[2]));
+                let b = simd.mul_f32s(simd.mul_f32s(n[0], n[1]), a);
+                let t = [
+                    simd.add_f32s(
+                        one,
+                        simd.mul_f32s(simd.mul_f32s(simd.mul_f32s(sign, n[0]), n[0]), a),
+                    ),
+                    simd.mul_f32s(sign, b),
+                    simd.neg_f32s(simd.mul_f32s(sign, n[0])),
+                ];
+                let bt = [
+                    b,
+                    simd.add_f32s(sign, simd.mul_f32s(simd.mul_f32s(n[1], n[1]), a)),
+                    simd.neg_f32s(n[1]),
+                ];
+                let z = simd.sqrt_f32s(simd.max_f32s(simd.sub_f32s(one, r2), zero));
+                let bounce = normalize(
                     simd,
                     add(
                         simd,
-                        scale(simd, t, simd.mul_f32s(r, cos)),
-                        scale(simd, bt, simd.mul_f32s(r, sin)),
+                        add(
+                            simd,
+                            scale(simd, t, simd.mul_f32s(r, cos)),
+                            scale(simd, bt, simd.mul_f32s(r, sin)),
+                        ),
+                        scale(simd, n, z),
                     ),
-                    scale(simd, n, z),
-                ),
-            );
-            let below = simd.less_than_or_equal_f32s(dot(simd, side, bounce), zero);
-            st!(s.below, simd.select_f32s(below, one, zero));
-            st!(
-                s.prev_pdf,
-                simd.mul_f32s(dot(simd, n, bounce), simd.splat_f32s(FRAC_1_PI))
-            );
-
-            // Interface lanes: Fresnel's choice between the mirror and the
-            // refracted direction, each about the shading normal unless that
-            // puts it on the wrong side of the surface.
-            let (n1, n2) = (ld!(s.n1), ld!(s.n2));
-            let eta = simd.div_f32s(n1, n2);
-            let cos_i = simd.min_f32s(simd.abs_f32s(dot(simd, d, n)), one);
-            let sin2 = simd.mul_f32s(
-                simd.mul_f32s(eta, eta),
-                simd.max_f32s(simd.sub_f32s(one, simd.mul_f32s(cos_i, cos_i)), zero),
-            );
-            let cos_t = simd.sqrt_f32s(simd.max_f32s(simd.sub_f32s(one, sin2), zero));
-            let (a1, a2) = (simd.mul_f32s(n1, cos_i), simd.mul_f32s(n2, cos_t));
-            let rs = simd.div_f32s(simd.sub_f32s(a1, a2), simd.add_f32s(a1, a2));
-            let (b1, b2) = (simd.mul_f32s(n2, cos_i), simd.mul_f32s(n1, cos_t));
-            let rp = simd.div_f32s(simd.sub_f32s(b1, b2), simd.add_f32s(b1, b2));
-            let fresnel = simd.min_f32s(
-                simd.max_f32s(
-                    simd.mul_f32s(
-                        simd.splat_f32s(0.5),
-                        simd.add_f32s(simd.mul_f32s(rs, rs), simd.mul_f32s(rp, rp)),
-                    ),
-                    zero,
-                ),
-                one,
-            );
-            let fresnel = if wrong_fresnel {
-                simd.mul_f32s(fresnel, simd.splat_f32s(0.5))
-            } else {
-                fresnel
-            };
-            let tir = simd.not_m32s(simd.equal_f32s(ld!(s.tir), zero));
-            let mirror = simd.or_m32s(tir, simd.less_than_f32s(ld!(s.u[0]), fresnel));
-            let wr = normalize(simd, reflect(simd, d, n));
-            let wr_wrong = simd.less_than_or_equal_f32s(dot(simd, wr, side), zero);
-            let wr = select(simd, wr_wrong, normalize(simd, reflect(simd, d, side)), wr);
-            let wt = normalize(simd, refract(simd, d, n, eta));
-            let wt_wrong = simd.greater_than_or_equal_f32s(dot(simd, wt, side), zero);
-            // (Through the geometric normal too far for refraction: on along `d`.)
-            let wg = refract(simd, d, side, eta);
-            let cg = simd.abs_f32s(dot(simd, d, side));
-            let tir_g = simd.greater_than_f32s(
-                simd.mul_f32s(
+                );
+                let below = simd.less_than_or_equal_f32s(dot(simd, side, bounce), zero);
+                st!(s.below, simd.select_f32s(below, one, zero));
+                st!(
+                    s.prev_pdf,
+                    simd.mul_f32s(dot(simd, n, bounce), simd.splat_f32s(FRAC_1_PI))
+                );
+                next_dir = select(simd, diffuse, bounce, next_dir);
+                next_beta = select(simd, diffuse, mul(simd, beta, albedo), next_beta);
+            }
+            if any!(iface) {
+                // Interface lanes: Fresnel's choice between the mirror and the
+                // refracted direction, each about the shading normal unless that
+                // puts it on the wrong side of the surface.
+                let (n1, n2) = (ld!(s.n1), ld!(s.n2));
+                let eta = simd.div_f32s(n1, n2);
+                let cos_i = simd.min_f32s(simd.abs_f32s(dot(simd, d, n)), one);
+                let sin2 = simd.mul_f32s(
                     simd.mul_f32s(eta, eta),
-                    simd.max_f32s(simd.sub_f32s(one, simd.mul_f32s(cg, cg)), zero),
-                ),
-                one,
-            );
-            let wt = select(simd, wt_wrong, normalize(simd, select(simd, tir_g, d, wg)), wt);
-            let k2 = simd.mul_f32s(eta, eta);
-            let transmit = simd.not_m32s(mirror);
-            let beta_i = select(simd, transmit, scale(simd, beta, k2), beta);
-            let eta_scale = ld!(s.eta_scale);
-            st!(
-                s.eta_scale,
-                simd.select_f32s(transmit, simd.div_f32s(eta_scale, k2), eta_scale)
-            );
-
-            // Both kinds' next ray and throughput.
-            let spec_dir = select(simd, mirror, wr, wt);
-            let spec_org = select(simd, mirror, above, beneath);
-            st3!(s.dir, select(simd, diffuse, bounce, spec_dir));
-            st3!(s.org, select(simd, diffuse, above, spec_org));
-            st3!(s.beta, select(simd, diffuse, mul(simd, beta, albedo), beta_i));
+                    simd.max_f32s(simd.sub_f32s(one, simd.mul_f32s(cos_i, cos_i)), zero),
+                );
+                let cos_t = simd.sqrt_f32s(simd.max_f32s(simd.sub_f32s(one, sin2), zero));
+                let (a1, a2) = (simd.mul_f32s(n1, cos_i), simd.mul_f32s(n2, cos_t));
+                let rs = simd.div_f32s(simd.sub_f32s(a1, a2), simd.add_f32s(a1, a2));
+                let (b1, b2) = (simd.mul_f32s(n2, cos_i), simd.mul_f32s(n1, cos_t));
+                let rp = simd.div_f32s(simd.sub_f32s(b1, b2), simd.add_f32s(b1, b2));
+                let fresnel = simd.min_f32s(
+                    simd.max_f32s(
+                        simd.mul_f32s(
+                            simd.splat_f32s(0.5),
+                            simd.add_f32s(simd.mul_f32s(rs, rs), simd.mul_f32s(rp, rp)),
+                        ),
+                        zero,
+                    ),
+                    one,
+                );
+                let fresnel = if wrong_fresnel {
+                    simd.mul_f32s(fresnel, simd.splat_f32s(0.5))
+                } else {
+                    fresnel
+                };
+                let tir = simd.not_m32s(simd.equal_f32s(ld!(s.tir), zero));
+                let mirror = simd.or_m32s(tir, simd.less_than_f32s(ld!(s.u[0]), fresnel));
+                let wr = normalize(simd, reflect(simd, d, n));
+                let wr_wrong = simd.less_than_or_equal_f32s(dot(simd, wr, side), zero);
+                let wr = if any!(wr_wrong) {
+                    select(simd, wr_wrong, normalize(simd, reflect(simd, d, side)), wr)
+                } else {
+                    wr
+                };
+                let wt = normalize(simd, refract(simd, d, n, eta));
+                let wt_wrong = simd.greater_than_or_equal_f32s(dot(simd, wt, side), zero);
+                let wt = if any!(wt_wrong) {
+                    // (Through the geometric normal too far for refraction: on along `d`.)
+                    let wg = refract(simd, d, side, eta);
+                    let cg = simd.abs_f32s(dot(simd, d, side));
+                    let tir_g = simd.greater_than_f32s(
+                        simd.mul_f32s(
+                            simd.mul_f32s(eta, eta),
+                            simd.max_f32s(simd.sub_f32s(one, simd.mul_f32s(cg, cg)), zero),
+                        ),
+                        one,
+                    );
+                    select(simd, wt_wrong, normalize(simd, select(simd, tir_g, d, wg)), wt)
+                } else {
+                    wt
+                };
+                let k2 = simd.mul_f32s(eta, eta);
+                let transmit = simd.not_m32s(mirror);
+                let beta_i = select(simd, transmit, scale(simd, beta, k2), beta);
+                let eta_scale = ld!(s.eta_scale);
+                st!(
+                    s.eta_scale,
+                    simd.select_f32s(transmit, simd.div_f32s(eta_scale, k2), eta_scale)
+                );
+                next_dir = select(simd, iface, select(simd, mirror, wr, wt), next_dir);
+                next_org = select(simd, iface, select(simd, mirror, above, beneath), next_org);
+                next_beta = select(simd, iface, beta_i, next_beta);
+            }
+            st3!(s.dir, next_dir);
+            st3!(s.org, next_org);
+            st3!(s.beta, next_beta);
         }
     }
 }
