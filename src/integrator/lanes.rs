@@ -12,7 +12,7 @@ use crate::dielectric::{self, InteriorList};
 use crate::embree::RayPacket;
 use crate::error::Result;
 use crate::sampling::Rng;
-use crate::scene::shapes::SurfaceLanes;
+use crate::scene::shapes::{SetScratch, SurfaceLanes};
 use crate::scene::{IntegratorKind, RenderScene, SurfacePoint};
 use glam::Vec3A as V3;
 
@@ -191,6 +191,7 @@ pub fn path_stream<const N: usize, P: RayPacket<N>>(
         vector_shading,
     } = packets;
     let surfaces = &mut SurfaceLanes::<N>::default();
+    let scratch = &mut SetScratch::<N>::default();
     let vector = *vector_shading && ShadeLanes::applies(tr);
     if vector {
         shade.start(scene);
@@ -241,7 +242,7 @@ pub fn path_stream<const N: usize, P: RayPacket<N>>(
             let sent = plain.iter().flatten().count() as u64;
             occupancy.packet_slots += if sent > 0 { N as u64 } else { 0 };
             occupancy.packet_lanes += sent;
-            let set_hits = intersect_packet(scene, near, coherent);
+            let set_hits = intersect_packet(scene, near, coherent, scratch);
             // The surface points of hits on the analytic set's primitives,
             // all lanes' side by side in vector registers (when there are any).
             let set_points = match (&scene.analytic_set, set_hits) {
@@ -344,7 +345,7 @@ pub fn path_stream<const N: usize, P: RayPacket<N>>(
             }
             occupancy.shadow_packet_slots += N as u64;
             occupancy.shadow_packet_lanes += group.len() as u64;
-            occlude_packet(scene, shadow);
+            occlude_packet(scene, shadow, scratch);
             for (i, (at, sh)) in group.iter().enumerate() {
                 if !shadow.occluded(i) {
                     front[*at as usize].path.l += sh.contrib;
@@ -380,11 +381,12 @@ fn intersect_packet<const N: usize, P: RayPacket<N>>(
     scene: &RenderScene,
     packet: &mut P,
     coherent: bool,
+    scratch: &mut SetScratch<N>,
 ) -> bool {
     match &scene.analytic_set {
         Some(set) => {
             packet.intersect_meshes(&scene.embree, coherent);
-            set.intersect(packet)
+            set.intersect(packet, scratch)
         }
         None => {
             packet.intersect(&scene.embree, coherent);
@@ -396,11 +398,15 @@ fn intersect_packet<const N: usize, P: RayPacket<N>>(
 /// Occlusion of the active lanes of `packet` (shadow rays: not coherent),
 /// as [`intersect_packet`] finds hits.
 #[inline]
-fn occlude_packet<const N: usize, P: RayPacket<N>>(scene: &RenderScene, packet: &mut P) {
+fn occlude_packet<const N: usize, P: RayPacket<N>>(
+    scene: &RenderScene,
+    packet: &mut P,
+    scratch: &mut SetScratch<N>,
+) {
     match &scene.analytic_set {
         Some(set) => {
             packet.occlude_meshes(&scene.embree, false);
-            set.occlude(packet);
+            set.occlude(packet, scratch);
         }
         None => packet.occlude(&scene.embree, false),
     }

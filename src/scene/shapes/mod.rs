@@ -32,7 +32,7 @@ pub use disk::Disk;
 pub use mesh::Mesh;
 pub(crate) use normalize::normalize_or;
 pub use rect::Rect;
-pub use set::{AnalyticSet, SurfaceLanes, MAX_SET_PRIMITIVES};
+pub use set::{AnalyticSet, SetScratch, SurfaceLanes, MAX_SET_PRIMITIVES};
 pub use sphere::Sphere;
 pub use tube::Tube;
 

@@ -111,51 +111,68 @@ struct LaneArrays<const N: usize> {
 }
 
 impl<const N: usize> LaneArrays<N> {
+    const EMPTY: LaneArrays<N> = LaneArrays {
+        o: [[0.0; N]; 3],
+        d: [[0.0; N]; 3],
+        inv_d: [[0.0; N]; 3],
+        t_lo: [0.0; N],
+        t_hi: [0.0; N],
+        tn: [0.0; N],
+        tf: [0.0; N],
+    };
+
     /// The lanes of `rays` up to the last active one (how many: the
-    /// second value). Every lane is converted, active or not, so that the
-    /// loops vectorise; an inactive lane gets an empty interval (and is
-    /// skipped by the callers whatever its roots). Each array is made where
-    /// it stays (a zeroed struct filled afterwards cost a memset per call).
+    /// value), made in place: in the caller's [`SetScratch`], so that
+    /// neither a zeroed struct per query nor a returned copy is made (both
+    /// showed in the profile). Every lane is converted, active or not, so
+    /// that the loops vectorise; an inactive lane gets an empty interval
+    /// (and is skipped by the callers whatever its roots).
     #[inline(always)]
-    fn of(rays: &PacketRays<'_, N>) -> (Self, usize) {
-        let conv = |x: &[f32; N]| x.map(f64::from);
-        let o = [conv(rays.org[0]), conv(rays.org[1]), conv(rays.org[2])];
-        let d = [conv(rays.dir[0]), conv(rays.dir[1]), conv(rays.dir[2])];
-        let inv = |x: &[f32; N]| x.map(|v| 1.0 / v as f64);
-        let inv_d = [inv(rays.dir[0]), inv(rays.dir[1]), inv(rays.dir[2])];
-        let (tn, tf) = (conv(rays.tnear), conv(rays.tfar));
+    fn fill(&mut self, rays: &PacketRays<'_, N>) -> usize {
+        let l = self;
+        for a in 0..3 {
+            for k in 0..N {
+                l.o[a][k] = rays.org[a][k] as f64;
+                l.d[a][k] = rays.dir[a][k] as f64;
+                l.inv_d[a][k] = 1.0 / rays.dir[a][k] as f64;
+            }
+        }
         // A crossing is kept when its t rounded to f32 is within the
         // interval: a relative 1e-6 covers that rounding many times over.
         // Branch-free, so that the loop vectorises.
-        let mut t_lo = [0.0; N];
-        let mut t_hi = [0.0; N];
         let mut m = 0;
         for k in 0..N {
+            let (tn, tf) = (rays.tnear[k] as f64, rays.tfar[k] as f64);
             let active = rays.active(k);
-            t_lo[k] = if active {
-                tn[k] - tn[k].abs() * 1e-6 - 1e-9
+            (l.tn[k], l.tf[k]) = (tn, tf);
+            l.t_lo[k] = if active {
+                tn - tn.abs() * 1e-6 - 1e-9
             } else {
                 f64::INFINITY
             };
-            t_hi[k] = if active {
-                tf[k] + tf[k].abs() * 1e-6 + 1e-9
+            l.t_hi[k] = if active {
+                tf + tf.abs() * 1e-6 + 1e-9
             } else {
                 f64::NEG_INFINITY
             };
             m = if active { k + 1 } else { m };
         }
-        (
-            LaneArrays {
-                o,
-                d,
-                inv_d,
-                t_lo,
-                t_hi,
-                tn,
-                tf,
-            },
-            m,
-        )
+        m
+    }
+}
+
+/// A thread's working storage for [`AnalyticSet::intersect`] and
+/// [`AnalyticSet::occlude`] on packets of `N` lanes: make one and pass it
+/// to every query.
+pub struct SetScratch<const N: usize> {
+    lanes: LaneArrays<N>,
+}
+
+impl<const N: usize> Default for SetScratch<N> {
+    fn default() -> Self {
+        SetScratch {
+            lanes: LaneArrays::EMPTY,
+        }
     }
 }
 
@@ -389,6 +406,7 @@ struct SetKernel<'a, const N: usize> {
     rays: PacketRays<'a, N>,
     occlusion: bool,
     out: &'a mut Resolved<N>,
+    lanes: &'a mut LaneArrays<N>,
 }
 
 impl<const N: usize> pulp::WithSimd for SetKernel<'_, N> {
@@ -402,13 +420,14 @@ impl<const N: usize> pulp::WithSimd for SetKernel<'_, N> {
             rays,
             occlusion,
             out,
+            lanes,
         } = self;
         // Converted here, where the loops vectorise to the full width.
-        let (lanes, m) = LaneArrays::of(&rays);
+        let m = lanes.fill(&rays);
         if m == 0 {
             return 0;
         }
-        let l = &lanes;
+        let l = &*lanes;
         // Whole vectors over the first m lanes (N is a multiple of every width).
         let n = m.div_ceil(S::F64_LANES) * S::F64_LANES;
         let o = [
@@ -1089,12 +1108,14 @@ impl AnalyticSet {
         packet: &P,
         occlusion: bool,
         out: &mut Resolved<N>,
+        scratch: &mut SetScratch<N>,
     ) -> usize {
         self.arch.dispatch(SetKernel {
             prims: &self.prims,
             rays: packet.rays(),
             occlusion,
             out,
+            lanes: &mut scratch.lanes,
         })
     }
 
@@ -1130,10 +1151,14 @@ impl AnalyticSet {
     /// the set lies within `[tnear, tfar]` (tfar: the mesh hit, if any) gets
     /// that crossing as its hit.
     /// Whether any lane's hit is now on the set.
-    pub fn intersect<const N: usize, P: RayPacket<N>>(&self, packet: &mut P) -> bool {
+    pub fn intersect<const N: usize, P: RayPacket<N>>(
+        &self,
+        packet: &mut P,
+        scratch: &mut SetScratch<N>,
+    ) -> bool {
         let mut r = Resolved::NONE;
         let mut any = false;
-        for k in 0..self.resolve(packet, false, &mut r) {
+        for k in 0..self.resolve(packet, false, &mut r, scratch) {
             if self.unsure(&r, k) {
                 self.replay(packet, k, r.boxes[k] as u32, |packet, p, c| {
                     let rays = packet.rays();
@@ -1159,9 +1184,9 @@ impl AnalyticSet {
     /// Complete an occlusion query of `packet` that Embree answered against
     /// the meshes alone: a lane not yet occluded that crosses a primitive of
     /// the set within `[tnear, tfar]` becomes occluded.
-    pub fn occlude<const N: usize, P: RayPacket<N>>(&self, packet: &mut P) {
+    pub fn occlude<const N: usize, P: RayPacket<N>>(&self, packet: &mut P, scratch: &mut SetScratch<N>) {
         let mut r = Resolved::NONE;
-        for k in 0..self.resolve(packet, true, &mut r) {
+        for k in 0..self.resolve(packet, true, &mut r, scratch) {
             if r.geom1[k] > 0.0 {
                 packet.set_occluded(k);
             } else if self.unsure(&r, k) {
@@ -1332,7 +1357,7 @@ material = { type = "dielectric", int_ior = 1.5, ext_ior = 1.0 }
                 b.set_ray(i, r);
             }
             a.intersect_meshes(&with.embree, false);
-            set.intersect(&mut a);
+            set.intersect(&mut a, &mut SetScratch::default());
             b.intersect(&with.embree, false);
             bad += (0..8).filter(|&i| bits(&a, i) != bits(&b, i)).count();
             for (i, r) in batch.iter().enumerate() {
@@ -1340,7 +1365,7 @@ material = { type = "dielectric", int_ior = 1.5, ext_ior = 1.0 }
                 b.set_ray(i, r);
             }
             a.occlude_meshes(&with.embree, false);
-            set.occlude(&mut a);
+            set.occlude(&mut a, &mut SetScratch::default());
             b.occlude(&with.embree, false);
             bad += (0..8).filter(|&i| a.occluded(i) != b.occluded(i)).count();
         }
@@ -1498,7 +1523,7 @@ material = { type = "dielectric", int_ior = 1.5, ext_ior = 1.0 }
                     p.set_ray(i, r);
                 }
                 p.intersect_meshes(&with.embree, false);
-                set.intersect(&mut p);
+                set.intersect(&mut p, &mut SetScratch::default());
                 let mut s = SurfaceLanes::<8>::default();
                 set.surface_points(&p, &mut s);
                 for (i, r) in batch.iter().enumerate() {
