@@ -1,9 +1,10 @@
 //! The path tracer's shading of a packet's lanes side by side in vector
 //! registers, for scenes whose every material is in the simple class:
 //! Lambertian (any texture), black, or a smooth interface between two
-//! different indices, lit by at most one rectangular light (and any
-//! environment), without priority solids or a gradient-index medium
-//! ([`ShadeLanes::applies`]).
+//! different indices, lit by at most one rectangular light and a black,
+//! constant or mapped environment (not a sky, whose escapes are weighed
+//! against its sun's sampling), without priority solids or a
+//! gradient-index medium ([`ShadeLanes::applies`]).
 //!
 //! Each lane goes through three phases, as `PathState::advance` does for one
 //! path in turn:
