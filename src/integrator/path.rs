@@ -13,7 +13,7 @@ use crate::error::Result;
 use crate::media::CurvedRay;
 use crate::ray::{front_facing, offset_origin, spawn_transmitted, Ray};
 use crate::sampling::{power_heuristic, Rng};
-use crate::scene::SurfacePoint;
+use crate::scene::{RenderScene, SurfacePoint};
 use glam::Vec3A as V3;
 
 /// A path tracer's path between two segments: the loop state of [`path`]
@@ -297,23 +297,31 @@ impl PathState {
                 }
             }
         }
+        (shadow, self.survives(scene, rng, st))
+    }
+
+    /// The end of a scattering step, once the next ray is set: one segment
+    /// deeper, then does the path go on? Not with zero throughput, nor when
+    /// Russian roulette ends it (one random number past `rr_depth`).
+    #[inline(always)]
+    pub(super) fn survives(&mut self, scene: &RenderScene, rng: &mut Rng, st: &mut Counters) -> bool {
         self.depth += 1;
         // A path with zero throughput (a black reflectance: cylinder_refraction's
         // emitting plane) can add nothing more, and would still cost rays.
         // Same image: every later term would be multiplied by 0.
         if self.beta.max_element() <= 0.0 {
             st.ended_absorbed += 1;
-            return (shadow, false);
+            return false;
         }
         if self.depth > scene.rr_depth {
             let q = (self.beta.max_element() * self.eta_scale).min(0.95);
             if rng.uniform() >= q {
                 st.ended_roulette += 1;
-                return (shadow, false);
+                return false;
             }
             self.beta /= q;
         }
-        (shadow, true)
+        true
     }
 
     /// The path's radiance (0, counted, when it is not finite).

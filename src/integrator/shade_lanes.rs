@@ -353,20 +353,7 @@ impl ShadeLanes {
         }
         path.beta = get3(&self.beta, i);
         path.prev_p = p;
-        path.depth += 1;
-        if path.beta.max_element() <= 0.0 {
-            st.ended_absorbed += 1;
-            return (shadow, false);
-        }
-        if path.depth > scene.rr_depth {
-            let q = (path.beta.max_element() * path.eta_scale).min(0.95);
-            if rng.uniform() >= q {
-                st.ended_roulette += 1;
-                return (shadow, false);
-            }
-            path.beta /= q;
-        }
-        (shadow, true)
+        (shadow, path.survives(scene, rng, st))
     }
 }
 
