@@ -237,6 +237,7 @@ pub mod ray;
 pub mod render;
 pub mod sampling;
 pub mod scene;
+mod simd3;
 pub mod timing;
 pub mod warp;
 pub mod warp_render;

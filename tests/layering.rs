@@ -14,8 +14,8 @@ use std::path::{Path, PathBuf};
 /// Bottom to top. A module may use only modules of lower layers.
 const LAYERS: &[&[&str]] = &[
     // Leaves: rays and hits, the physics of one interface, random numbers,
-    // provenance lines, event counters.
-    &["ray", "optics", "sampling", "provenance", "counters"],
+    // provenance lines, event counters, vectors of SIMD lanes.
+    &["ray", "optics", "sampling", "provenance", "counters", "simd3"],
     // The one FFI module.
     &["embree"],
     // Errors; the benchmarks' clocks and medians (over the FFI module's binding).

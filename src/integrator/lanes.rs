@@ -191,7 +191,14 @@ pub fn path_stream<const N: usize, P: RayPacket<N>>(
         vector_shading,
     } = packets;
     let surfaces = &mut SurfaceLanes::<N>::default();
-    let scratch = &mut SetScratch::<N>::default();
+    // The vector mode's analytic queries in f32 lanes; the scalar mode, and
+    // scenes with overlapping solids (whose nested rule decides coincident
+    // surfaces), get Embree's answers bit for bit.
+    let scratch = &mut if *vector_shading && !scene.has_overlap {
+        SetScratch::<N>::f32()
+    } else {
+        SetScratch::<N>::default()
+    };
     let vector = *vector_shading && ShadeLanes::applies(tr);
     if vector {
         shade.start(scene);

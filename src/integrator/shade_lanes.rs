@@ -32,6 +32,7 @@ use crate::ray::{front_facing, Ray, OFFSET_ULPS};
 use crate::sampling::{power_heuristic, Rng};
 use crate::scene::texture::Texture;
 use crate::scene::{Environment, Light, Material, RenderScene, SurfacePoint};
+use crate::simd3::{add, dot, mul, scale, select, splat, sub, Vec3s};
 use glam::Vec3A as V3;
 use std::f32::consts::{FRAC_1_PI, PI};
 
@@ -361,66 +362,6 @@ impl ShadeLanes {
 struct Kernel<'a> {
     s: &'a mut ShadeLanes,
     lanes: usize,
-}
-
-type Vec3s<S> = [<S as pulp::Simd>::f32s; 3];
-
-#[inline(always)]
-fn dot<S: pulp::Simd>(simd: S, a: Vec3s<S>, b: Vec3s<S>) -> S::f32s {
-    simd.add_f32s(
-        simd.add_f32s(simd.mul_f32s(a[0], b[0]), simd.mul_f32s(a[1], b[1])),
-        simd.mul_f32s(a[2], b[2]),
-    )
-}
-
-#[inline(always)]
-fn scale<S: pulp::Simd>(simd: S, a: Vec3s<S>, k: S::f32s) -> Vec3s<S> {
-    [
-        simd.mul_f32s(a[0], k),
-        simd.mul_f32s(a[1], k),
-        simd.mul_f32s(a[2], k),
-    ]
-}
-
-#[inline(always)]
-fn add<S: pulp::Simd>(simd: S, a: Vec3s<S>, b: Vec3s<S>) -> Vec3s<S> {
-    [
-        simd.add_f32s(a[0], b[0]),
-        simd.add_f32s(a[1], b[1]),
-        simd.add_f32s(a[2], b[2]),
-    ]
-}
-
-#[inline(always)]
-fn sub<S: pulp::Simd>(simd: S, a: Vec3s<S>, b: Vec3s<S>) -> Vec3s<S> {
-    [
-        simd.sub_f32s(a[0], b[0]),
-        simd.sub_f32s(a[1], b[1]),
-        simd.sub_f32s(a[2], b[2]),
-    ]
-}
-
-#[inline(always)]
-fn mul<S: pulp::Simd>(simd: S, a: Vec3s<S>, b: Vec3s<S>) -> Vec3s<S> {
-    [
-        simd.mul_f32s(a[0], b[0]),
-        simd.mul_f32s(a[1], b[1]),
-        simd.mul_f32s(a[2], b[2]),
-    ]
-}
-
-#[inline(always)]
-fn select<S: pulp::Simd>(simd: S, m: S::m32s, a: Vec3s<S>, b: Vec3s<S>) -> Vec3s<S> {
-    [
-        simd.select_f32s(m, a[0], b[0]),
-        simd.select_f32s(m, a[1], b[1]),
-        simd.select_f32s(m, a[2], b[2]),
-    ]
-}
-
-#[inline(always)]
-fn splat<S: pulp::Simd>(simd: S, v: V3) -> Vec3s<S> {
-    [simd.splat_f32s(v.x), simd.splat_f32s(v.y), simd.splat_f32s(v.z)]
 }
 
 #[inline(always)]
