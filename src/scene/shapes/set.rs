@@ -32,7 +32,7 @@
 //!
 //! [`SceneBuilder::with_meshes_only`]: crate::embree::SceneBuilder::with_meshes_only
 use super::segment::candidate;
-use super::set_f32::{split, PrimF32, ResolvedF32, SetKernelF32};
+use super::set_f32::{split, PrimF32, SetKernelF32};
 use super::Analytic;
 use crate::embree::{Candidate, Candidates, PacketRays, RayPacket, UserShape};
 use crate::ray::Hit;
@@ -265,8 +265,8 @@ impl<const N: usize> LaneArrays<N> {
 pub struct SetScratch<const N: usize> {
     lanes: LaneArrays<N>,
     f32: bool,
-    out64: Resolved<N>,
-    out32: ResolvedF32<N>,
+    out64: Resolved<f64, N>,
+    out32: Resolved<f32, N>,
 }
 
 impl<const N: usize> Default for SetScratch<N> {
@@ -275,7 +275,7 @@ impl<const N: usize> Default for SetScratch<N> {
             lanes: LaneArrays::EMPTY,
             f32: false,
             out64: Resolved::NONE,
-            out32: ResolvedF32::NONE,
+            out32: Resolved::NONE,
         }
     }
 }
@@ -294,38 +294,79 @@ impl<const N: usize> SetScratch<N> {
     }
 }
 
-/// What [`SetKernel`] decides for each lane of a packet, as the scalar code
-/// would: its nearest crossing among the set's primitives (a nearest-hit
-/// query) or whether it has any (occlusion), unless the f32 rounding of a
-/// root could tip a comparison (`unsure`: the lane is replayed in scalar
-/// code).
-struct Resolved<const N: usize> {
+/// What a kernel decides for each lane of a packet, in its own precision
+/// `T` (f64: [`SetKernel`], as the scalar code would; f32: `set_f32`): its
+/// nearest crossing among the set's primitives (a nearest-hit query) or
+/// whether it has any (occlusion), unless rounding could tip a comparison
+/// (`unsure`: the lane is replayed in scalar code).
+pub(super) struct Resolved<T, const N: usize> {
     /// The crossing's t (its f32 is the hit's).
-    t: [f64; N],
+    pub t: [T; N],
     /// The crossing's geometry id plus one, 0 for none (in occlusion: the
     /// lane is occluded for sure). All zeros is no answer, an initial
     /// value the compiler writes without a copy.
-    geom1: [f64; N],
+    pub geom1: [T; N],
     /// Its primitive id.
-    prim: [f64; N],
+    pub prim: [T; N],
     /// The crossing's normal before its conversion to f32.
-    n: [[f64; N]; 3],
+    pub n: [[T; N]; 3],
     /// Nonzero: decide the lane in scalar code.
-    unsure: [f64; N],
+    pub unsure: [T; N],
     /// The primitives whose boxes the lane meets, bit `i` for the `i`th
     /// (what Embree would call back for).
-    boxes: [f64; N],
+    pub boxes: [T; N],
 }
 
-impl<const N: usize> Resolved<N> {
-    const NONE: Resolved<N> = Resolved {
-        t: [0.0; N],
-        geom1: [0.0; N],
-        prim: [0.0; N],
-        n: [[0.0; N]; 3],
-        unsure: [0.0; N],
-        boxes: [0.0; N],
+/// The lane types of [`Resolved`].
+pub(super) trait LaneValue: Copy + Into<f64> {
+    const ZERO: Self;
+}
+
+impl LaneValue for f32 {
+    const ZERO: f32 = 0.0;
+}
+
+impl LaneValue for f64 {
+    const ZERO: f64 = 0.0;
+}
+
+impl<T: LaneValue, const N: usize> Resolved<T, N> {
+    pub const NONE: Resolved<T, N> = Resolved {
+        t: [T::ZERO; N],
+        geom1: [T::ZERO; N],
+        prim: [T::ZERO; N],
+        n: [[T::ZERO; N]; 3],
+        unsure: [T::ZERO; N],
+        boxes: [T::ZERO; N],
     };
+
+    /// Decide lane `k` in scalar code?
+    #[inline(always)]
+    fn unsure_at(&self, k: usize) -> bool {
+        self.unsure[k].into() != 0.0
+    }
+
+    /// The primitives whose boxes lane `k` meets, bit `i` for the `i`th.
+    #[inline(always)]
+    fn boxes_at(&self, k: usize) -> u32 {
+        self.boxes[k].into() as u32
+    }
+
+    /// Lane `k`'s nearest crossing: geometry and primitive ids, t, normal.
+    #[inline(always)]
+    fn crossing(&self, k: usize) -> Option<(u32, u32, f64, DVec3)> {
+        let geom1: f64 = self.geom1[k].into();
+        (geom1 > 0.0).then(|| {
+            let n = DVec3::new(self.n[0][k].into(), self.n[1][k].into(), self.n[2][k].into());
+            (geom1 as u32 - 1, self.prim[k].into() as u32, self.t[k].into(), n)
+        })
+    }
+
+    /// Is lane `k` occluded for sure (an occlusion query's answer)?
+    #[inline(always)]
+    fn occluded(&self, k: usize) -> bool {
+        self.geom1[k].into() > 0.0
+    }
 }
 
 /// Relative and absolute slack around an interval's ends beyond which a
@@ -523,7 +564,7 @@ struct SetKernel<'a, const N: usize> {
     prims: &'a [Primitive],
     rays: PacketRays<'a, N>,
     occlusion: bool,
-    out: &'a mut Resolved<N>,
+    out: &'a mut Resolved<f64, N>,
     lanes: &'a mut LaneArrays<N>,
 }
 
@@ -928,7 +969,7 @@ impl<const N: usize> pulp::WithSimd for SetQuery<'_, N> {
             scratch,
         } = self;
         if scratch.f32 && N.is_multiple_of(S::F32_LANES) {
-            scratch.out32 = ResolvedF32::NONE;
+            scratch.out32 = Resolved::NONE;
             let kernel = SetKernelF32 {
                 prims: &set.fast,
                 rays,
@@ -962,62 +1003,6 @@ fn f32_level<const N: usize>(arch: pulp::Arch) -> pulp::Arch {
         }
     }
     arch
-}
-
-/// A kernel's answer, lane by lane.
-trait Answer {
-    /// Decide lane `k` in scalar code?
-    fn unsure(&self, k: usize) -> bool;
-    /// The primitives whose boxes lane `k` meets, bit `i` for the `i`th.
-    fn boxes(&self, k: usize) -> u32;
-    /// Lane `k`'s nearest crossing: geometry and primitive ids, t, normal.
-    fn crossing(&self, k: usize) -> Option<(u32, u32, f64, DVec3)>;
-    /// Is lane `k` occluded for sure (an occlusion query's answer)?
-    fn occluded(&self, k: usize) -> bool;
-}
-
-impl<const N: usize> Answer for Resolved<N> {
-    #[inline(always)]
-    fn unsure(&self, k: usize) -> bool {
-        self.unsure[k] != 0.0
-    }
-    #[inline(always)]
-    fn boxes(&self, k: usize) -> u32 {
-        self.boxes[k] as u32
-    }
-    #[inline(always)]
-    fn crossing(&self, k: usize) -> Option<(u32, u32, f64, DVec3)> {
-        (self.geom1[k] > 0.0).then(|| {
-            let n = DVec3::new(self.n[0][k], self.n[1][k], self.n[2][k]);
-            (self.geom1[k] as u32 - 1, self.prim[k] as u32, self.t[k], n)
-        })
-    }
-    #[inline(always)]
-    fn occluded(&self, k: usize) -> bool {
-        self.geom1[k] > 0.0
-    }
-}
-
-impl<const N: usize> Answer for ResolvedF32<N> {
-    #[inline(always)]
-    fn unsure(&self, k: usize) -> bool {
-        self.unsure[k] != 0.0
-    }
-    #[inline(always)]
-    fn boxes(&self, k: usize) -> u32 {
-        self.boxes[k] as u32
-    }
-    #[inline(always)]
-    fn crossing(&self, k: usize) -> Option<(u32, u32, f64, DVec3)> {
-        (self.geom1[k] > 0.0).then(|| {
-            let n = DVec3::new(self.n[0][k] as f64, self.n[1][k] as f64, self.n[2][k] as f64);
-            (self.geom1[k] as u32 - 1, self.prim[k] as u32, self.t[k] as f64, n)
-        })
-    }
-    #[inline(always)]
-    fn occluded(&self, k: usize) -> bool {
-        self.geom1[k] > 0.0
-    }
 }
 
 /// The surface points of a packet's hits on the set's quadrics and rects,
@@ -1323,12 +1308,12 @@ impl AnalyticSet {
 
     /// Is lane `k` of the kernel's answer `r` one to replay in scalar code?
     #[inline(always)]
-    fn unsure<R: Answer>(&self, r: &R, k: usize) -> bool {
+    fn unsure<T: LaneValue, const N: usize>(&self, r: &Resolved<T, N>, k: usize) -> bool {
         #[cfg(test)]
         if self.trust_kernel {
             return false;
         }
-        r.unsure(k)
+        r.unsure_at(k)
     }
 
     /// Number of primitives.
@@ -1410,11 +1395,16 @@ impl AnalyticSet {
     /// [`Self::intersect`] with the kernel's answer `r` for the first `m`
     /// lanes.
     #[inline(always)]
-    fn take_hits<const N: usize, P: RayPacket<N>, R: Answer>(&self, packet: &mut P, r: &R, m: usize) -> bool {
+    fn take_hits<const N: usize, P: RayPacket<N>, T: LaneValue>(
+        &self,
+        packet: &mut P,
+        r: &Resolved<T, N>,
+        m: usize,
+    ) -> bool {
         let mut any = false;
         for k in 0..m {
             if self.unsure(r, k) {
-                self.replay(packet, k, r.boxes(k), |packet, p, c| {
+                self.replay(packet, k, r.boxes_at(k), |packet, p, c| {
                     let rays = packet.rays();
                     let (tnear, tfar) = (rays.tnear[k], rays.tfar[k]);
                     // Sorted: the first crossing within the interval is the nearest.
@@ -1443,12 +1433,17 @@ impl AnalyticSet {
 
     /// [`Self::occlude`] with the kernel's answer `r` for the first `m` lanes.
     #[inline(always)]
-    fn take_occlusion<const N: usize, P: RayPacket<N>, R: Answer>(&self, packet: &mut P, r: &R, m: usize) {
+    fn take_occlusion<const N: usize, P: RayPacket<N>, T: LaneValue>(
+        &self,
+        packet: &mut P,
+        r: &Resolved<T, N>,
+        m: usize,
+    ) {
         for k in 0..m {
             if r.occluded(k) {
                 packet.set_occluded(k);
             } else if self.unsure(r, k) {
-                self.replay(packet, k, r.boxes(k), |packet, _, c| {
+                self.replay(packet, k, r.boxes_at(k), |packet, _, c| {
                     let rays = packet.rays();
                     let (tnear, tfar) = (rays.tnear[k], rays.tfar[k]);
                     if c.as_slice().iter().any(|c| c.t >= tnear && c.t <= tfar) {

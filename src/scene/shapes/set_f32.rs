@@ -30,36 +30,11 @@
 //! surface starts `OFFSET_ULPS` ulps of its position away from it, several
 //! times the bound of the root at that surface, so that root is decided
 //! for sure: a render's unsure lanes are a few in a million.
-use super::set::{QuadricF32, Split};
+use super::set::{QuadricF32, Resolved, Split};
 use crate::embree::PacketRays;
 
 /// The safety factor of the error bounds (the analysis gives about 2).
 pub(super) const ERROR_SAFETY: f32 = 4.0;
-
-/// What [`SetKernelF32`] decides for each lane (the f32 form of
-/// `Resolved`): its nearest sure crossing or occlusion, and which lanes are
-/// unsure.
-pub(super) struct ResolvedF32<const N: usize> {
-    pub t: [f32; N],
-    /// Geometry id plus one, 0 for none.
-    pub geom1: [f32; N],
-    pub prim: [f32; N],
-    pub n: [[f32; N]; 3],
-    pub unsure: [f32; N],
-    /// The primitives whose boxes the lane meets, bit `i` for the `i`th.
-    pub boxes: [f32; N],
-}
-
-impl<const N: usize> ResolvedF32<N> {
-    pub const NONE: ResolvedF32<N> = ResolvedF32 {
-        t: [0.0; N],
-        geom1: [0.0; N],
-        prim: [0.0; N],
-        n: [[0.0; N]; 3],
-        unsure: [0.0; N],
-        boxes: [0.0; N],
-    };
-}
 
 /// One primitive as the kernel reads it.
 #[derive(Debug, Clone, Copy)]
@@ -73,12 +48,12 @@ pub(super) struct PrimF32 {
 }
 
 /// The set's query for the first `m` lanes at one vector level (see the
-/// module's documentation), into `out` (which holds `ResolvedF32::NONE`).
+/// module's documentation), into `out` (which holds `Resolved::NONE`).
 pub(super) struct SetKernelF32<'a, const N: usize> {
     pub prims: &'a [PrimF32],
     pub rays: PacketRays<'a, N>,
     pub occlusion: bool,
-    pub out: &'a mut ResolvedF32<N>,
+    pub out: &'a mut Resolved<f32, N>,
 }
 
 // Arithmetic on the lanes, written with macros rather than closures (see
@@ -263,7 +238,7 @@ impl<const N: usize> pulp::WithSimd for SetKernelF32<'_, N> {
                 )
             );
         }
-        let ResolvedF32 {
+        let Resolved {
             t: best_t,
             geom1: best_g,
             prim: best_p,
