@@ -306,9 +306,12 @@ pub struct RenderOptions {
 
 /// How the path tracer shades a packet's paths ([`RenderOptions::shading`]).
 /// The two give the same image up to rounding: vector shading is f32
-/// throughout, scalar shading solves Fresnel and Snell in f64 (a path
-/// whose random number falls within rounding of a Fresnel reflectance
-/// takes the other lobe).
+/// throughout (and so are its packets' queries of the analytic shapes,
+/// where no solids overlap: `shapes::SetScratch::f32`), scalar shading
+/// solves Fresnel and Snell in f64 and queries the analytic shapes in f64,
+/// the reference that single rays reproduce bit for bit (a path whose
+/// random number falls within rounding of a Fresnel reflectance takes the
+/// other lobe).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub enum Shading {
     /// A packet's paths side by side in vector registers where the scene

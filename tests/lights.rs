@@ -261,16 +261,19 @@ material = { type = "mirror" }
 
 /// The path tracer's packets (eight paths side by side) give every path the
 /// radiance of the same path traced alone, bit for bit, with emitting
-/// objects and a spot among the lights.
+/// objects and a spot among the lights: in the reference mode (scalar
+/// shading, the analytic shapes' queries in f64), which is what this
+/// compares.
 #[test]
 fn packet_lanes_trace_the_new_lights_as_single_rays_do() {
     use snell::embree::Packet8;
-    use snell::integrator::{path_lanes, path_lanes_apply};
+    use snell::integrator::{path_lanes, path_lanes_apply, LanePackets};
     let s = load("lamps.toml", LAMPS).unwrap();
     assert_eq!(s.lights.len(), 5, "spot, rect and three emitting objects");
     let tr = Tracer::new(&s);
     assert!(path_lanes_apply(tr));
     let list = InteriorList::from_solids(&s.solids, &s.camera_interior);
+    let reference = || LanePackets::<Packet8>::with_vector_shading(false);
     let (mut lit, mut differs) = (0, 0);
     for pixel in 0..32 * 24u64 {
         let (x, y) = ((pixel % 32) as f32, (pixel / 32) as f32);
@@ -283,8 +286,7 @@ fn packet_lanes_trace_the_new_lights_as_single_rays_do() {
             .collect();
         let mut scalar = rngs.clone();
         let mut sts = [Counters::default(); 8];
-        let lanes =
-            path_lanes::<8, Packet8>(tr, &cams, &list, &rngs, &mut sts, &mut Default::default()).unwrap();
+        let lanes = path_lanes::<8, Packet8>(tr, &cams, &list, &rngs, &mut sts, &mut reference()).unwrap();
         for i in 0..8 {
             let mut st = Counters::default();
             let l = radiance(tr, cams[i].0, cams[i].1, list.clone(), &mut scalar[i], &mut st).unwrap();
@@ -298,7 +300,7 @@ fn packet_lanes_trace_the_new_lights_as_single_rays_do() {
         let other = rngs_at(8);
         let mut sts2 = [Counters::default(); 8];
         let shifted =
-            path_lanes::<8, Packet8>(tr, &cams, &list, &other, &mut sts2, &mut Default::default()).unwrap();
+            path_lanes::<8, Packet8>(tr, &cams, &list, &other, &mut sts2, &mut reference()).unwrap();
         differs += (shifted != lanes) as u32;
     }
     assert!(lit > 2000, "{lit} lit paths");

@@ -55,7 +55,9 @@ impl<P: Default> Default for LanePackets<P> {
 
 impl<P: Default> LanePackets<P> {
     /// Packets whose paths are shaded in vector registers (`vector`, where
-    /// the scene allows it) or one by one.
+    /// the scene allows it; their analytic queries in f32 where no solids
+    /// overlap) or one by one (the queries in f64: the reference, which
+    /// single rays reproduce bit for bit).
     pub fn with_vector_shading(vector: bool) -> Self {
         LanePackets {
             near: P::default(),

@@ -120,7 +120,9 @@ pub struct RenderArgs {
     /// How the path tracer shades a packet's paths: `vector` (side by side
     /// in vector registers, f32, where every material is Lambertian, black
     /// or a smooth interface and the only light a rectangle; one by one
-    /// otherwise) or `scalar` (one by one, Fresnel and Snell in f64). The
+    /// otherwise; the analytic shapes' packet queries in f32 where no
+    /// solids overlap) or `scalar` (one by one, Fresnel and Snell in f64,
+    /// the analytic shapes' queries in f64 as single rays make them). The
     /// images agree up to rounding.
     #[arg(long, value_enum, default_value = "vector")]
     pub shading: ShadingArg,
