@@ -61,6 +61,12 @@ pub struct Counters {
     pub shade_slots: u64,
     /// Paths those calls shaded.
     pub shade_lanes: u64,
+    /// Lanes of the path tracer's packets that the analytic set's vector
+    /// kernels answered (nearest hits and shadow rays).
+    pub set_lanes: u64,
+    /// Those answered again by its scalar f64 code: `set_replayed_lanes /
+    /// set_lanes` is the share the kernels could not be sure of.
+    pub set_replayed_lanes: u64,
     /// Light samples drawn for next-event estimation (at non-delta vertices
     /// that reflect something, before the last depth); those facing away
     /// from the surface or the light cast no shadow ray.
@@ -110,6 +116,8 @@ impl AddAssign for Counters {
             shadow_packet_lanes,
             shade_slots,
             shade_lanes,
+            set_lanes,
+            set_replayed_lanes,
             nee_draws,
             ended_escaped,
             ended_max_depth,
@@ -138,6 +146,8 @@ impl AddAssign for Counters {
         self.shadow_packet_lanes += shadow_packet_lanes;
         self.shade_slots += shade_slots;
         self.shade_lanes += shade_lanes;
+        self.set_lanes += set_lanes;
+        self.set_replayed_lanes += set_replayed_lanes;
         self.nee_draws += nee_draws;
         self.ended_escaped += ended_escaped;
         self.ended_max_depth += ended_max_depth;

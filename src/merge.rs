@@ -269,7 +269,7 @@ pub fn sum_stats<'a>(
     stats: impl Iterator<Item = Option<&'a serde_json::Value>>,
     parts: usize,
 ) -> serde_json::Value {
-    const SUMMED: [&str; 31] = [
+    const SUMMED: [&str; 33] = [
         "wall_s",
         "cpu_s",
         "tiles_cpu_s",
@@ -295,6 +295,8 @@ pub fn sum_stats<'a>(
         "shadow_packet_lanes",
         "shade_slots",
         "shade_lanes",
+        "set_lanes",
+        "set_replayed_lanes",
         "nee_draws",
         "ended_escaped",
         "ended_max_depth",
@@ -339,6 +341,7 @@ pub fn sum_stats<'a>(
         "packet_lane_share": get("packet_lanes") / get("packet_slots").max(1.0),
         "shadow_packet_lane_share": get("shadow_packet_lanes") / get("shadow_packet_slots").max(1.0),
         "shade_lane_share": get("shade_lanes") / get("shade_slots").max(1.0),
+        "set_replayed_share": get("set_replayed_lanes") / get("set_lanes").max(1.0),
         "provenance": crate::provenance::json(),
     });
     if let serde_json::Value::Object(d) = derived {

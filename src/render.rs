@@ -173,6 +173,7 @@ impl RenderStats {
             "packet_lane_share": per(c.packet_lanes, c.packet_slots),
             "shadow_packet_lane_share": per(c.shadow_packet_lanes, c.shadow_packet_slots),
             "shade_lane_share": per(c.shade_lanes, c.shade_slots),
+            "set_replayed_share": per(c.set_replayed_lanes, c.set_lanes),
             "provenance": crate::provenance::json(),
         });
         if let (Some(o), serde_json::Value::Object(d)) = (j.as_object_mut(), derived) {

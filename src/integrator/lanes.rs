@@ -378,6 +378,8 @@ pub fn path_stream<const N: usize, P: RayPacket<N>>(
             false
         });
     }
+    occupancy.set_lanes += scratch.answered;
+    occupancy.set_replayed_lanes += scratch.replayed;
     *stats += shared;
     Ok(())
 }

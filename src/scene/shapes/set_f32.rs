@@ -54,6 +54,9 @@ pub(super) struct SetKernelF32<'a, const N: usize> {
     pub rays: PacketRays<'a, N>,
     pub occlusion: bool,
     pub out: &'a mut Resolved<f32, N>,
+    /// The error bounds' safety factor ([`ERROR_SAFETY`]; the tests widen
+    /// it to show what loose bounds cost).
+    pub safety: f32,
 }
 
 // Arithmetic on the lanes, written with macros rather than closures (see
@@ -140,6 +143,7 @@ impl<const N: usize> pulp::WithSimd for SetKernelF32<'_, N> {
             rays,
             occlusion,
             out,
+            safety,
         } = self;
         // m: the lanes up to the last active one.
         let mut act = [0.0f32; N];
@@ -250,7 +254,7 @@ impl<const N: usize> pulp::WithSimd for SetKernelF32<'_, N> {
         let (best_x, best_y, best_z) = (lanes_mut!(best_x), lanes_mut!(best_y), lanes_mut!(best_z));
         let (unsure, boxes) = (lanes_mut!(unsure), lanes_mut!(boxes));
         let no = v!(simd, less_than_f32s, one, zero);
-        let eps = simd.splat_f32s(ERROR_SAFETY * f32::EPSILON);
+        let eps = simd.splat_f32s(safety * f32::EPSILON);
         // `Segment::is_touch`'s window coefficient and its absolute floor.
         let window_k = simd.splat_f32s(2.0 * crate::ray::OFFSET_ULPS * f32::EPSILON);
         for (index, p) in prims.iter().enumerate() {
