@@ -173,7 +173,7 @@ struct Primitive {
     prim: u32,
     shape: Analytic,
     /// Embree's padded box, as (low, high) corners.
-    bounds: ([f32; 3], [f32; 3]),
+    bounds: ([f64; 3], [f64; 3]),
     quadric: Option<Quadric>,
 }
 
@@ -638,7 +638,7 @@ impl<const N: usize> pulp::WithSimd for SetKernel<'_, N> {
         let (zero, one) = (simd.splat_f64s(0.0), simd.splat_f64s(1.0));
         let no = v!(simd, less_than_f64s, one, zero);
         for (index, p) in prims.iter().enumerate() {
-            let (lo, hi) = (p.bounds.0.map(f64::from), p.bounds.1.map(f64::from));
+            let (lo, hi) = p.bounds;
             let bit = simd.splat_f64s((1u32 << index) as f64);
             for k in 0..o[0].len() {
                 // The slab test. A ray parallel to a face and lying in its
@@ -1288,7 +1288,7 @@ impl AnalyticSet {
                     geom,
                     prim,
                     shape,
-                    bounds: (b.lower, b.upper),
+                    bounds: (b.lower.map(f64::from), b.upper.map(f64::from)),
                     quadric,
                 });
                 if prims.len() > MAX_SET_PRIMITIVES {
@@ -1301,7 +1301,8 @@ impl AnalyticSet {
             .map(|p| PrimF32 {
                 geom: p.geom,
                 prim: p.prim,
-                bounds: p.bounds,
+                // f32 values widened to f64: exact back in f32.
+                bounds: (p.bounds.0.map(|x| x as f32), p.bounds.1.map(|x| x as f32)),
                 quadric: p.quadric.as_ref().map(QuadricF32::of),
             })
             .collect();
@@ -1590,29 +1591,11 @@ material = { type = "dielectric", int_ior = 1.5, ext_ior = 1.0 }
 
     /// `SETS[0]` with every primitive in a vector form: its tilted capped
     /// cylinder upright.
-    const VECTOR_FORMS: &str = r#"
-[[objects]]
-name = "ball"
-shape = { type = "sphere", center = [0.3, 0.6, -0.2], radius = 0.6 }
-material = { type = "dielectric", int_ior = 1.5, ext_ior = 1.0 }
-[[objects]]
-name = "pipe"
-shape = { type = "cylinder", p0 = [0.0, -1.0, 0.0], p1 = [0.0, 1.0, 0.0], radius = 1.0, normal = "in" }
-material = { type = "dielectric", int_ior = 1.5, ext_ior = 1.0 }
-[[objects]]
-name = "can"
-shape = { type = "cylinder", p0 = [0.1, -1.0, 0.2], p1 = [0.1, 1.0, 0.2], radius = 0.7, caps = true }
-material = { type = "dielectric", int_ior = 1.5, ext_ior = 1.0 }
-[[objects]]
-name = "disk"
-shape = { type = "disk", center = [0.0, 1.2, 0.0], normal = [0.0, 1.0, 0.0], radius = 0.5 }
-material = { type = "diffuse", reflectance = [0.5, 0.5, 0.5] }
-[[objects]]
-name = "card"
-shape = { type = "rect", center = [0.0, 0.0, 0.0], normal = [0.0, 0.0, 1.0], u_axis = [1.0, 0.0, 0.0], size = [1.2, 0.8] }
-transform = [{ matrix = [[1.0, 0.4, 0.0, -0.6], [0.0, 1.0, 0.3, 0.2], [0.2, 0.0, 1.0, 0.8], [0.0, 0.0, 0.0, 1.0]] }]
-material = { type = "diffuse", reflectance = [0.5, 0.5, 0.5] }
-"#;
+    fn vector_forms() -> String {
+        let tilted = "p1 = [0.5, 1.0, 0.4]";
+        assert!(SETS[0].contains(tilted));
+        SETS[0].replace(tilted, "p1 = [0.1, 1.0, 0.2]")
+    }
 
     /// Packets of rays aimed near the shapes (grazing ones included), with
     /// any interval.
@@ -1985,9 +1968,9 @@ material = { type = "diffuse", reflectance = [0.5, 0.5, 0.5] }
         // vector form (no tilted wall, whose lanes are always replayed), the
         // kernel is sure of nearly every lane (renders replay a few in a
         // million); bounds a hundred times looser, still right, replay many.
-        let with = scene(VECTOR_FORMS, true);
+        let with = scene(&vector_forms(), true);
         let set = with.analytic_set.clone().expect("a set of few shapes");
-        let (free, _) = f32_rays(&scene(VECTOR_FORMS, false));
+        let (free, _) = f32_rays(&scene(&vector_forms(), false));
         let free_share = |set: &AnalyticSet| {
             let c = f32_against_embree::<16, _>(set, &with, &free, crate::embree::Packet16::new);
             assert_eq!(c.wrong, 0);

@@ -32,6 +32,7 @@
 //! for sure: a render's unsure lanes are a few in a million.
 use super::set::{QuadricF32, Resolved, Split};
 use crate::embree::PacketRays;
+use crate::simd3::select;
 
 /// The safety factor of the error bounds (the analysis gives about 2).
 pub(super) const ERROR_SAFETY: f32 = 4.0;
@@ -255,8 +256,10 @@ impl<const N: usize> pulp::WithSimd for SetKernelF32<'_, N> {
         let (unsure, boxes) = (lanes_mut!(unsure), lanes_mut!(boxes));
         let no = v!(simd, less_than_f32s, one, zero);
         let eps = simd.splat_f32s(safety * f32::EPSILON);
-        // `Segment::is_touch`'s window coefficient and its absolute floor.
+        // `Segment::is_touch`'s window coefficient; the slab ends' widening
+        // (past their f32 rounding, 1.5 ulps).
         let window_k = simd.splat_f32s(2.0 * crate::ray::OFFSET_ULPS * f32::EPSILON);
+        let w = simd.splat_f32s(4.0 * f32::EPSILON);
         for (index, p) in prims.iter().enumerate() {
             let (lo, hi) = p.bounds;
             let bit = simd.splat_f32s((1u32 << index) as f32);
@@ -279,7 +282,6 @@ impl<const N: usize> pulp::WithSimd for SetKernelF32<'_, N> {
                     near = v!(simd, max_f32s, near, v!(simd, min_f32s, ta, tb));
                     far = v!(simd, min_f32s, far, v!(simd, max_f32s, ta, tb));
                 }
-                let w = simd.splat_f32s(4.0 * f32::EPSILON);
                 let meets = v!(
                     simd,
                     less_than_or_equal_f32s,
@@ -340,7 +342,8 @@ impl<const N: usize> pulp::WithSimd for SetKernelF32<'_, N> {
                         let fy = v!(simd, add_f32s, cy, v!(simd, mul_f32s, dy, tc));
                         let fz = v!(simd, add_f32s, cz, v!(simd, mul_f32s, d[2][k], tc));
                         let h = v!(simd, sub_f32s, r2, dot!(simd, fx, fy, fz, fx, fy, fz));
-                        let cq = v!(simd, sub_f32s, dot!(simd, cx, cy, cz, cx, cy, cz), r2);
+                        let cc = dot!(simd, cx, cy, cz, cx, cy, cz);
+                        let cq = v!(simd, sub_f32s, cc, r2);
                         // Error bounds (each a multiple of `eps`, k·ε): of
                         // the offset c (a few ulps of each component), of
                         // b = c·d, of h through f (its error: c's, and the
@@ -409,12 +412,7 @@ impl<const N: usize> pulp::WithSimd for SetKernelF32<'_, N> {
                         );
                         let eq = v!(simd, add_f32s, eb, es);
                         let inv_q = v!(simd, div_f32s, one, v!(simd, abs_f32s, q));
-                        let ecq = v!(
-                            simd,
-                            mul_f32s,
-                            eps,
-                            v!(simd, add_f32s, dot!(simd, cx, cy, cz, cx, cy, cz), r2)
-                        );
+                        let ecq = v!(simd, mul_f32s, eps, v!(simd, add_f32s, cc, r2));
                         let e_r0 = v!(
                             simd,
                             add_f32s,
@@ -669,64 +667,40 @@ impl<const N: usize> pulp::WithSimd for SetKernelF32<'_, N> {
                         );
                         let (inside, unsure_in) = match quadric {
                             QuadricF32::Rect { to_a, to_b, .. } => {
-                                let a = dot!(
+                                // The crossing's coordinate along an edge's
+                                // dual, in [0, 1] inside: (surely, unsure).
+                                macro_rules! coordinate {
+                                    ($e:expr) => {{
+                                        let e = $e;
+                                        let c = dot!(
+                                            simd,
+                                            qx,
+                                            qy,
+                                            qz,
+                                            simd.splat_f32s(e[0]),
+                                            simd.splat_f32s(e[1]),
+                                            simd.splat_f32s(e[2])
+                                        );
+                                        let err = simd.splat_f32s(e[0].abs() + e[1].abs() + e[2].abs());
+                                        band(simd, c, zero, one, v!(simd, mul_f32s, eq, err))
+                                    }};
+                                }
+                                let ((in_a, unsure_a), (in_b, unsure_b)) =
+                                    (coordinate!(to_a), coordinate!(to_b));
+                                // Unsure of one and surely outside neither.
+                                let outside = v!(
                                     simd,
-                                    qx,
-                                    qy,
-                                    qz,
-                                    simd.splat_f32s(to_a[0]),
-                                    simd.splat_f32s(to_a[1]),
-                                    simd.splat_f32s(to_a[2])
+                                    or_m32s,
+                                    v!(simd, not_m32s, v!(simd, or_m32s, in_a, unsure_a)),
+                                    v!(simd, not_m32s, v!(simd, or_m32s, in_b, unsure_b))
                                 );
-                                let b = dot!(
-                                    simd,
-                                    qx,
-                                    qy,
-                                    qz,
-                                    simd.splat_f32s(to_b[0]),
-                                    simd.splat_f32s(to_b[1]),
-                                    simd.splat_f32s(to_b[2])
-                                );
-                                let ea = v!(
-                                    simd,
-                                    mul_f32s,
-                                    eq,
-                                    simd.splat_f32s(to_a[0].abs() + to_a[1].abs() + to_a[2].abs())
-                                );
-                                let eb = v!(
-                                    simd,
-                                    mul_f32s,
-                                    eq,
-                                    simd.splat_f32s(to_b[0].abs() + to_b[1].abs() + to_b[2].abs())
-                                );
-                                let (ia_, ua) = band(simd, a, zero, one, ea);
-                                let (ib, ub) = band(simd, b, zero, one, eb);
                                 (
-                                    v!(simd, and_m32s, ia_, ib),
+                                    v!(simd, and_m32s, in_a, in_b),
                                     v!(
                                         simd,
                                         and_m32s,
-                                        v!(simd, or_m32s, ua, ub),
-                                        v!(
-                                            simd,
-                                            not_m32s,
-                                            v!(
-                                                simd,
-                                                or_m32s,
-                                                v!(
-                                                    simd,
-                                                    and_m32s,
-                                                    v!(simd, not_m32s, ia_),
-                                                    v!(simd, not_m32s, ua)
-                                                ),
-                                                v!(
-                                                    simd,
-                                                    and_m32s,
-                                                    v!(simd, not_m32s, ib),
-                                                    v!(simd, not_m32s, ub)
-                                                )
-                                            )
-                                        )
+                                        v!(simd, or_m32s, unsure_a, unsure_b),
+                                        v!(simd, not_m32s, outside)
                                     ),
                                 )
                             }
@@ -804,27 +778,10 @@ impl<const N: usize> pulp::WithSimd for SetKernelF32<'_, N> {
                 }
                 best_t[k] = v!(simd, select_f32s, any, t, best_t[k]);
                 lim[k] = v!(simd, select_f32s, any, t, lim[k]);
-                best_x[k] = v!(
-                    simd,
-                    select_f32s,
-                    any,
-                    v!(simd, select_f32s, first, normal0[0], normal1[0]),
-                    best_x[k]
-                );
-                best_y[k] = v!(
-                    simd,
-                    select_f32s,
-                    any,
-                    v!(simd, select_f32s, first, normal0[1], normal1[1]),
-                    best_y[k]
-                );
-                best_z[k] = v!(
-                    simd,
-                    select_f32s,
-                    any,
-                    v!(simd, select_f32s, first, normal0[2], normal1[2]),
-                    best_z[k]
-                );
+                let normal = select(simd, first, normal0, normal1);
+                best_x[k] = v!(simd, select_f32s, any, normal[0], best_x[k]);
+                best_y[k] = v!(simd, select_f32s, any, normal[1], best_y[k]);
+                best_z[k] = v!(simd, select_f32s, any, normal[2], best_z[k]);
             }
         }
         m
