@@ -14,6 +14,10 @@ pub trait RayPacket<const N: usize>: Default {
     /// Set lane `i` (< N) to `ray` (tnear and tfar kept); an invalid ray
     /// ([`Ray::is_valid`](crate::ray::Ray::is_valid)) leaves the lane inactive.
     fn set_ray(&mut self, i: usize, ray: &crate::ray::Ray);
+    /// Lanes `0..n` (`n` ≤ N, the length of each slice) to the rays from
+    /// `org` along `dir` over `[0, ∞)`, the others inactive; a ray with a
+    /// non-finite component leaves its lane inactive.
+    fn set_unbounded_rays(&mut self, org: [&[f32]; 3], dir: [&[f32]; 3]);
     /// Lane `i`'s hit after [`intersect`](Self::intersect).
     fn hit(&self, i: usize) -> Option<Hit>;
     /// Was lane `i` occluded by the last [`occlude`](Self::occlude)?
@@ -180,6 +184,34 @@ macro_rules! ray_packet {
                 self.write(i, ray.org, ray.dir, ray.tnear, ray.tfar);
                 // `is_valid` covers `set`'s test too (0 <= tnear <= tfar).
                 self.valid[i] = if ray.is_valid() { -1 } else { 0 };
+            }
+            #[inline]
+            fn set_unbounded_rays(&mut self, org: [&[f32]; 3], dir: [&[f32]; 3]) {
+                let n = org[0].len();
+                assert!(n <= $n && org.iter().chain(&dir).all(|c| c.len() == n));
+                let r = &mut self.rh.ray;
+                r.org_x[..n].copy_from_slice(org[0]);
+                r.org_y[..n].copy_from_slice(org[1]);
+                r.org_z[..n].copy_from_slice(org[2]);
+                r.dir_x[..n].copy_from_slice(dir[0]);
+                r.dir_y[..n].copy_from_slice(dir[1]);
+                r.dir_z[..n].copy_from_slice(dir[2]);
+                r.tnear = [0.0; $n];
+                r.tfar = [f32::INFINITY; $n];
+                self.rh.hit.geomID = [INVALID_ID; $n];
+                self.rh.hit.primID = [INVALID_ID; $n];
+                // One pass over the lanes for `Ray::is_valid` (tnear and
+                // tfar are valid by construction).
+                for i in 0..$n {
+                    let finite = i < n
+                        && r.org_x[i].is_finite()
+                        && r.org_y[i].is_finite()
+                        && r.org_z[i].is_finite()
+                        && r.dir_x[i].is_finite()
+                        && r.dir_y[i].is_finite()
+                        && r.dir_z[i].is_finite();
+                    self.valid[i] = if finite { -1 } else { 0 };
+                }
             }
             #[inline]
             fn hit(&self, i: usize) -> Option<Hit> {

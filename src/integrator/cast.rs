@@ -1,12 +1,16 @@
 //! One path segment: the first true hit along a ray, straight, or as a
 //! chain of chords through a gradient-index medium (straight outside its
-//! bounds at no extra cost).
+//! bounds at no extra cost); and the plain segments and shadow rays of
+//! paths traced side by side, as packets.
 use super::{RayQuery, Tracer};
 use crate::counters::Counters;
 use crate::dielectric::{self, InteriorList};
+use crate::embree::RayPacket;
 use crate::error::Result;
-use crate::ray::Ray;
-use crate::scene::RenderScene;
+use crate::ray::{Hit, Ray};
+use crate::sampling::Rng;
+use crate::scene::shapes::{SetScratch, SurfaceLanes};
+use crate::scene::{RenderScene, SurfacePoint};
 use glam::Vec3A as V3;
 
 /// One path segment: the first true hit (if any) and the straight chord it
@@ -284,4 +288,74 @@ pub(super) fn known_segment(
     });
     st.queries += 1;
     Segment::straight(ray, hit)
+}
+
+/// One path for [`path_stream`](super::path_stream) to start.
+pub struct PathStart {
+    /// The camera ray: origin and unit direction.
+    pub ray: (V3, V3),
+    /// The path's generator, after drawing `ray`.
+    pub rng: Rng,
+}
+
+/// Nearest hits of the active lanes of `packet` in `scene`: Embree's, or
+/// with an [`AnalyticSet`](crate::scene::shapes::AnalyticSet), Embree's
+/// among the meshes completed by the set's. Whether any hit is the set's.
+#[inline]
+pub(super) fn intersect_packet<const N: usize, P: RayPacket<N>>(
+    scene: &RenderScene,
+    packet: &mut P,
+    coherent: bool,
+    scratch: &mut SetScratch<N>,
+) -> bool {
+    match &scene.analytic_set {
+        Some(set) => {
+            packet.intersect_meshes(&scene.embree, coherent);
+            set.intersect(packet, scratch)
+        }
+        None => {
+            packet.intersect(&scene.embree, coherent);
+            false
+        }
+    }
+}
+
+/// Occlusion of the active lanes of `packet` (shadow rays: not coherent),
+/// as [`intersect_packet`] finds hits.
+#[inline]
+pub(super) fn occlude_packet<const N: usize, P: RayPacket<N>>(
+    scene: &RenderScene,
+    packet: &mut P,
+    scratch: &mut SetScratch<N>,
+) {
+    match &scene.analytic_set {
+        Some(set) => {
+            packet.occlude_meshes(&scene.embree, false);
+            set.occlude(packet, scratch);
+        }
+        None => packet.occlude(&scene.embree, false),
+    }
+}
+
+/// The surface point of lane `i`'s hit `h` on `ray`: from the analytic
+/// set's solve where it answered the lane (`set_points`: it answered some),
+/// else the scene's own.
+#[inline(always)]
+pub(super) fn packet_surface_point<const N: usize>(
+    scene: &RenderScene,
+    (set_points, surfaces): (bool, &SurfaceLanes<N>),
+    i: usize,
+    h: &Hit,
+    ray: &Ray,
+) -> SurfacePoint {
+    let solved = (set_points && surfaces.done[i] != 0.0)
+        .then(|| {
+            let s = surfaces;
+            let pd = glam::DVec3::new(s.pd[0][i], s.pd[1][i], s.pd[2][i]);
+            let p = V3::new(s.p[0][i], s.p[1][i], s.p[2][i]);
+            let ng = V3::new(s.ng[0][i], s.ng[1][i], s.ng[2][i]);
+            scene.analytic_surface_point(h, pd, p, ng)
+        })
+        .flatten();
+    solved.unwrap_or_else(|| scene.surface_point(ray, h))
 }

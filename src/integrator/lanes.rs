@@ -2,10 +2,13 @@
 //! to Embree (or to the scene's analytic set) in packets, and each path is
 //! shaded by the same step as a single ray ([`PathState::advance`]), or,
 //! where the scene allows it, all of a packet's paths at once in vector
-//! registers (`shade_lanes`).
-use super::cast::{cast, known_segment, NO_COINCIDENT};
-use super::path::{PathState, PendingShadow};
-use super::shade_lanes::{Prepared, ShadeLanes};
+//! registers (`wavefront`).
+use super::cast::{cast, intersect_packet, known_segment, packet_surface_point, PathStart, NO_COINCIDENT};
+use super::columns::PathColumns;
+use super::light::{resolve_shadows, PendingShadow};
+use super::path::PathState;
+use super::shade_lanes::ShadeLanes;
+use super::wavefront::vector_stream;
 use super::Tracer;
 use crate::counters::Counters;
 use crate::dielectric::{self, InteriorList};
@@ -13,7 +16,7 @@ use crate::embree::RayPacket;
 use crate::error::Result;
 use crate::sampling::Rng;
 use crate::scene::shapes::{SetScratch, SurfaceLanes};
-use crate::scene::{IntegratorKind, RenderScene, SurfacePoint};
+use crate::scene::{IntegratorKind, SurfacePoint};
 use glam::Vec3A as V3;
 
 /// Can [`path_lanes`] trace the paths of a render of `tr`? The path tracer
@@ -41,8 +44,10 @@ pub struct LanePackets<P> {
     /// connection (kept apart from the paths, which move as the front
     /// shrinks).
     waiting: Vec<(u32, PendingShadow)>,
-    /// The lanes of a packet between the phases of vector shading.
+    /// The lanes of a packet between the phases of vector shading, and
+    /// the paths it shades.
     shade: Box<ShadeLanes>,
+    columns: (PathColumns, Vec<PathStart>),
     /// Shade in vector registers where [`ShadeLanes::applies`].
     vector_shading: bool,
 }
@@ -67,6 +72,7 @@ impl<P: Default> LanePackets<P> {
             own: Vec::new(),
             waiting: Vec::new(),
             shade: Box::default(),
+            columns: Default::default(),
             vector_shading: vector,
         }
     }
@@ -78,14 +84,6 @@ impl<P> LanePackets<P> {
     pub fn take_occupancy(&mut self) -> Counters {
         std::mem::take(&mut self.occupancy)
     }
-}
-
-/// One path for [`path_stream`] to start.
-pub struct PathStart {
-    /// The camera ray: origin and unit direction.
-    pub ray: (V3, V3),
-    /// The path's generator, after drawing `ray`.
-    pub rng: Rng,
 }
 
 /// A path of [`path_stream`]'s wavefront.
@@ -190,9 +188,9 @@ pub fn path_stream<const N: usize, P: RayPacket<N>>(
         own,
         waiting,
         shade,
+        columns,
         vector_shading,
     } = packets;
-    let surfaces = &mut SurfaceLanes::<N>::default();
     // The vector mode's analytic queries in f32 lanes; the scalar mode, and
     // scenes with overlapping solids (whose nested rule decides coincident
     // surfaces), get Embree's answers bit for bit.
@@ -201,10 +199,24 @@ pub fn path_stream<const N: usize, P: RayPacket<N>>(
     } else {
         SetScratch::<N>::default()
     };
-    let vector = *vector_shading && ShadeLanes::applies(tr);
-    if vector {
-        shade.start(scene);
+    if *vector_shading && ShadeLanes::applies(tr) {
+        vector_stream(
+            tr,
+            next,
+            done,
+            per_path,
+            stats,
+            (near, shadow),
+            occupancy,
+            (&mut columns.0, &mut columns.1),
+            own,
+            waiting,
+            shade,
+            scratch,
+        );
+        return Ok(());
     }
+    let surfaces = &mut SurfaceLanes::<N>::default();
     front.clear();
     while let Some(PathStart { ray: (o, d), rng }) = next() {
         front.push(Lane {
@@ -282,37 +294,15 @@ pub fn path_stream<const N: usize, P: RayPacket<N>>(
                     continue;
                 }
                 if let Some(h) = &hit {
-                    let solved = (set_points && surfaces.done[i] != 0.0)
-                        .then(|| {
-                            let s = &*surfaces;
-                            let pd = glam::DVec3::new(s.pd[0][i], s.pd[1][i], s.pd[2][i]);
-                            let p = V3::new(s.p[0][i], s.p[1][i], s.p[2][i]);
-                            let ng = V3::new(s.ng[0][i], s.ng[1][i], s.ng[2][i]);
-                            scene.analytic_surface_point(h, pd, p, ng)
-                        })
-                        .flatten();
-                    sps[i] = Some(solved.unwrap_or_else(|| scene.surface_point(&p.ray, h)));
+                    sps[i] = Some(packet_surface_point(scene, (set_points, surfaces), i, h, &p.ray));
                     geoms[i] = h.geom_id;
                 }
                 known[i] = true;
-            }
-            // Lanes that wait for the vector kernel.
-            let mut kernel = [false; N];
-            if vector {
-                shade.begin();
             }
             for (i, lane) in chunk.iter_mut().enumerate() {
                 let st = counts!(lane);
                 let p = &mut lane.path;
                 st.segments += 1;
-                if vector && known[i] {
-                    st.queries += 1;
-                    let hit = sps[i].as_ref().map(|sp| (geoms[i], sp));
-                    let prep = shade.prepare(i, tr, p, hit, &mut lane.rng, st);
-                    kernel[i] = prep == Prepared::Kernel;
-                    lane.ended = !kernel[i];
-                    continue;
-                }
                 let sigma = tr.medium(&p.list);
                 // The segment is built in place and shaded right here (a
                 // segment moved out of a `match` was copied twice per lane).
@@ -330,37 +320,11 @@ pub fn path_stream<const N: usize, P: RayPacket<N>>(
                 }
                 lane.ended = !go;
             }
-            if kernel.contains(&true) {
-                shade.shade(chunk.len());
-                occupancy.shade_slots += N as u64;
-                occupancy.shade_lanes += kernel.iter().filter(|&&k| k).count() as u64;
-                for (i, lane) in chunk.iter_mut().enumerate() {
-                    if !kernel[i] {
-                        continue;
-                    }
-                    let (sh, go) = shade.finish(i, scene, &mut lane.path, &mut lane.rng, counts!(lane));
-                    if let Some(sh) = sh {
-                        waiting.push(((c * N + i) as u32, sh));
-                    }
-                    lane.ended = !go;
-                }
-            }
         }
         // The step's shadow rays, packed: each path's before its next segment.
-        for group in waiting.chunks(N) {
-            shadow.clear();
-            for (i, (_, sh)) in group.iter().enumerate() {
-                shadow.set_ray(i, &sh.ray);
-            }
-            occupancy.shadow_packet_slots += N as u64;
-            occupancy.shadow_packet_lanes += group.len() as u64;
-            occlude_packet(scene, shadow, scratch);
-            for (i, (at, sh)) in group.iter().enumerate() {
-                if !shadow.occluded(i) {
-                    front[*at as usize].path.l += sh.contrib;
-                }
-            }
-        }
+        resolve_shadows(scene, shadow, waiting, occupancy, scratch, |at, contrib| {
+            front[at].path.l += contrib;
+        });
         // Ended paths leave the front, the others keep their order (and
         // stay side by side in memory: a step's packets read them in turn).
         front.retain_mut(|lane| {
@@ -382,43 +346,4 @@ pub fn path_stream<const N: usize, P: RayPacket<N>>(
     occupancy.set_replayed_lanes += scratch.replayed;
     *stats += shared;
     Ok(())
-}
-
-/// Nearest hits of the active lanes of `packet` in `scene`: Embree's, or
-/// with an [`AnalyticSet`](crate::scene::shapes::AnalyticSet), Embree's
-/// among the meshes completed by the set's. Whether any hit is the set's.
-#[inline]
-fn intersect_packet<const N: usize, P: RayPacket<N>>(
-    scene: &RenderScene,
-    packet: &mut P,
-    coherent: bool,
-    scratch: &mut SetScratch<N>,
-) -> bool {
-    match &scene.analytic_set {
-        Some(set) => {
-            packet.intersect_meshes(&scene.embree, coherent);
-            set.intersect(packet, scratch)
-        }
-        None => {
-            packet.intersect(&scene.embree, coherent);
-            false
-        }
-    }
-}
-
-/// Occlusion of the active lanes of `packet` (shadow rays: not coherent),
-/// as [`intersect_packet`] finds hits.
-#[inline]
-fn occlude_packet<const N: usize, P: RayPacket<N>>(
-    scene: &RenderScene,
-    packet: &mut P,
-    scratch: &mut SetScratch<N>,
-) {
-    match &scene.analytic_set {
-        Some(set) => {
-            packet.occlude_meshes(&scene.embree, false);
-            set.occlude(packet, scratch);
-        }
-        None => packet.occlude(&scene.embree, false),
-    }
 }

@@ -1,13 +1,22 @@
 //! Light sampling at a diffuse point and the shadow rays that test it.
-use super::cast::{curved_escape, meets_medium};
+use super::cast::{curved_escape, meets_medium, occlude_packet};
 use super::scatter::Lambert;
 use super::{RayQuery, Tracer};
 use crate::counters::Counters;
+use crate::embree::RayPacket;
 use crate::media::sun_connect::{exit_for_launch, launch_for_exit, LaunchSolve};
 use crate::ray::{offset_origin, offset_size, Ray};
 use crate::sampling::{power_heuristic, Rng};
+use crate::scene::shapes::SetScratch;
 use crate::scene::{LightSample, RenderScene};
 use glam::Vec3A as V3;
+
+/// A next-event connection waiting for its shadow ray: `contrib` is added to
+/// the path's radiance if `ray` is unoccluded.
+pub(super) struct PendingShadow {
+    pub(super) ray: Ray,
+    pub(super) contrib: V3,
+}
 
 /// The shadow ray from `from` (offset to the side `side`) along `wi` for
 /// `dist`, counted and observed; `None` when the connection is too short to
@@ -166,4 +175,31 @@ pub(super) fn sun_launch_jacobian(scene: &RenderScene, p: V3, wi: V3, dir: V3) -
     let solve = LaunchSolve::Invariant;
     let (exit, l) = exit_for_launch(med.field(), &med.bounds(), p.as_dvec3(), wi.as_dvec3(), solve)?;
     sky.sun.contains(exit.as_vec3a()).then_some(l.jacobian as f32)
+}
+
+/// The shadow rays of a step's connections (`waiting`: each with the place
+/// of its path), `N` to a packet: `lit(place, contrib)` for each that
+/// nothing occludes.
+pub(super) fn resolve_shadows<const N: usize, P: RayPacket<N>>(
+    scene: &RenderScene,
+    shadow: &mut P,
+    waiting: &[(u32, PendingShadow)],
+    occupancy: &mut Counters,
+    scratch: &mut SetScratch<N>,
+    mut lit: impl FnMut(usize, V3),
+) {
+    for group in waiting.chunks(N) {
+        shadow.clear();
+        for (i, (_, sh)) in group.iter().enumerate() {
+            shadow.set_ray(i, &sh.ray);
+        }
+        occupancy.shadow_packet_slots += N as u64;
+        occupancy.shadow_packet_lanes += group.len() as u64;
+        occlude_packet(scene, shadow, scratch);
+        for (i, (at, sh)) in group.iter().enumerate() {
+            if !shadow.occluded(i) {
+                lit(*at as usize, sh.contrib);
+            }
+        }
+    }
 }

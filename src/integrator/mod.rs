@@ -6,12 +6,13 @@
 //! camera ray (1 = directly visible emitters only, 2 = direct lighting).
 //!
 //! One concept per file: [`Tracer`] and [`radiance`] here; the segment cast
-//! (straight, or chords through a gradient-index medium) in `cast`; light
-//! sampling and shadow rays in `light`; the materials' one scattering model
-//! in `scatter`; the path tracer's state and step in `path`; paths traced
-//! side by side in Embree packets in `lanes`; the Whitted preview in
-//! `whitted`; the deterministic refraction-only path of tests and audits in
-//! `refraction_path`.
+//! (straight, chords through a gradient-index medium, or a packet's) in
+//! `cast`; light sampling and shadow rays in `light`; the materials' one
+//! scattering model in `scatter`; the path tracer's state and step in `path`;
+//! paths traced side by side in Embree packets in `lanes`, and held as
+//! columns (`columns`) shaded in vector registers in `wavefront` and
+//! `shade_lanes`; the Whitted preview in `whitted`; the deterministic
+//! refraction-only path of tests and audits in `refraction_path`.
 use crate::counters::Counters;
 use crate::dielectric::{self, InteriorList, NestedStrategy};
 use crate::error::Result;
@@ -23,6 +24,7 @@ use crate::scene::{Material, RenderScene};
 use glam::Vec3A as V3;
 
 mod cast;
+mod columns;
 mod lanes;
 mod light;
 mod observer;
@@ -30,10 +32,12 @@ mod path;
 mod refraction_path;
 mod scatter;
 mod shade_lanes;
+mod wavefront;
 mod whitted;
 
+pub use cast::PathStart;
 pub use cast::MAX_CHORDS_PER_SEGMENT;
-pub use lanes::{path_lanes, path_lanes_apply, path_stream, LanePackets, PathStart};
+pub use lanes::{path_lanes, path_lanes_apply, path_stream, LanePackets};
 pub use observer::{RayObserver, RayQuery, RayRecorder};
 pub use refraction_path::{refraction_path, PathEvent, RefractionPath};
 

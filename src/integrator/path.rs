@@ -3,7 +3,7 @@
 //! next ray, Russian roulette), shared by single rays and [`super::lanes`].
 use super::cast::{cast, cast_curved_into, Segment};
 use super::light::{
-    light_straight, next_event, shadow_ray, sun_launch_jacobian, sun_through_medium, NextEvent,
+    light_straight, next_event, shadow_ray, sun_launch_jacobian, sun_through_medium, NextEvent, PendingShadow,
 };
 use super::scatter::{Bsdf, Lobe};
 use super::Tracer;
@@ -41,13 +41,6 @@ pub(super) struct PathState {
     /// continuations, which a pixel's samples follow side by side nearly in
     /// parallel (Embree's coherent packets, `path_lanes`).
     pub(super) only_specular: bool,
-}
-
-/// A next-event connection waiting for its shadow ray: `contrib` is added to
-/// the path's radiance if `ray` is unoccluded.
-pub(super) struct PendingShadow {
-    pub(super) ray: Ray,
-    pub(super) contrib: V3,
 }
 
 impl PathState {
@@ -305,23 +298,7 @@ impl PathState {
     /// Russian roulette ends it (one random number past `rr_depth`).
     #[inline(always)]
     pub(super) fn survives(&mut self, scene: &RenderScene, rng: &mut Rng, st: &mut Counters) -> bool {
-        self.depth += 1;
-        // A path with zero throughput (a black reflectance: cylinder_refraction's
-        // emitting plane) can add nothing more, and would still cost rays.
-        // Same image: every later term would be multiplied by 0.
-        if self.beta.max_element() <= 0.0 {
-            st.ended_absorbed += 1;
-            return false;
-        }
-        if self.depth > scene.rr_depth {
-            let q = (self.beta.max_element() * self.eta_scale).min(0.95);
-            if rng.uniform() >= q {
-                st.ended_roulette += 1;
-                return false;
-            }
-            self.beta /= q;
-        }
-        true
+        survives(&mut self.beta, self.eta_scale, &mut self.depth, scene, rng, st)
     }
 
     /// The path's radiance (0, counted, when it is not finite).
@@ -333,6 +310,38 @@ impl PathState {
             V3::ZERO
         }
     }
+}
+
+/// The end of a step for a path with throughput `beta` at segment `depth`
+/// (which it increments): `false` when the path ends, with zero throughput
+/// or by Russian roulette (`eta_scale` corrects the throughput for the
+/// indices crossed); a survivor's throughput is divided by its chance.
+#[inline(always)]
+pub(super) fn survives(
+    beta: &mut V3,
+    eta_scale: f32,
+    depth: &mut u32,
+    scene: &RenderScene,
+    rng: &mut Rng,
+    st: &mut Counters,
+) -> bool {
+    *depth += 1;
+    // A path with zero throughput (a black reflectance: cylinder_refraction's
+    // emitting plane) can add nothing more, and would still cost rays.
+    // Same image: every later term would be multiplied by 0.
+    if beta.max_element() <= 0.0 {
+        st.ended_absorbed += 1;
+        return false;
+    }
+    if *depth > scene.rr_depth {
+        let q = (beta.max_element() * eta_scale).min(0.95);
+        if rng.uniform() >= q {
+            st.ended_roulette += 1;
+            return false;
+        }
+        *beta /= q;
+    }
+    true
 }
 
 pub(super) fn path(

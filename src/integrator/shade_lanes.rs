@@ -6,8 +6,8 @@
 //! against its sun's sampling), without priority solids or a
 //! gradient-index medium ([`ShadeLanes::applies`]).
 //!
-//! Each lane goes through three phases, as `PathState::advance` does for one
-//! path in turn:
+//! The paths are the wavefront's columns ([`PathColumns`]): each lane goes
+//! through three phases, as `PathState::advance` does for one path in turn:
 //!
 //! 1. [`ShadeLanes::prepare`] (scalar, per lane): the hit's material,
 //!    texture and emission, the environment on a miss, and every random
@@ -16,28 +16,28 @@
 //! 2. the kernel (all lanes at once, f32, pulp's widest level): next-event
 //!    estimation's point on the light, its weight and shadow ray, the
 //!    cosine-weighted bounce, Fresnel reflectance, reflection and
-//!    refraction, the spawn offsets and the throughput;
+//!    refraction, the spawn offsets and the throughput, read from and
+//!    written back to the columns;
 //! 3. [`ShadeLanes::finish`] (scalar, per lane): the shadow ray handed back,
-//!    the new ray and Russian roulette.
+//!    the path's flags and Russian roulette.
 //!
 //! Arithmetic is f32 throughout (as Mitsuba's `llvm_ad_rgb`), where
 //! `advance` solves Fresnel and Snell in f64: a path's radiance differs from
 //! `advance`'s by rounding, and where a random number falls within rounding
 //! of a Fresnel reflectance, or a direction within rounding of the critical
 //! angle, the two pick different lobes (the tests bound how often).
-use super::path::{PathState, PendingShadow};
+use super::columns::{self, PacketPaths, PathIo, MAX};
+use super::light::PendingShadow;
+use super::path::survives;
 use super::Tracer;
 use crate::counters::Counters;
 use crate::ray::{front_facing, Ray, OFFSET_ULPS};
-use crate::sampling::{power_heuristic, Rng};
+use crate::sampling::power_heuristic;
 use crate::scene::texture::Texture;
 use crate::scene::{Environment, Light, Material, RenderScene, SurfacePoint};
 use crate::simd3::{add, dot, mul, scale, select, splat, sub, Vec3s};
 use glam::Vec3A as V3;
 use std::f32::consts::{FRAC_1_PI, PI};
-
-/// The most lanes shaded side by side (the widest packet).
-const MAX: usize = 16;
 
 /// What [`ShadeLanes::prepare`] left for a lane.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -71,7 +71,6 @@ pub(super) struct ShadeLanes {
     nee: [f32; MAX],
     /// Interface lanes past the critical angle (no random number drawn).
     tir: [f32; MAX],
-    d: [[f32; MAX]; 3],
     p: [[f32; MAX]; 3],
     /// The geometric normal on the incident side.
     side: [[f32; MAX]; 3],
@@ -84,11 +83,7 @@ pub(super) struct ShadeLanes {
     /// bounce's two (`u[2]`, `u[3]`) at a Lambertian lane, the lobe's
     /// (`u[0]`) at an interface.
     u: [[f32; MAX]; 4],
-    beta: [[f32; MAX]; 3],
-    eta_scale: [f32; MAX],
-    // The kernel's answers.
-    org: [[f32; MAX]; 3],
-    dir: [[f32; MAX]; 3],
+    // The kernel's answers (besides the rays and throughputs of `PathIo`).
     prev_pdf: [f32; MAX],
     /// The bounce fell below the surface: the path ends.
     below: [f32; MAX],
@@ -184,44 +179,45 @@ impl ShadeLanes {
         self.diffuse = [-1.0; MAX];
     }
 
-    /// Phase 1 for lane `i`: the segment of `path` ended at `hit` (the
-    /// geometry's id and the surface point; `None`: a miss). Emission and
-    /// a miss are added to the path here, the step's random numbers drawn,
-    /// and what the kernel needs stored.
+    /// Phase 1 for lane `i` of `paths`: its segment ended at `hit`
+    /// (the geometry's id and the surface point; `None`: a miss). Emission
+    /// and a miss are added to the path here, the step's random numbers
+    /// drawn, and what the kernel needs stored.
     #[inline(always)]
-    pub(super) fn prepare(
+    pub(super) fn prepare<const N: usize>(
         &mut self,
         i: usize,
         tr: Tracer<'_>,
-        path: &mut PathState,
+        paths: &mut PacketPaths<'_, N>,
         hit: Option<(u32, &SurfacePoint)>,
-        rng: &mut Rng,
         st: &mut Counters,
     ) -> Prepared {
         let scene = tr.scene;
+        let dir = columns::get3(&paths.dir, i);
+        let beta = columns::get3(&paths.beta, i);
         let Some((geom, sp)) = hit else {
             // Next-event estimation samples no environment here: weight 1.
-            path.l += path.beta * scene.escaped_radiance(path.ray.dir, None);
+            paths.s[i].l += beta * scene.escaped_radiance(dir, None);
             st.ended_escaped += 1;
             return Prepared::Ended;
         };
-        let dir = path.ray.dir;
         let rec = &scene.geoms[geom as usize];
         let front = front_facing(sp.ng, dir);
         if let Some(em) = &rec.emission {
             if front || rec.emission_two_sided {
                 let le = em.eval(sp.p, sp.uv);
                 let w = match rec.light {
-                    Some(li) if !path.specular => {
-                        let lp = scene.light_pdf(li, path.prev_p, sp.p, sp.ng, dir);
-                        power_heuristic(path.prev_pdf, lp)
+                    Some(li) if !paths.s[i].specular => {
+                        let lp = scene.light_pdf(li, paths.s[i].prev_p, sp.p, sp.ng, dir);
+                        power_heuristic(paths.s[i].prev_pdf, lp)
                     }
                     _ => 1.0,
                 };
-                path.l += path.beta * le * w;
+                paths.s[i].l += beta * le * w;
             }
         }
-        if path.depth >= scene.max_depth {
+        let rng = &mut paths.s[i].rng;
+        if paths.s[i].depth >= scene.max_depth {
             st.ended_max_depth += 1;
             return Prepared::Ended;
         }
@@ -242,7 +238,7 @@ impl ShadeLanes {
                     self.u[1][i] = rng.uniform();
                 }
                 // A black reflectance ends the path without a bounce (as `advance`).
-                if albedo == V3::ZERO && path.beta.is_finite() {
+                if albedo == V3::ZERO && beta.is_finite() {
                     st.ended_absorbed += 1;
                     return Prepared::Ended;
                 }
@@ -277,12 +273,9 @@ impl ShadeLanes {
                 return Prepared::Ended;
             }
         }
-        set3(&mut self.d, i, dir);
         set3(&mut self.p, i, sp.p);
         set3(&mut self.side, i, side);
         set3(&mut self.n, i, n);
-        set3(&mut self.beta, i, path.beta);
-        self.eta_scale[i] = path.eta_scale;
         Prepared::Kernel
     }
 
@@ -303,33 +296,31 @@ impl ShadeLanes {
         (false, false)
     }
 
-    /// Phase 2: the kernel over the first `lanes` lanes.
-    pub(super) fn shade(&mut self, lanes: usize) {
+    /// Phase 2: the kernel over the first `lanes` lanes, whose paths'
+    /// columns are `io`.
+    pub(super) fn shade(&mut self, lanes: usize, io: PathIo<'_>) {
         let arch = self.arch;
-        arch.dispatch(Kernel { s: self, lanes });
+        arch.dispatch(Kernel { s: self, io, lanes });
     }
 
-    /// Phase 3 for lane `i`, which `prepare` sent to the kernel: the
-    /// connection (a shadow ray to resolve before the next segment, or a
-    /// contribution added now), the next ray, Russian roulette. `false`: the
-    /// path has ended.
+    /// Phase 3 for lane `i` of `paths`, which `prepare` sent to the kernel: the connection (a shadow ray to resolve before the next
+    /// segment, or a contribution added now), the path's flags, Russian
+    /// roulette. `false`: the path has ended.
     #[inline(always)]
-    pub(super) fn finish(
+    pub(super) fn finish<const N: usize>(
         &self,
         i: usize,
         scene: &RenderScene,
-        path: &mut PathState,
-        rng: &mut Rng,
+        paths: &mut PacketPaths<'_, N>,
         st: &mut Counters,
     ) -> (Option<PendingShadow>, bool) {
         let mut shadow = None;
-        let p = get3(&self.p, i);
         if self.diffuse[i] == 1.0 {
             if self.shadow[i] != 0.0 {
                 st.shadow_rays += 1;
                 let contrib = get3(&self.contrib, i);
                 if self.shadow[i] == 2.0 {
-                    path.l += contrib;
+                    paths.s[i].l += contrib;
                 } else {
                     let mut ray = Ray::new(get3(&self.shadow_org, i), get3(&self.shadow_dir, i));
                     ray.tfar = self.shadow_tfar[i];
@@ -340,27 +331,31 @@ impl ShadeLanes {
                 st.ended_absorbed += 1;
                 return (shadow, false);
             }
-            let wi = get3(&self.dir, i);
-            path.prev_pdf = self.prev_pdf[i];
-            path.prev_wi = wi;
-            path.prev_lambert = true;
-            path.specular = false;
-            path.only_specular = false;
-            path.ray = Ray::new(get3(&self.org, i), wi);
+            paths.s[i].prev_pdf = self.prev_pdf[i];
+            paths.s[i].specular = false;
+            paths.s[i].only_specular = false;
         } else {
-            path.eta_scale = self.eta_scale[i];
-            path.specular = true;
-            path.ray = Ray::new(get3(&self.org, i), get3(&self.dir, i));
+            paths.s[i].specular = true;
         }
-        path.beta = get3(&self.beta, i);
-        path.prev_p = p;
-        (shadow, path.survives(scene, rng, st))
+        paths.s[i].prev_p = get3(&self.p, i);
+        let mut beta = columns::get3(&paths.beta, i);
+        let go = survives(
+            &mut beta,
+            paths.eta_scale[i],
+            &mut paths.s[i].depth,
+            scene,
+            &mut paths.s[i].rng,
+            st,
+        );
+        columns::set3(&mut paths.beta, i, beta);
+        (shadow, go)
     }
 }
 
 /// Phase 2's vector code.
 struct Kernel<'a> {
     s: &'a mut ShadeLanes,
+    io: PathIo<'a>,
     lanes: usize,
 }
 
@@ -452,6 +447,7 @@ impl pulp::WithSimd for Kernel<'_> {
     #[inline(always)]
     fn with_simd<S: pulp::Simd>(self, simd: S) {
         let s = self.s;
+        let io = self.io;
         let w = S::F32_LANES;
         let chunks = self.lanes.div_ceil(w);
         let light = s.light;
@@ -493,11 +489,11 @@ impl pulp::WithSimd for Kernel<'_> {
                     simd.first_true_m32s($m) < w
                 };
             }
-            let d = ld3!(s.d);
+            let d = ld3!(io.dir);
             let p = ld3!(s.p);
             let side = ld3!(s.side);
             let n = ld3!(s.n);
-            let beta = ld3!(s.beta);
+            let beta = ld3!(io.beta);
             // `offset_size(p)`: the spawn offset.
             let big = simd.max_f32s(
                 simd.max_f32s(simd.abs_f32s(p[0]), simd.abs_f32s(p[1])),
@@ -679,18 +675,27 @@ impl pulp::WithSimd for Kernel<'_> {
                 let k2 = simd.mul_f32s(eta, eta);
                 let transmit = simd.not_m32s(mirror);
                 let beta_i = select(simd, transmit, scale(simd, beta, k2), beta);
-                let eta_scale = ld!(s.eta_scale);
+                // (Only at the interface lanes: the others' flags are not theirs.)
+                let eta_scale = ld!(io.eta_scale);
                 st!(
-                    s.eta_scale,
-                    simd.select_f32s(transmit, simd.div_f32s(eta_scale, k2), eta_scale)
+                    io.eta_scale,
+                    simd.select_f32s(
+                        simd.and_m32s(iface, transmit),
+                        simd.div_f32s(eta_scale, k2),
+                        eta_scale
+                    )
                 );
                 next_dir = select(simd, iface, select(simd, mirror, wr, wt), next_dir);
                 next_org = select(simd, iface, select(simd, mirror, above, beneath), next_org);
                 next_beta = select(simd, iface, beta_i, next_beta);
             }
-            st3!(s.dir, next_dir);
-            st3!(s.org, next_org);
-            st3!(s.beta, next_beta);
+            // Lanes outside the kernel (ended, or the next packet's paths
+            // past a packet of eight at sixteen lanes) keep their columns:
+            // their direction and throughput were not selected above.
+            let next_org = select(simd, simd.or_m32s(diffuse, iface), next_org, ld3!(io.org));
+            st3!(io.dir, next_dir);
+            st3!(io.org, next_org);
+            st3!(io.beta, next_beta);
         }
     }
 }
@@ -701,12 +706,37 @@ mod tests {
     use crate::optics;
     use crate::sampling::{cosine_hemisphere, uniform_sphere};
 
+    use crate::sampling::Rng;
     use crate::vector_levels as levels;
+
+    /// A packet's path columns, as the wavefront holds them.
+    #[derive(Clone, Copy, Default)]
+    struct Columns {
+        dir: [[f32; MAX]; 3],
+        org: [[f32; MAX]; 3],
+        beta: [[f32; MAX]; 3],
+        eta_scale: [f32; MAX],
+    }
+
+    impl Columns {
+        fn io(&mut self) -> PathIo<'_> {
+            let [dx, dy, dz] = &mut self.dir;
+            let [ox, oy, oz] = &mut self.org;
+            let [bx, by, bz] = &mut self.beta;
+            PathIo {
+                dir: [dx, dy, dz],
+                org: [ox, oy, oz],
+                beta: [bx, by, bz],
+                eta_scale: &mut self.eta_scale,
+            }
+        }
+    }
 
     /// Sixteen random lanes, even ones Lambertian, odd ones interfaces, as
     /// `prepare` leaves them (the shading normal tilted from the geometric
     /// one at some), lit by a rect light above.
-    fn random_lanes(rng: &mut Rng, arch: pulp::Arch) -> ShadeLanes {
+    fn random_lanes(rng: &mut Rng, arch: pulp::Arch) -> (ShadeLanes, Columns) {
+        let mut c = Columns::default();
         let mut s = ShadeLanes {
             arch,
             light: Some(RectLight {
@@ -729,11 +759,12 @@ mod tests {
                 d = -d;
             }
             let p = V3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 4.0 - 2.0;
-            set3(&mut s.d, i, d);
+            set3(&mut c.dir, i, d);
             set3(&mut s.p, i, p);
             set3(&mut s.side, i, side);
             set3(&mut s.n, i, n);
-            set3(&mut s.beta, i, V3::new(0.9, 0.5, 0.7));
+            set3(&mut c.beta, i, V3::new(0.9, 0.5, 0.7));
+            c.eta_scale[i] = 1.0;
             set3(&mut s.albedo, i, V3::new(0.8, 0.6, 0.4));
             for u in &mut s.u {
                 u[i] = rng.uniform();
@@ -746,7 +777,7 @@ mod tests {
             s.diffuse[i] = (i % 2 == 0) as u8 as f32;
             s.nee[i] = s.diffuse[i];
         }
-        s
+        (s, c)
     }
 
     fn close(a: V3, b: V3) -> bool {
@@ -764,13 +795,18 @@ mod tests {
             let mut rng = Rng::new(7);
             let (mut checked, mut swapped_caught, mut diffuse) = (0, 0, 0);
             for _ in 0..500 {
-                let mut s = random_lanes(&mut rng, arch);
-                let before = (s.beta, s.eta_scale);
-                s.shade(MAX);
+                let (mut s, mut c) = random_lanes(&mut rng, arch);
+                let before = c;
+                s.shade(MAX, c.io());
                 for i in 0..MAX {
-                    let (d, n, side, p) = (get3(&s.d, i), get3(&s.n, i), get3(&s.side, i), get3(&s.p, i));
-                    let dir = get3(&s.dir, i);
-                    let beta0 = get3(&before.0, i);
+                    let (d, n, side, p) = (
+                        get3(&before.dir, i),
+                        get3(&s.n, i),
+                        get3(&s.side, i),
+                        get3(&s.p, i),
+                    );
+                    let dir = get3(&c.dir, i);
+                    let beta0 = get3(&before.beta, i);
                     if s.diffuse[i] != 0.0 {
                         let wi = cosine_hemisphere(n, s.u[2][i], s.u[3][i]);
                         assert_eq!(s.below[i] != 0.0, side.dot(wi) <= 0.0, "{arch:?} lane {i}");
@@ -778,7 +814,7 @@ mod tests {
                         diffuse += 1;
                         swapped_caught += !close(dir, cosine_hemisphere(n, s.u[3][i], s.u[2][i])) as u32;
                         assert!((s.prev_pdf[i] - n.dot(wi) * FRAC_1_PI).abs() < 1e-5);
-                        assert!(close(get3(&s.beta, i), beta0 * get3(&s.albedo, i)));
+                        assert!(close(get3(&c.beta, i), beta0 * get3(&s.albedo, i)));
                         // The light sample: its point, weight and shadow ray.
                         let l = s.light.unwrap();
                         let q = l.corner + l.edge_u * s.u[0][i] + l.edge_v * s.u[1][i];
@@ -819,9 +855,12 @@ mod tests {
                             assert!(close(dir, want.as_vec3a()), "{arch:?} lane {i}: {dir} vs {want}");
                         }
                         let k = if reflect { 1.0 } else { (n1 / n2).powi(2) as f32 };
-                        assert!(close(get3(&s.beta, i), beta0 * k));
+                        assert!(close(get3(&c.beta, i), beta0 * k));
+                        let eta = if reflect { 1.0 } else { (n2 / n1).powi(2) as f32 };
+                        assert!((c.eta_scale[i] - eta).abs() < 1e-5, "{arch:?} lane {i}");
                         let off = if reflect { side } else { -side };
-                        assert!(get3(&s.org, i).distance(p) < 1e-5 && (get3(&s.org, i) - p).dot(off) > 0.0);
+                        let org = get3(&c.org, i);
+                        assert!(org.distance(p) < 1e-5 && (org - p).dot(off) > 0.0);
                     }
                     checked += 1;
                 }
