@@ -10,7 +10,7 @@ use crate::integrator::{
 };
 use crate::media::CurvedRay;
 use crate::ray::Ray;
-use crate::sampling::Rng;
+use crate::sampling::{PixelKey, Rng};
 use crate::scene::RenderScene;
 use glam::{DVec3, Vec3A as V3};
 use rayon::prelude::*;
@@ -623,10 +623,20 @@ impl TileJob<'_> {
         let first = out.len();
         let pinhole = self.camera.is_pinhole();
         let (mut xs, mut ys) = ([0.0f32; 16], [0.0f32; 16]);
+        // A pixel's samples come in turn: its place and key are computed once.
+        let mut at: Option<(usize, u32, u32, PixelKey)> = None;
         for (i, &(k, s)) in group.iter().enumerate() {
-            let (x, y) = (x0 + k as u32 % w, y0 + k as u32 / w);
-            let pixel = y as u64 * self.settings.width as u64 + x as u64;
-            let mut rng = Rng::for_sample(self.settings.seed, pixel, s as u64);
+            let (x, y, key) = match at {
+                Some((j, x, y, key)) if j == k => (x, y, key),
+                _ => {
+                    let (x, y) = (x0 + k as u32 % w, y0 + k as u32 / w);
+                    let pixel = y as u64 * self.settings.width as u64 + x as u64;
+                    let key = PixelKey::new(self.settings.seed, pixel);
+                    at = Some((k, x, y, key));
+                    (x, y, key)
+                }
+            };
+            let mut rng = Rng::for_pixel_sample(key, s as u64);
             let ray = if pinhole {
                 // The same draws as `camera_ray_from`; the lens's two are unused.
                 xs[i] = x as f32 + rng.uniform();

@@ -11,6 +11,19 @@ fn mix64(mut z: u64) -> u64 {
     z ^ (z >> 31)
 }
 
+/// What seeds the generators of one pixel's samples in a render with a
+/// given seed (see [`Rng::for_pixel_sample`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PixelKey(u64);
+
+impl PixelKey {
+    /// The key of pixel `pixel` (row-major index) at seed `seed`.
+    #[inline]
+    pub fn new(seed: u64, pixel: u64) -> PixelKey {
+        PixelKey(mix64(seed ^ mix64(pixel.wrapping_add(0x9e37_79b9_7f4a_7c15))))
+    }
+}
+
 /// PCG32 (O'Neill), seeded per (seed, pixel, sample).
 ///
 /// Deterministic: equal seeds give equal sequences on every platform and
@@ -44,7 +57,14 @@ impl Rng {
     /// The generator for one camera path: sample `sample` of pixel `pixel`
     /// (row-major index) in a render with seed `seed`.
     pub fn for_sample(seed: u64, pixel: u64, sample: u64) -> Rng {
-        let s = mix64(seed ^ mix64(pixel.wrapping_add(0x9e37_79b9_7f4a_7c15)));
+        Rng::for_pixel_sample(PixelKey::new(seed, pixel), sample)
+    }
+
+    /// [`Rng::for_sample`] with the pixel's part computed once, for a
+    /// pixel's samples in turn.
+    #[inline]
+    pub fn for_pixel_sample(key: PixelKey, sample: u64) -> Rng {
+        let s = key.0;
         let stream = mix64(sample ^ 0xda94_2042_e4dd_58b5);
         let mut r = Rng {
             state: 0,

@@ -118,11 +118,12 @@ fn lanes3<const M: usize>(c: &mut [Vec<f32>; 3], base: usize) -> [&mut [f32; M];
     [lanes(x, base), lanes(y, base), lanes(z, base)]
 }
 
-/// Entry `kept[w]` of `column` moved to `w`, for every `w` (`kept`
-/// increasing: each entry is read before it is overwritten).
-fn gather<T: Copy>(column: &mut [T], kept: &[usize]) {
+/// Entry `kept[w] - from` of `column` moved to `w`, for every `w` (`kept`
+/// increasing from `from` on: each entry is read before it is overwritten).
+#[inline(always)]
+fn gather<T: Copy>(column: &mut [T], kept: &[usize], from: usize) {
     for (w, &k) in kept.iter().enumerate() {
-        column[w] = column[k];
+        column[w] = column[k - from];
     }
 }
 
@@ -198,9 +199,14 @@ impl PathColumns {
     /// slot and radiance go to `gone` first, in order.
     pub(super) fn compact(&mut self, mut gone: impl FnMut(u32, V3)) {
         let n = self.len;
+        // The paths before the first ended one stay where they are.
+        let Some(first) = self.ended[..n].iter().position(|&e| e) else {
+            return;
+        };
         self.kept.clear();
-        for (k, (&ended, s)) in self.ended[..n].iter().zip(&self.scalars[..n]).enumerate() {
-            if ended {
+        for k in first..n {
+            if self.ended[k] {
+                let s = &self.scalars[k];
                 gone(s.slot, s.l);
             } else {
                 self.kept.push(k);
@@ -208,17 +214,16 @@ impl PathColumns {
         }
         let kept = &self.kept[..];
         for c in 0..3 {
-            gather(&mut self.org[c][..n], kept);
-            gather(&mut self.dir[c][..n], kept);
-            gather(&mut self.beta[c][..n], kept);
+            gather(&mut self.org[c][first..n], kept, first);
+            gather(&mut self.dir[c][first..n], kept, first);
+            gather(&mut self.beta[c][first..n], kept, first);
         }
-        gather(&mut self.eta_scale[..n], kept);
-        // (A swap: an `Rng` is not `Copy`. Entry `kept[w]` is still unread.)
+        gather(&mut self.eta_scale[first..n], kept, first);
         for (w, &k) in kept.iter().enumerate() {
-            self.scalars.swap(w, k);
+            self.scalars[first + w] = self.scalars[k].clone();
         }
-        self.len = kept.len();
-        self.ended[..self.len].fill(false);
+        self.len = first + kept.len();
+        self.ended[first..self.len].fill(false);
     }
 }
 
