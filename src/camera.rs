@@ -102,28 +102,11 @@ impl Camera {
     /// The directions [`Camera::ray`] gives a pinhole camera for the film
     /// points `(xs[i], ys[i])`, sixteen at once: the same operations in the
     /// same order as glam's (no fused multiply-adds; `normalize` divides by
-    /// the square root of `(x² + y²) + z²`), so the same bits, over arrays
-    /// the compiler turns into vector instructions. The lens is ignored
-    /// ([`Camera::is_pinhole`] says when that is right).
-    pub fn pinhole_dirs(&self, xs: &[f32; 16], ys: &[f32; 16]) -> [V3; 16] {
-        let (f, r, u) = (self.forward, self.right, self.up);
-        let mut d = [[0.0f32; 16]; 3];
-        for i in 0..16 {
-            let sx = (2.0 * xs[i] / self.width - 1.0) * self.tan_half * self.aspect;
-            let sy = (1.0 - 2.0 * ys[i] / self.height) * self.tan_half;
-            d[0][i] = f.x + r.x * sx + u.x * sy;
-            d[1][i] = f.y + r.y * sx + u.y * sy;
-            d[2][i] = f.z + r.z * sx + u.z * sy;
-        }
-        let mut len = [0.0f32; 16];
-        for i in 0..16 {
-            len[i] = (d[0][i] * d[0][i] + d[1][i] * d[1][i] + d[2][i] * d[2][i]).sqrt();
-        }
-        for c in &mut d {
-            for i in 0..16 {
-                c[i] /= len[i];
-            }
-        }
+    /// the square root of `(x² + y²) + z²`), so the same bits, at `arch`'s
+    /// vector level. The lens is ignored ([`Camera::is_pinhole`] says when
+    /// that is right).
+    pub fn pinhole_dirs(&self, arch: pulp::Arch, xs: &[f32; 16], ys: &[f32; 16]) -> [V3; 16] {
+        let d = arch.dispatch(PinholeDirs { c: self, xs, ys });
         std::array::from_fn(|i| V3::new(d[0][i], d[1][i], d[2][i]))
     }
 
@@ -166,6 +149,58 @@ impl Camera {
     }
 }
 
+/// [`Camera::pinhole_dirs`] at a vector level: each lane's operations are
+/// those of [`Camera::ray`] in its order, without fused multiply-adds.
+struct PinholeDirs<'a> {
+    c: &'a Camera,
+    xs: &'a [f32; 16],
+    ys: &'a [f32; 16],
+}
+
+impl pulp::WithSimd for PinholeDirs<'_> {
+    type Output = [[f32; 16]; 3];
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, simd: S) -> Self::Output {
+        let c = self.c;
+        let k = |v: f32| simd.splat_f32s(v);
+        let (f, r, u) = (c.forward, c.right, c.up);
+        let mut d = [[0.0f32; 16]; 3];
+        let lanes = S::F32_LANES.min(16);
+        for at in (0..16).step_by(lanes) {
+            let end = (at + lanes).min(16);
+            let x = simd.partial_load_f32s(&self.xs[at..end]);
+            let y = simd.partial_load_f32s(&self.ys[at..end]);
+            let sx = simd.mul_f32s(
+                simd.mul_f32s(
+                    simd.sub_f32s(simd.div_f32s(simd.mul_f32s(k(2.0), x), k(c.width)), k(1.0)),
+                    k(c.tan_half),
+                ),
+                k(c.aspect),
+            );
+            let sy = simd.mul_f32s(
+                simd.sub_f32s(k(1.0), simd.div_f32s(simd.mul_f32s(k(2.0), y), k(c.height))),
+                k(c.tan_half),
+            );
+            let comp = |fc: f32, rc: f32, uc: f32| {
+                simd.add_f32s(
+                    simd.add_f32s(k(fc), simd.mul_f32s(k(rc), sx)),
+                    simd.mul_f32s(k(uc), sy),
+                )
+            };
+            let v = [comp(f.x, r.x, u.x), comp(f.y, r.y, u.y), comp(f.z, r.z, u.z)];
+            let len = simd.sqrt_f32s(simd.add_f32s(
+                simd.add_f32s(simd.mul_f32s(v[0], v[0]), simd.mul_f32s(v[1], v[1])),
+                simd.mul_f32s(v[2], v[2]),
+            ));
+            for (out, v) in d.iter_mut().zip(v) {
+                simd.partial_store_f32s(&mut out[at..end], simd.div_f32s(v, len));
+            }
+        }
+        d
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -190,6 +225,8 @@ mod tests {
     fn pinhole_dirs_are_the_rays_bit_for_bit() {
         let mut rng = crate::sampling::Rng::new(9);
         let mut slips = 0;
+        // Every vector level in turn.
+        let levels = crate::vector_levels();
         for k in 0..200 {
             let pos = V3::new(
                 rng.uniform() * 8.0 - 4.0,
@@ -210,7 +247,8 @@ mod tests {
             assert!(c.is_pinhole());
             let xs: [f32; 16] = std::array::from_fn(|_| rng.uniform() * 700.0 - 30.0);
             let ys: [f32; 16] = std::array::from_fn(|_| rng.uniform() * 520.0 - 20.0);
-            let dirs = c.pinhole_dirs(&xs, &ys);
+            let arch = levels[k % levels.len()];
+            let dirs = c.pinhole_dirs(arch, &xs, &ys);
             for i in 0..16 {
                 let (o, d) = c.ray(xs[i], ys[i], (rng.uniform(), rng.uniform()));
                 assert_eq!(o, c.position);

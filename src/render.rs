@@ -593,6 +593,8 @@ struct TileJob<'a> {
     /// Fly each tile row's camera rays side by side (the path tracer through
     /// a medium with flights).
     fly_rows: bool,
+    /// The vector level of the camera's directions.
+    arch: pulp::Arch,
 }
 
 impl TileJob<'_> {
@@ -650,7 +652,7 @@ impl TileJob<'_> {
             out.push(PathStart { ray, rng });
         }
         if pinhole {
-            let dirs = self.camera.pinhole_dirs(&xs, &ys);
+            let dirs = self.camera.pinhole_dirs(self.arch, &xs, &ys);
             for (p, d) in out[first..].iter_mut().zip(dirs) {
                 p.ray.1 = d;
             }
@@ -985,6 +987,7 @@ pub fn render_part(
         .build()
         .map_err(|e| Error::Invalid(format!("cannot start render threads: {e}")))?;
     let job = TileJob {
+        arch: pulp::Arch::new(),
         scene,
         settings,
         camera: settings.camera(scene),
