@@ -544,14 +544,14 @@ impl Lanes {
         &mut self,
         tr: Tracer<'_>,
         list: &InteriorList,
-        next: impl FnMut() -> Option<PathStart>,
+        starts: &[PathStart],
         done: impl FnMut(u32, V3, &Counters),
         per_path: bool,
         stats: &mut Counters,
     ) -> Result<()> {
         match self {
-            Lanes::Eight(p) => path_stream::<8, _>(tr, list, next, done, per_path, stats, p),
-            Lanes::Sixteen(p) => path_stream::<16, _>(tr, list, next, done, per_path, stats, p),
+            Lanes::Eight(p) => path_stream::<8, _>(tr, list, starts, done, per_path, stats, p),
+            Lanes::Sixteen(p) => path_stream::<16, _>(tr, list, starts, done, per_path, stats, p),
         }
     }
 
@@ -803,8 +803,6 @@ impl TileJob<'_> {
             for group in window.chunks(16) {
                 self.camera_rays(group, (x0, y0), w, &mut starts);
             }
-            let mut next_start = starts.drain(..);
-            let next = || next_start.next();
             // A path's index in `starts` is its sample's in `window`.
             let done = |t: u32, l: V3, st: &Counters| {
                 ls[t as usize] = l;
@@ -812,7 +810,7 @@ impl TileJob<'_> {
                     own[t as usize] = *st;
                 }
             };
-            lanes.stream(tracer, &list, next, done, per_path, stats)?;
+            lanes.stream(tracer, &list, &starts, done, per_path, stats)?;
             for (t, &(k, _)) in window.iter().enumerate() {
                 pix[k].add(ls[t]);
                 if let Some(a) = aov.as_mut() {

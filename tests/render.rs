@@ -616,22 +616,24 @@ fn the_wavefront_traces_the_same_paths_as_single_rays() {
         };
         let stream_with = |shift: u64, wide: bool, vector: bool| {
             let all = starts(shift);
-            let mut next = all.iter().map(|(_, ray, rng)| PathStart {
-                ray: *ray,
-                rng: rng.clone(),
-            });
+            let starts: Vec<PathStart> = all
+                .iter()
+                .map(|(_, ray, rng)| PathStart {
+                    ray: *ray,
+                    rng: rng.clone(),
+                })
+                .collect();
             let mut out = vec![(V3::splat(f32::NAN), Counters::default()); all.len()];
             let mut total = Counters::default();
-            // `done` names a path by its place in `next`'s order.
+            // `done` names a path by its place in `starts`.
             let done = |i: u32, l: V3, st: &Counters| out[i as usize] = (l, *st);
             if wide {
                 let mut packets = LanePackets::<Packet16>::with_vector_shading(vector);
-                path_stream::<16, _>(tr, &list, || next.next(), done, true, &mut total, &mut packets)
-                    .unwrap();
+                path_stream::<16, _>(tr, &list, &starts, done, true, &mut total, &mut packets).unwrap();
                 total += packets.take_occupancy();
             } else {
                 let mut packets = LanePackets::<Packet8>::with_vector_shading(vector);
-                path_stream::<8, _>(tr, &list, || next.next(), done, true, &mut total, &mut packets).unwrap();
+                path_stream::<8, _>(tr, &list, &starts, done, true, &mut total, &mut packets).unwrap();
                 total += packets.take_occupancy();
             }
             (out, total)

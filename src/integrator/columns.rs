@@ -128,12 +128,9 @@ fn gather<T: Copy>(column: &mut [T], kept: &[usize], from: usize) {
 }
 
 impl PathColumns {
-    /// The paths `next` gives, at the start of their camera rays (`starts`:
-    /// room to gather them first, column by column being cheaper than
-    /// path by path).
-    pub(super) fn start(&mut self, next: impl FnMut() -> Option<PathStart>, starts: &mut Vec<PathStart>) {
-        starts.clear();
-        starts.extend(std::iter::from_fn(next));
+    /// The paths `starts`, at the start of their camera rays (filled
+    /// column by column: cheaper than path by path).
+    pub(super) fn start(&mut self, starts: &[PathStart]) {
         let n = starts.len();
         self.len = n;
         for c in 0..3 {
@@ -145,7 +142,7 @@ impl PathColumns {
         fill(&mut self.ended, std::iter::repeat_n(false, n));
         fill(
             &mut self.scalars,
-            starts.drain(..).enumerate().map(|(slot, s)| PathScalars {
+            starts.iter().enumerate().map(|(slot, s)| PathScalars {
                 l: V3::ZERO,
                 prev_p: s.ray.0,
                 prev_pdf: 0.0,
@@ -153,7 +150,7 @@ impl PathColumns {
                 specular: true,
                 only_specular: true,
                 slot: slot as u32,
-                rng: s.rng,
+                rng: s.rng.clone(),
             }),
         );
         // `PAD` more of each, for the packets' views and the kernel's loads.

@@ -47,7 +47,7 @@ pub struct LanePackets<P> {
     /// The lanes of a packet between the phases of vector shading, and
     /// the paths it shades.
     shade: Box<ShadeLanes>,
-    columns: (PathColumns, Vec<PathStart>),
+    columns: PathColumns,
     /// Shade in vector registers where [`ShadeLanes::applies`].
     vector_shading: bool,
 }
@@ -90,7 +90,7 @@ impl<P> LanePackets<P> {
 struct Lane {
     path: PathState,
     rng: Rng,
-    /// Its place in the order `next` gave it: its name for `done`, and
+    /// Its place in `starts`: its name for `done`, and
     /// where its own counts are.
     slot: u32,
     /// Its last segment ended it.
@@ -116,19 +116,20 @@ pub fn path_lanes<const N: usize, P: RayPacket<N>>(
     debug_assert!(rngs.len() >= n && (sts.len() == 1 || sts.len() >= n));
     let per_path = sts.len() > 1;
     let mut out = [V3::ZERO; N];
-    let mut starts = cams[..n].iter().zip(rngs.iter());
-    let next = || {
-        starts.next().map(|(&ray, rng)| PathStart {
+    let starts: Vec<PathStart> = cams[..n]
+        .iter()
+        .zip(rngs)
+        .map(|(&ray, rng)| PathStart {
             ray,
             rng: rng.clone(),
         })
-    };
+        .collect();
     let mut total = Counters::default();
     let mut own = [Counters::default(); N];
     path_stream(
         tr,
         list,
-        next,
+        &starts,
         |i, l, st| {
             out[i as usize] = l;
             own[i as usize] = *st;
@@ -148,7 +149,7 @@ pub fn path_lanes<const N: usize, P: RayPacket<N>>(
 }
 
 /// Paths of the path tracer traced as one wavefront, `N` side by side: all
-/// the paths `next` gives start together, and each step takes the segment
+/// the paths of `starts` start together, and each step takes the segment
 /// of every live path, in packets of `N` made of the live paths in order
 /// (a pixel's camera rays fill packets as before; later the survivors of
 /// many pixels, so packets stay full however the paths' lengths differ).
@@ -162,7 +163,7 @@ pub fn path_lanes<const N: usize, P: RayPacket<N>>(
 /// in both, each path's random numbers are its own, and a path's shadow ray
 /// is resolved before its next segment); with vector shading
 /// (`shade_lanes`), up to rounding. Every ended
-/// path goes to `done` with its index in the order `next` gave it, its
+/// path goes to `done` with its index in `starts`, its
 /// radiance and (`per_path`) its own counters, else zeros; all counts also
 /// add to `stats`. Only where
 /// [`path_lanes_apply`] holds.
@@ -172,7 +173,7 @@ pub fn path_lanes<const N: usize, P: RayPacket<N>>(
 pub fn path_stream<const N: usize, P: RayPacket<N>>(
     tr: Tracer<'_>,
     list: &InteriorList,
-    mut next: impl FnMut() -> Option<PathStart>,
+    starts: &[PathStart],
     mut done: impl FnMut(u32, V3, &Counters),
     per_path: bool,
     stats: &mut Counters,
@@ -202,13 +203,13 @@ pub fn path_stream<const N: usize, P: RayPacket<N>>(
     if *vector_shading && ShadeLanes::applies(tr) {
         vector_stream(
             tr,
-            next,
+            starts,
             done,
             per_path,
             stats,
             (near, shadow),
             occupancy,
-            (&mut columns.0, &mut columns.1),
+            columns,
             own,
             waiting,
             shade,
@@ -218,14 +219,12 @@ pub fn path_stream<const N: usize, P: RayPacket<N>>(
     }
     let surfaces = &mut SurfaceLanes::<N>::default();
     front.clear();
-    while let Some(PathStart { ray: (o, d), rng }) = next() {
-        front.push(Lane {
-            path: PathState::new(o, d, list.clone()),
-            rng,
-            slot: front.len() as u32,
-            ended: false,
-        });
-    }
+    front.extend(starts.iter().enumerate().map(|(slot, s)| Lane {
+        path: PathState::new(s.ray.0, s.ray.1, list.clone()),
+        rng: s.rng.clone(),
+        slot: slot as u32,
+        ended: false,
+    }));
     // The counters of a path: its own (in the order the paths started),
     // or the shared ones.
     let mut shared = Counters::default();

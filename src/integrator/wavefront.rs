@@ -26,13 +26,13 @@ use glam::Vec3A as V3;
 #[allow(clippy::too_many_arguments)]
 pub(super) fn vector_stream<const N: usize, P: RayPacket<N>>(
     tr: Tracer<'_>,
-    next: impl FnMut() -> Option<PathStart>,
+    starts: &[PathStart],
     mut done: impl FnMut(u32, V3, &Counters),
     per_path: bool,
     stats: &mut Counters,
     packets: (&mut P, &mut P),
     occupancy: &mut Counters,
-    (cols, starts): (&mut PathColumns, &mut Vec<PathStart>),
+    cols: &mut PathColumns,
     own: &mut Vec<Counters>,
     waiting: &mut Vec<(u32, PendingShadow)>,
     shade: &mut ShadeLanes,
@@ -43,7 +43,7 @@ pub(super) fn vector_stream<const N: usize, P: RayPacket<N>>(
     let (near, shadow) = packets;
     let surfaces = &mut SurfaceLanes::<N>::default();
     shade.start(scene);
-    cols.start(next, starts);
+    cols.start(starts);
     let mut shared = Counters::default();
     own.clear();
     if per_path {
