@@ -303,9 +303,10 @@ impl ShadeLanes {
         arch.dispatch(Kernel { s: self, io, lanes });
     }
 
-    /// Phase 3 for lane `i` of `paths`, which `prepare` sent to the kernel: the connection (a shadow ray to resolve before the next
-    /// segment, or a contribution added now), the path's flags, Russian
-    /// roulette. `false`: the path has ended.
+    /// Phase 3 for lane `i` of `paths`, which `prepare` sent to the kernel: the
+    /// connection (a shadow ray to resolve before the next segment, or a
+    /// contribution added now), the path's flags, Russian roulette. `false`:
+    /// the path has ended.
     #[inline(always)]
     pub(super) fn finish<const N: usize>(
         &self,

@@ -1,11 +1,11 @@
 //! The path tracer's wavefront for scenes in the vector class
-//! ([`ShadeLanes::applies`]): the live paths held as columns
-//! ([`PathColumns`]), one array per component of their state. A step writes `N` consecutive paths' rays into a packet
-//! straight from the columns, the vector kernel reads their directions and
-//! throughputs from the same columns and writes the next rays back, and the
-//! paths that ended leave by compaction. The scalar phases that remain per
-//! lane are the ones that branch on the material (`ShadeLanes::prepare`)
-//! and on the path's end (`ShadeLanes::finish`).
+//! ([`ShadeLanes::applies`]): the live paths held as columns ([`PathColumns`]),
+//! one array per component of their state. A step writes `N` consecutive paths'
+//! rays into a packet straight from the columns, the vector kernel reads their
+//! directions and throughputs from the same columns and writes the next rays
+//! back, and the paths that ended leave by compaction. The scalar phases that
+//! remain per lane are the ones that branch on the material
+//! (`ShadeLanes::prepare`) and on the path's end (`ShadeLanes::finish`).
 //!
 //! Each path's radiance is the one the lane-by-lane wavefront
 //! ([`path_stream`](super::path_stream) with scalar shading) gives up to the
