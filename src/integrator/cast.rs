@@ -8,7 +8,6 @@ use crate::dielectric::{self, InteriorList};
 use crate::embree::RayPacket;
 use crate::error::Result;
 use crate::ray::{Hit, Ray};
-use crate::sampling::Rng;
 use crate::scene::shapes::{SetScratch, SurfaceLanes};
 use crate::scene::{RenderScene, SurfacePoint};
 use glam::Vec3A as V3;
@@ -290,14 +289,6 @@ pub(super) fn known_segment(
     Segment::straight(ray, hit)
 }
 
-/// One path for [`path_stream`](super::path_stream) to start.
-pub struct PathStart {
-    /// The camera ray: origin and unit direction.
-    pub ray: (V3, V3),
-    /// The path's generator, after drawing `ray`.
-    pub rng: Rng,
-}
-
 /// Nearest hits of the active lanes of `packet` in `scene`: Embree's, or
 /// with an [`AnalyticSet`](crate::scene::shapes::AnalyticSet), Embree's
 /// among the meshes completed by the set's. Whether any hit is the set's.
@@ -337,16 +328,16 @@ pub(super) fn occlude_packet<const N: usize, P: RayPacket<N>>(
     }
 }
 
-/// The surface point of lane `i`'s hit `h` on `ray`: from the analytic
-/// set's solve where it answered the lane (`set_points`: it answered some),
-/// else the scene's own.
+/// The surface point of lane `i`'s hit `h` on the lane's ray (`ray`, asked
+/// for only when needed): from the analytic set's solve where it answered
+/// the lane (`set_points`: it answered some), else the scene's own.
 #[inline(always)]
 pub(super) fn packet_surface_point<const N: usize>(
     scene: &RenderScene,
     (set_points, surfaces): (bool, &SurfaceLanes<N>),
     i: usize,
     h: &Hit,
-    ray: &Ray,
+    ray: impl FnOnce() -> Ray,
 ) -> SurfacePoint {
     let solved = (set_points && surfaces.done[i] != 0.0)
         .then(|| {
@@ -357,5 +348,5 @@ pub(super) fn packet_surface_point<const N: usize>(
             scene.analytic_surface_point(h, pd, p, ng)
         })
         .flatten();
-    solved.unwrap_or_else(|| scene.surface_point(ray, h))
+    solved.unwrap_or_else(|| scene.surface_point(&ray(), h))
 }

@@ -3,7 +3,7 @@
 //! packet's rays and the vector kernel's operands are loads of consecutive
 //! entries. Paths that end leave by compaction, the others keeping their
 //! order. (A path's wavelengths, when spectral, would be one more column.)
-use super::cast::PathStart;
+use super::path::PathStart;
 use crate::ray::Ray;
 use crate::sampling::Rng;
 use glam::Vec3A as V3;

@@ -3,10 +3,10 @@
 //! shaded by the same step as a single ray ([`PathState::advance`]), or,
 //! where the scene allows it, all of a packet's paths at once in vector
 //! registers (`wavefront`).
-use super::cast::{cast, intersect_packet, known_segment, packet_surface_point, PathStart, NO_COINCIDENT};
+use super::cast::{cast, intersect_packet, known_segment, packet_surface_point, NO_COINCIDENT};
 use super::columns::PathColumns;
 use super::light::{resolve_shadows, PendingShadow};
-use super::path::PathState;
+use super::path::{PathStart, PathState};
 use super::shade_lanes::ShadeLanes;
 use super::wavefront::vector_stream;
 use super::Tracer;
@@ -44,9 +44,9 @@ pub struct LanePackets<P> {
     /// connection (kept apart from the paths, which move as the front
     /// shrinks).
     waiting: Vec<(u32, PendingShadow)>,
-    /// The lanes of a packet between the phases of vector shading, and
-    /// the paths it shades.
+    /// The lanes of a packet between the phases of vector shading.
     shade: Box<ShadeLanes>,
+    /// The paths of a wavefront shaded in vector registers.
     columns: PathColumns,
     /// Shade in vector registers where [`ShadeLanes::applies`].
     vector_shading: bool,
@@ -293,7 +293,9 @@ pub fn path_stream<const N: usize, P: RayPacket<N>>(
                     continue;
                 }
                 if let Some(h) = &hit {
-                    sps[i] = Some(packet_surface_point(scene, (set_points, surfaces), i, h, &p.ray));
+                    sps[i] = Some(packet_surface_point(scene, (set_points, surfaces), i, h, || {
+                        p.ray
+                    }));
                     geoms[i] = h.geom_id;
                 }
                 known[i] = true;

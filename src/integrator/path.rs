@@ -303,13 +303,27 @@ impl PathState {
 
     /// The path's radiance (0, counted, when it is not finite).
     pub(super) fn radiance(&self, st: &mut Counters) -> V3 {
-        if self.l.is_finite() {
-            self.l
-        } else {
-            st.nan += 1;
-            V3::ZERO
-        }
+        finite_radiance(self.l, st)
     }
+}
+
+/// A path's radiance `l`, or 0 (counted) when it is not finite.
+#[inline]
+pub(super) fn finite_radiance(l: V3, st: &mut Counters) -> V3 {
+    if l.is_finite() {
+        l
+    } else {
+        st.nan += 1;
+        V3::ZERO
+    }
+}
+
+/// One path for [`path_stream`](super::path_stream) to start.
+pub struct PathStart {
+    /// The camera ray: origin and unit direction.
+    pub ray: (V3, V3),
+    /// The path's generator, after drawing `ray`.
+    pub rng: Rng,
 }
 
 /// The end of a step for a path with throughput `beta` at segment `depth`

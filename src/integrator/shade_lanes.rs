@@ -676,7 +676,7 @@ impl pulp::WithSimd for Kernel<'_> {
                 let k2 = simd.mul_f32s(eta, eta);
                 let transmit = simd.not_m32s(mirror);
                 let beta_i = select(simd, transmit, scale(simd, beta, k2), beta);
-                // (Only at the interface lanes: the others' flags are not theirs.)
+                // (Only at interface lanes: `transmit` means nothing at the others.)
                 let eta_scale = ld!(io.eta_scale);
                 st!(
                     io.eta_scale,

@@ -11,9 +11,10 @@
 //! ([`path_stream`](super::path_stream) with scalar shading) gives up to the
 //! rounding of the f32 kernel: the same random numbers in the same order,
 //! the same packets (the live paths in order), the same shadow rays.
-use super::cast::{intersect_packet, packet_surface_point, PathStart};
+use super::cast::{intersect_packet, packet_surface_point};
 use super::columns::{PathColumns, MAX};
 use super::light::{resolve_shadows, PendingShadow};
+use super::path::{finite_radiance, PathStart};
 use super::shade_lanes::{Prepared, ShadeLanes};
 use super::Tracer;
 use crate::counters::Counters;
@@ -99,11 +100,8 @@ pub(super) fn vector_stream<const N: usize, P: RayPacket<N>>(
                 st.queries += 1;
                 let hit = near.hit(i);
                 let sp = hit.as_ref().map(|h| {
-                    let ray = lanes.ray(i);
-                    (
-                        h.geom_id,
-                        packet_surface_point(scene, (set_points, surfaces), i, h, &ray),
-                    )
+                    let sp = packet_surface_point(scene, (set_points, surfaces), i, h, || lanes.ray(i));
+                    (h.geom_id, sp)
                 });
                 let prep = shade.prepare(i, tr, lanes, sp.as_ref().map(|(g, sp)| (*g, sp)), st);
                 kernel[i] = prep == Prepared::Kernel;
@@ -132,17 +130,8 @@ pub(super) fn vector_stream<const N: usize, P: RayPacket<N>>(
             cols.scalars[at].l += contrib;
         });
         cols.compact(|slot, l| {
-            let st = if per_path {
-                &mut own[slot as usize]
-            } else {
-                &mut shared
-            };
-            let l = if l.is_finite() {
-                l
-            } else {
-                st.nan += 1;
-                V3::ZERO
-            };
+            let st = counts!(slot);
+            let l = finite_radiance(l, st);
             if per_path {
                 done(slot, l, st);
                 *stats += *st;
