@@ -16,7 +16,8 @@
 //! - Vertex sweep (Tables 1, 2) and resolution sweep (Table 3).
 //!
 //! Arguments (after `--`; `USAGE`):
-//! - `--quick`: a short run (smaller sizes, fewer repetitions).
+//! - `--quick`: a short run (smaller films and sweeps, fewer repetitions;
+//!   the cylinder solver still at 100k vertices).
 //! - `--only PART`: one part alone, no JSON: `solvers`, `cylinder`,
 //!   `frames`, `orbit`, `pipeline:SCENE` (the warp frame of one scene at
 //!   1600×1200, CPU seconds per phase) or `rays:SCENE` (its ray pass).
@@ -263,9 +264,11 @@ fn solvers(sum: &mut Summary, opts: &Options) {
 
 /// The hollow-cylinder solvers on the warp_cylinder plane.
 fn cylinder_solver(sum: &mut Summary, eye: DVec3, opts: &Options) {
-    // Cylinder: the warp_cylinder plane, ~100k vertices.
+    // Cylinder: the warp_cylinder plane, ~100k vertices, also with `--quick`:
+    // the target is per 100k, and the tables' cost does not scale with the
+    // vertex count (scaling a smaller run's up overstated it tenfold).
     let c = HollowCylinder::try_new(DVec3::ZERO, DVec3::Y, 1.0, 0.8, 1.5).unwrap();
-    let m = if opts.quick { 100 } else { 316 };
+    let m = 316;
     let pts: Vec<DVec3> = (0..m * m)
         .map(|i| {
             DVec3::new(
@@ -828,6 +831,11 @@ fn main() -> snell::Result<()> {
     let (tube, plate) = (sum.tube.clone().unwrap(), sum.plate.clone().unwrap());
     let orbit = sum.orbit.clone().unwrap();
     println!("\n## Summary against the targets ({bw}x{bh}; speed-up = exact trace / warp frame, same run)\n");
+    if opts.quick {
+        // A frame's fixed costs (the warp, the copies) weigh more at the
+        // small film: the frame targets are judged at the full run's size.
+        println!("(--quick: the frame rows are at 640x480; the frame targets are judged at 1600x1200, without --quick)\n");
+    }
     println!("| what | reached | target |");
     println!("|---|---|---|");
     println!(
