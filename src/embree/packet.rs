@@ -14,10 +14,11 @@ pub trait RayPacket<const N: usize>: Default {
     /// Set lane `i` (< N) to `ray` (tnear and tfar kept); an invalid ray
     /// ([`Ray::is_valid`](crate::ray::Ray::is_valid)) leaves the lane inactive.
     fn set_ray(&mut self, i: usize, ray: &crate::ray::Ray);
-    /// Lanes `0..n` (`n` ≤ N, the length of each slice) to the rays from
-    /// `org` along `dir` over `[0, ∞)`, the others inactive; a ray with a
-    /// non-finite component leaves its lane inactive.
-    fn set_unbounded_rays(&mut self, org: [&[f32]; 3], dir: [&[f32]; 3]);
+    /// Lanes `0..n` (`n` ≤ N) to the rays from `org` along `dir` over
+    /// `[0, ∞)`, the others inactive (their entries copied all the same:
+    /// whole arrays copy without a call); a ray with a non-finite component
+    /// leaves its lane inactive.
+    fn set_unbounded_rays(&mut self, org: [&[f32; N]; 3], dir: [&[f32; N]; 3], n: usize);
     /// Lane `i`'s hit after [`intersect`](Self::intersect).
     fn hit(&self, i: usize) -> Option<Hit>;
     /// Was lane `i` occluded by the last [`occlude`](Self::occlude)?
@@ -186,16 +187,15 @@ macro_rules! ray_packet {
                 self.valid[i] = if ray.is_valid() { -1 } else { 0 };
             }
             #[inline]
-            fn set_unbounded_rays(&mut self, org: [&[f32]; 3], dir: [&[f32]; 3]) {
-                let n = org[0].len();
-                assert!(n <= $n && org.iter().chain(&dir).all(|c| c.len() == n));
+            fn set_unbounded_rays(&mut self, org: [&[f32; $n]; 3], dir: [&[f32; $n]; 3], n: usize) {
+                assert!(n <= $n);
                 let r = &mut self.rh.ray;
-                r.org_x[..n].copy_from_slice(org[0]);
-                r.org_y[..n].copy_from_slice(org[1]);
-                r.org_z[..n].copy_from_slice(org[2]);
-                r.dir_x[..n].copy_from_slice(dir[0]);
-                r.dir_y[..n].copy_from_slice(dir[1]);
-                r.dir_z[..n].copy_from_slice(dir[2]);
+                r.org_x = *org[0];
+                r.org_y = *org[1];
+                r.org_z = *org[2];
+                r.dir_x = *dir[0];
+                r.dir_y = *dir[1];
+                r.dir_z = *dir[2];
                 r.tnear = [0.0; $n];
                 r.tfar = [f32::INFINITY; $n];
                 self.rh.hit.geomID = [INVALID_ID; $n];

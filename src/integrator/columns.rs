@@ -118,6 +118,13 @@ fn lanes3<const M: usize>(c: &mut [Vec<f32>; 3], base: usize) -> [&mut [f32; M];
     [lanes(x, base), lanes(y, base), lanes(z, base)]
 }
 
+/// Entries `base..base + M` of three columns, to read.
+#[inline(always)]
+fn lanes3_ref<const M: usize>(c: &[Vec<f32>; 3], base: usize) -> [&[f32; M]; 3] {
+    c.each_ref()
+        .map(|c| <&[f32; M]>::try_from(&c[base..base + M]).expect("padded columns"))
+}
+
 /// Entry `kept[w] - from` of `column` moved to `w`, for every `w` (`kept`
 /// increasing from `from` on: each entry is read before it is overwritten).
 #[inline(always)]
@@ -179,6 +186,13 @@ impl PathColumns {
             s: lanes(&mut self.scalars, base),
             ended: lanes(&mut self.ended, base),
         }
+    }
+
+    /// The origins and directions of the `N` paths from `base` on, as
+    /// arrays (a packet's rays).
+    #[inline(always)]
+    pub(super) fn rays<const N: usize>(&self, base: usize) -> ([&[f32; N]; 3], [&[f32; N]; 3]) {
+        (lanes3_ref(&self.org, base), lanes3_ref(&self.dir, base))
     }
 
     /// The kernel's view of paths `base..base + PAD`.

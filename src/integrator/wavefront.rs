@@ -64,18 +64,8 @@ pub(super) fn vector_stream<const N: usize, P: RayPacket<N>>(
         for base in (0..cols.len).step_by(N) {
             let n = N.min(cols.len - base);
             let r = base..base + n;
-            near.set_unbounded_rays(
-                [
-                    &cols.org[0][r.clone()],
-                    &cols.org[1][r.clone()],
-                    &cols.org[2][r.clone()],
-                ],
-                [
-                    &cols.dir[0][r.clone()],
-                    &cols.dir[1][r.clone()],
-                    &cols.dir[2][r.clone()],
-                ],
-            );
+            let (org, dir) = cols.rays::<N>(base);
+            near.set_unbounded_rays(org, dir, n);
             // Coherent while every path of the packet has only met smooth
             // surfaces (as `path_stream`).
             let coherent = cols.scalars[r.clone()].iter().all(|s| s.only_specular);
