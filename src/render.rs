@@ -315,9 +315,10 @@ pub struct RenderOptions {
 /// other lobe).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub enum Shading {
-    /// A packet's paths side by side in vector registers where the scene
-    /// allows it (Lambertian, black and smooth-interface materials, at most
-    /// one rectangular light, no priority solids or medium), else one by one.
+    /// A packet's paths side by side in vector registers where their hits
+    /// allow it (Lambertian lit by at most one rectangular light, black,
+    /// smooth interfaces and nested solids' smooth boundaries), the others
+    /// one by one.
     #[default]
     Vector,
     /// One path at a time (`PathState::advance`).

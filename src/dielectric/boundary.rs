@@ -50,6 +50,11 @@ impl Boundary {
         self.transmitted.as_ref()
     }
 
+    /// The list a transmitted ray carries, taken (`None`: the same as before).
+    pub fn into_transmitted(self) -> Option<InteriorList> {
+        self.transmitted
+    }
+
     /// Move `list` across the boundary (the ray is transmitted).
     pub fn transmit(self, list: &mut InteriorList) {
         if let Some(l) = self.transmitted {

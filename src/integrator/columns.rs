@@ -4,6 +4,7 @@
 //! entries. Paths that end leave by compaction, the others keeping their
 //! order. (A path's wavelengths, when spectral, would be one more column.)
 use super::path::PathStart;
+use crate::dielectric::InteriorList;
 use crate::ray::Ray;
 use crate::sampling::Rng;
 use glam::Vec3A as V3;
@@ -32,6 +33,11 @@ pub(super) struct PathColumns {
     /// roulette's correction).
     eta_scale: Vec<f32>,
     pub(super) scalars: Vec<PathScalars>,
+    /// The solids each path is inside (kept in order only in scenes with
+    /// solids: elsewhere every list stays empty).
+    pub(super) lists: Vec<InteriorList>,
+    /// Compaction moves `lists` too.
+    with_lists: bool,
     /// The last step ended the path.
     ended: Vec<bool>,
     /// The places of the paths a compaction keeps.
@@ -55,6 +61,10 @@ pub(super) struct PathScalars {
     pub(super) only_specular: bool,
     /// The path's place in the order it started.
     pub(super) slot: u32,
+    /// Where the next segment starts along its ray: 0 but for a ray that
+    /// continues its parent's line through an index-matched boundary
+    /// (`ray::spawn_transmitted`).
+    pub(super) tnear: f32,
     pub(super) rng: Rng,
 }
 
@@ -79,6 +89,8 @@ pub(super) struct PacketPaths<'a, const N: usize> {
     pub(super) beta: [&'a mut [f32; N]; 3],
     pub(super) eta_scale: &'a mut [f32; N],
     pub(super) s: &'a mut [PathScalars; N],
+    /// The paths' interior lists (empty in a scene without solids).
+    pub(super) lists: &'a mut [InteriorList; N],
     pub(super) ended: &'a mut [bool; N],
 }
 
@@ -86,7 +98,17 @@ impl<const N: usize> PacketPaths<'_, N> {
     /// Lane `i`'s next ray.
     #[inline(always)]
     pub(super) fn ray(&self, i: usize) -> Ray {
-        Ray::new(get3(&self.org, i), get3(&self.dir, i))
+        let mut ray = Ray::new(get3(&self.org, i), get3(&self.dir, i));
+        ray.tnear = self.s[i].tnear;
+        ray
+    }
+
+    /// Lane `i`'s next ray set to `ray` (unbounded: the wavefront's rays are).
+    #[inline(always)]
+    pub(super) fn set_ray(&mut self, i: usize, ray: &Ray) {
+        set3(&mut self.org, i, ray.org);
+        set3(&mut self.dir, i, ray.dir);
+        self.s[i].tnear = ray.tnear;
     }
 }
 
@@ -118,13 +140,6 @@ fn lanes3<const M: usize>(c: &mut [Vec<f32>; 3], base: usize) -> [&mut [f32; M];
     [lanes(x, base), lanes(y, base), lanes(z, base)]
 }
 
-/// Entries `base..base + M` of three columns, to read.
-#[inline(always)]
-fn lanes3_ref<const M: usize>(c: &[Vec<f32>; 3], base: usize) -> [&[f32; M]; 3] {
-    c.each_ref()
-        .map(|c| <&[f32; M]>::try_from(&c[base..base + M]).expect("padded columns"))
-}
-
 /// Entry `kept[w] - from` of `column` moved to `w`, for every `w` (`kept`
 /// increasing from `from` on: each entry is read before it is overwritten).
 #[inline(always)]
@@ -135,9 +150,10 @@ fn gather<T: Copy>(column: &mut [T], kept: &[usize], from: usize) {
 }
 
 impl PathColumns {
-    /// The paths `starts`, at the start of their camera rays (filled
-    /// column by column: cheaper than path by path).
-    pub(super) fn start(&mut self, starts: &[PathStart]) {
+    /// The paths `starts`, at the start of their camera rays inside `list`
+    /// (filled column by column: cheaper than path by path). `with_lists`:
+    /// the scene has solids, so the lists change and compaction moves them.
+    pub(super) fn start(&mut self, starts: &[PathStart], list: &InteriorList, with_lists: bool) {
         let n = starts.len();
         self.len = n;
         for c in 0..3 {
@@ -157,9 +173,16 @@ impl PathColumns {
                 specular: true,
                 only_specular: true,
                 slot: slot as u32,
+                tnear: 0.0,
                 rng: s.rng.clone(),
             }),
         );
+        // Without solids every list is and stays empty: filled only when a
+        // wavefront with solids may have left others, or there are too few.
+        if with_lists || self.with_lists || self.lists.len() < n + PAD {
+            fill(&mut self.lists, std::iter::repeat_n(list.clone(), n + PAD));
+        }
+        self.with_lists = with_lists;
         // `PAD` more of each, for the packets' views and the kernel's loads.
         let m = n + PAD;
         for c in 0..3 {
@@ -184,15 +207,9 @@ impl PathColumns {
             beta: lanes3(&mut self.beta, base),
             eta_scale: lanes(&mut self.eta_scale, base),
             s: lanes(&mut self.scalars, base),
+            lists: lanes(&mut self.lists, base),
             ended: lanes(&mut self.ended, base),
         }
-    }
-
-    /// The origins and directions of the `N` paths from `base` on, as
-    /// arrays (a packet's rays).
-    #[inline(always)]
-    pub(super) fn rays<const N: usize>(&self, base: usize) -> ([&[f32; N]; 3], [&[f32; N]; 3]) {
-        (lanes3_ref(&self.org, base), lanes3_ref(&self.dir, base))
     }
 
     /// The kernel's view of paths `base..base + PAD`.
@@ -232,6 +249,12 @@ impl PathColumns {
         gather(&mut self.eta_scale[first..n], kept, first);
         for (w, &k) in kept.iter().enumerate() {
             self.scalars[first + w] = self.scalars[k].clone();
+        }
+        if self.with_lists {
+            // (A swap: what lands at `k` is an ended path's or one moved already.)
+            for (w, &k) in kept.iter().enumerate() {
+                self.lists.swap(first + w, k);
+            }
         }
         self.len = first + kept.len();
         self.ended[first..self.len].fill(false);

@@ -1,10 +1,10 @@
 //! The path tracer's shading of a packet's lanes side by side in vector
-//! registers, for scenes whose every material is in the simple class:
-//! Lambertian (any texture), black, or a smooth interface between two
-//! different indices, lit by at most one rectangular light and a black,
-//! constant or mapped environment (not a sky, whose escapes are weighed
-//! against its sun's sampling), without priority solids or a
-//! gradient-index medium ([`ShadeLanes::applies`]).
+//! registers, for the lanes whose hit is Lambertian (any texture) lit by at
+//! most one rectangular light, black, a smooth interface or the smooth
+//! boundary of a nested solid (its index pair from the nested rule), or a
+//! miss of a black, constant or mapped environment (not a sky, whose escapes
+//! are weighed against its sun's sampling); the wavefront gives the others
+//! to the single-ray step ([`ShadeLanes::prepare`] says which).
 //!
 //! The paths are the wavefront's columns ([`PathColumns`]): each lane goes
 //! through three phases, as `PathState::advance` does for one path in turn:
@@ -19,21 +19,23 @@
 //!    refraction, the spawn offsets and the throughput, read from and
 //!    written back to the columns;
 //! 3. [`ShadeLanes::finish`] (scalar, per lane): the shadow ray handed back,
-//!    the path's flags and Russian roulette.
+//!    a transmitted path's interior list, the path's flags and Russian
+//!    roulette.
 //!
 //! Arithmetic is f32 throughout (as Mitsuba's `llvm_ad_rgb`), where
 //! `advance` solves Fresnel and Snell in f64: a path's radiance differs from
 //! `advance`'s by rounding, and where a random number falls within rounding
 //! of a Fresnel reflectance, or a direction within rounding of the critical
 //! angle, the two pick different lobes (the tests bound how often).
+use super::cast::NO_COINCIDENT;
 use super::columns::{self, PacketPaths, PathIo, MAX};
 use super::light::PendingShadow;
 use super::path::survives;
 use super::Tracer;
 use crate::counters::Counters;
-use crate::ray::{front_facing, Ray, OFFSET_ULPS};
+use crate::dielectric::{self, Coincident, InteriorList};
+use crate::ray::{front_facing, spawn_transmitted, Hit, Ray, OFFSET_ULPS};
 use crate::sampling::power_heuristic;
-use crate::scene::texture::Texture;
 use crate::scene::{Environment, Light, Material, RenderScene, SurfacePoint};
 use crate::simd3::{add, dot, mul, scale, select, splat, sub, Vec3s};
 use glam::Vec3A as V3;
@@ -47,7 +49,15 @@ pub(super) enum Prepared {
     Ended,
     /// The lane waits for the kernel.
     Kernel,
+    /// The kernel cannot shade this lane (nothing was done to it): the
+    /// single-ray step shades it.
+    Alone,
 }
+
+/// [`ShadeLanes::moves`]: the boundary changes the path's interior list.
+const NEW_LIST: u8 = 1;
+/// [`ShadeLanes::moves`]: the boundary is index-matched.
+const MATCHED: u8 = 2;
 
 /// The single rectangular light of a scene in the class, as the kernel
 /// samples it (`RenderScene::sample_light`).
@@ -94,8 +104,24 @@ pub(super) struct ShadeLanes {
     shadow_dir: [[f32; MAX]; 3],
     shadow_tfar: [f32; MAX],
     contrib: [[f32; MAX]; 3],
+    /// Interface lanes the kernel transmitted (1) or reflected (0).
+    transmit: [f32; MAX],
+    /// What a transmission does at an interface lane besides the kernel's
+    /// ray: [`NEW_LIST`], [`MATCHED`] (0 for most, whose other entries below
+    /// are then stale).
+    moves: [u8; MAX],
+    /// The interior list a transmission carries ([`NEW_LIST`]).
+    after: [Option<InteriorList>; MAX],
+    /// The transmitted ray through an index-matched boundary ([`MATCHED`]):
+    /// its own line continued, or spawned off the hit along its direction.
+    matched: [Option<Ray>; MAX],
     arch: pulp::Arch,
     light: Option<RectLight>,
+    /// Misses and emission need no MIS weight against a sampled sun or sky.
+    plain_env: bool,
+    /// Lambertian lanes can sample the scene's lights in the kernel: none,
+    /// or the one rectangle (a black surface samples nothing anywhere).
+    lights_in_kernel: bool,
     /// The render tests' known-wrong variant.
     #[cfg(test)]
     variant: crate::scene::model::BsdfVariant,
@@ -112,39 +138,12 @@ fn get3(a: &[[f32; MAX]; 3], i: usize) -> V3 {
 }
 
 impl ShadeLanes {
-    /// Can the lanes of a render of `tr` be shaded here? The path tracer with
-    /// next-event estimation, without priority solids, a gradient-index
-    /// medium or an observer; every material Lambertian, black or a smooth
-    /// interface between different indices; no light but (at most) one
-    /// rectangle (others only where no surface samples them), and no sun
-    /// for next-event estimation to sample.
+    /// Can lanes of a render of `tr` be shaded here (which ones, each lane
+    /// decides in [`ShadeLanes::prepare`])? The path tracer with next-event
+    /// estimation, without a gradient-index medium or an observer (which is
+    /// told of every query the single-ray step makes).
     pub(super) fn applies(tr: Tracer<'_>) -> bool {
-        let s = tr.scene;
-        let materials = s.geoms.iter().all(|g| match &g.material {
-            Material::Diffuse { .. } | Material::Black => true,
-            Material::Interface { int_ior, ext_ior } => int_ior != ext_ior,
-            _ => false,
-        });
-        // Other lights only where no surface would sample them (every
-        // Lambertian one black: cylinder_refraction's emitting plane).
-        let lights = match s.lights.as_slice() {
-            [] | [Light::Rect { .. }] => true,
-            _ => s.geoms.iter().all(|g| match &g.material {
-                Material::Diffuse { reflectance, .. } => {
-                    matches!(reflectance, Texture::Constant(c) if *c == V3::ZERO)
-                }
-                _ => true,
-            }),
-        };
-        materials
-            && lights
-            && tr.nee()
-            && tr.observer.is_none()
-            && s.medium.is_none()
-            && s.solids.is_empty()
-            && !s.has_overlap
-            && s.environment.sun_nee().is_none()
-            && !matches!(s.environment, Environment::Sky(_))
+        tr.nee() && tr.observer.is_none() && tr.scene.medium.is_none()
     }
 
     /// Ready for a step of `scene` (once per wavefront).
@@ -171,6 +170,10 @@ impl ShadeLanes {
             }),
             _ => None,
         };
+        self.plain_env =
+            scene.environment.sun_nee().is_none() && !matches!(scene.environment, Environment::Sky(_));
+        self.lights_in_kernel =
+            self.plain_env && matches!(scene.lights.as_slice(), [] | [Light::Rect { .. }]);
     }
 
     /// Before a packet's lanes are prepared: none waits for the kernel.
@@ -179,30 +182,71 @@ impl ShadeLanes {
         self.diffuse = [-1.0; MAX];
     }
 
-    /// Phase 1 for lane `i` of `paths`: its segment ended at `hit`
-    /// (the geometry's id and the surface point; `None`: a miss). Emission
-    /// and a miss are added to the path here, the step's random numbers
-    /// drawn, and what the kernel needs stored.
+    /// Phase 1 for lane `i` of `paths`, whose segment along its ray was
+    /// just cast (`sigma`: the absorption of the medium it crossed; `at`: its
+    /// hit and surface point, `None` for a miss; `coincident`: the solid
+    /// surfaces at the hit). Emission and a miss are added to the path here,
+    /// a boundary's index pair resolved (the path's list updated for the hit
+    /// itself), the step's random numbers drawn, and what the kernel needs
+    /// stored. [`Prepared::Alone`] before any of that when the kernel cannot
+    /// shade the lane.
+    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     pub(super) fn prepare<const N: usize>(
         &mut self,
         i: usize,
         tr: Tracer<'_>,
         paths: &mut PacketPaths<'_, N>,
-        hit: Option<(u32, &SurfacePoint)>,
+        sigma: Option<V3>,
+        at: Option<(&Hit, &SurfacePoint)>,
+        coincident: &Coincident,
         st: &mut Counters,
     ) -> Prepared {
         let scene = tr.scene;
         let dir = columns::get3(&paths.dir, i);
-        let beta = columns::get3(&paths.beta, i);
-        let Some((geom, sp)) = hit else {
+        let Some((hit, sp)) = at else {
+            if !self.plain_env {
+                return Prepared::Alone;
+            }
             // Next-event estimation samples no environment here: weight 1.
-            paths.s[i].l += beta * scene.escaped_radiance(dir, None);
+            // (A path that escapes inside an absorbing solid brings nothing.)
+            if sigma.is_none() {
+                let beta = columns::get3(&paths.beta, i);
+                paths.s[i].l += beta * scene.escaped_radiance(dir, None);
+            }
             st.ended_escaped += 1;
             return Prepared::Ended;
         };
-        let rec = &scene.geoms[geom as usize];
+        // Solid surfaces coincident with the hit, or passing near it, are
+        // crossed and settled by the single-ray step.
+        if !std::ptr::eq(coincident, &NO_COINCIDENT) && *coincident != Coincident::NONE {
+            return Prepared::Alone;
+        }
+        let rec = &scene.geoms[hit.geom_id as usize];
         let front = front_facing(sp.ng, dir);
+        // What the kernel does at this hit: `None` for the single-ray step.
+        let albedo = match &rec.material {
+            Material::Diffuse {
+                reflectance,
+                two_sided,
+            } if front || *two_sided => {
+                let albedo = reflectance.eval(sp.p, sp.uv);
+                // The kernel's next-event estimation samples one rectangle.
+                if !(self.lights_in_kernel || albedo == V3::ZERO) {
+                    return Prepared::Alone;
+                }
+                Some(albedo)
+            }
+            Material::Diffuse { .. } | Material::Black | Material::Interface { .. } | Material::Solid(_) => {
+                None
+            }
+            _ => return Prepared::Alone,
+        };
+        let mut beta = columns::get3(&paths.beta, i);
+        if let Some(s) = sigma {
+            beta *= (-s * (hit.t - paths.s[i].tnear)).exp();
+            columns::set3(&mut paths.beta, i, beta);
+        }
         if let Some(em) = &rec.emission {
             if front || rec.emission_two_sided {
                 let le = em.eval(sp.p, sp.uv);
@@ -223,12 +267,8 @@ impl ShadeLanes {
         }
         let side = if front { sp.ng } else { -sp.ng };
         let n = if front { sp.ns } else { -sp.ns };
-        match &rec.material {
-            Material::Diffuse {
-                reflectance,
-                two_sided,
-            } if front || *two_sided => {
-                let albedo = reflectance.eval(sp.p, sp.uv);
+        match (&rec.material, albedo) {
+            (Material::Diffuse { .. }, Some(albedo)) => {
                 st.nee_draws += (albedo != V3::ZERO) as u64;
                 let nee = albedo != V3::ZERO && self.light.is_some();
                 if nee {
@@ -248,12 +288,14 @@ impl ShadeLanes {
                 self.nee[i] = if nee { 1.0 } else { 0.0 };
                 set3(&mut self.albedo, i, albedo);
             }
-            Material::Interface { int_ior, ext_ior } => {
-                let (n1, n2) = if front {
-                    (*ext_ior, *int_ior)
-                } else {
-                    (*int_ior, *ext_ior)
+            (m @ (Material::Interface { .. } | Material::Solid(_)), _) => {
+                let Some(boundary) = tr.boundary(m, front, coincident, &mut paths.lists[i]) else {
+                    st.ended_absorbed += 1;
+                    return Prepared::Ended;
                 };
+                let (n1, n2) = (boundary.n1, boundary.n2);
+                #[cfg(test)]
+                let (n1, n2) = self.wrong_pair(scene, m, boundary.entering, (n1, n2));
                 // Past the critical angle no number is drawn (`Interface::sample`).
                 let cos_i = dir.dot(n).abs().min(1.0);
                 let eta = n1 / n2;
@@ -263,12 +305,27 @@ impl ShadeLanes {
                 } else {
                     self.u[0][i] = rng.uniform();
                 }
+                // Through an index-matched boundary the path goes on along
+                // its own line (`ray::spawn_transmitted`), not from an offset.
+                let mut moves = 0;
+                if n1 == n2 {
+                    let ray = paths.ray(i);
+                    let line = dielectric::keeps_line(scene).then_some((&ray, hit.t));
+                    self.matched[i] = Some(spawn_transmitted(sp.p, -side, dir, dir, (n1, n2), line));
+                    moves |= MATCHED;
+                }
+                if let Some(list) = boundary.into_transmitted() {
+                    self.after[i] = Some(list);
+                    moves |= NEW_LIST;
+                }
+                self.moves[i] = moves;
                 self.diffuse[i] = 0.0;
                 self.tir[i] = if tir { 1.0 } else { 0.0 };
                 self.n1[i] = n1;
                 self.n2[i] = n2;
             }
             _ => {
+                // Black, or a one-sided diffuse surface seen from behind.
                 st.ended_absorbed += 1;
                 return Prepared::Ended;
             }
@@ -296,6 +353,24 @@ impl ShadeLanes {
         (false, false)
     }
 
+    /// The render tests' known-wrong nested boundary: a solid's index pair
+    /// against the ambient medium, as if no other solid held the path
+    /// (air → water at a glass-water boundary).
+    #[cfg(test)]
+    fn wrong_pair(&self, scene: &RenderScene, m: &Material, entering: bool, pair: (f32, f32)) -> (f32, f32) {
+        match m {
+            Material::Solid(s) if self.variant == crate::scene::model::BsdfVariant::WrongNestedPair => {
+                let (ior, amb) = (scene.solids[*s as usize].ior, scene.ambient_ior);
+                if entering {
+                    (amb, ior)
+                } else {
+                    (ior, amb)
+                }
+            }
+            _ => pair,
+        }
+    }
+
     /// Phase 2: the kernel over the first `lanes` lanes, whose paths'
     /// columns are `io`.
     pub(super) fn shade(&mut self, lanes: usize, io: PathIo<'_>) {
@@ -309,7 +384,7 @@ impl ShadeLanes {
     /// the path has ended.
     #[inline(always)]
     pub(super) fn finish<const N: usize>(
-        &self,
+        &mut self,
         i: usize,
         scene: &RenderScene,
         paths: &mut PacketPaths<'_, N>,
@@ -335,8 +410,24 @@ impl ShadeLanes {
             paths.s[i].prev_pdf = self.prev_pdf[i];
             paths.s[i].specular = false;
             paths.s[i].only_specular = false;
+            paths.s[i].tnear = 0.0;
         } else {
             paths.s[i].specular = true;
+            paths.s[i].tnear = 0.0;
+            if self.transmit[i] != 0.0 && self.moves[i] != 0 {
+                if let Some(list) = self.after[i].take().filter(|_| self.moves[i] & NEW_LIST != 0) {
+                    #[cfg(test)]
+                    let list = if self.variant == crate::scene::model::BsdfVariant::WrongNestedList {
+                        paths.lists[i].clone()
+                    } else {
+                        list
+                    };
+                    paths.lists[i] = list;
+                }
+                if let Some(ray) = self.matched[i].filter(|_| self.moves[i] & MATCHED != 0) {
+                    paths.set_ray(i, &ray);
+                }
+            }
         }
         paths.s[i].prev_p = get3(&self.p, i);
         let mut beta = columns::get3(&paths.beta, i);
@@ -686,6 +777,7 @@ impl pulp::WithSimd for Kernel<'_> {
                         eta_scale
                     )
                 );
+                st!(s.transmit, simd.select_f32s(transmit, one, zero));
                 next_dir = select(simd, iface, select(simd, mirror, wr, wt), next_dir);
                 next_org = select(simd, iface, select(simd, mirror, above, beneath), next_org);
                 next_beta = select(simd, iface, beta_i, next_beta);

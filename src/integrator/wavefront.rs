@@ -1,50 +1,90 @@
-//! The path tracer's wavefront for scenes in the vector class
-//! ([`ShadeLanes::applies`]): the live paths held as columns ([`PathColumns`]),
-//! one array per component of their state. A step writes `N` consecutive paths'
-//! rays into a packet straight from the columns, the vector kernel reads their
-//! directions and throughputs from the same columns and writes the next rays
-//! back, and the paths that ended leave by compaction. The scalar phases that
-//! remain per lane are the ones that branch on the material
-//! (`ShadeLanes::prepare`) and on the path's end (`ShadeLanes::finish`).
+//! The path tracer's wavefront: the live paths held as columns
+//! ([`PathColumns`]), one array per component of their state. A step writes
+//! `N` consecutive paths' rays into a packet straight from the columns, and
+//! shades each lane in one of two ways:
 //!
-//! Each path's radiance is the one the lane-by-lane wavefront
-//! ([`path_stream`](super::path_stream) with scalar shading) gives up to the
-//! rounding of the f32 kernel: the same random numbers in the same order,
-//! the same packets (the live paths in order), the same shadow rays.
-use super::cast::{intersect_packet, packet_surface_point};
-use super::columns::{PathColumns, MAX};
+//! - in vector registers ([`ShadeLanes`]): Lambertian surfaces lit by the
+//!   scene's one rectangular light, smooth interfaces and the boundaries of
+//!   nested solids, black surfaces, emission and misses. A scalar phase per
+//!   lane reads the material, resolves a boundary's index pair (the nested
+//!   rule) and draws the step's random numbers; the kernel makes every lane's
+//!   light sample, bounce, Fresnel choice and next ray at once, reading and
+//!   writing the same columns; a scalar phase hands back the shadow ray,
+//!   moves a transmitted path's interior list and plays roulette;
+//! - one at a time by the single-ray step ([`PathState::advance`]) for every
+//!   other lane (other materials and lights, a hit with coincident solid
+//!   surfaces, an observed or BSDF-sampled render), and for every lane with
+//!   `--shading scalar`, which is the single-ray path tracer bit for bit.
+//!
+//! Segments that a plain query answers go to Embree (or the analytic set)
+//! in the packet; the others (rays inside overlapping solids) are traced one
+//! by one through [`dielectric::trace`]. Shadow rays follow in packets of
+//! their own, then the paths that ended leave by compaction.
+//!
+//! Each path's radiance is the one the single-ray path tracer gives with its
+//! generator up to the rounding of the f32 kernel: the same random numbers
+//! in the same order, the same shadow rays.
+use super::cast::{cast, intersect_packet, known_segment, packet_surface_point, Segment, NO_COINCIDENT};
+use super::columns::{self, PacketPaths, PathColumns, MAX};
 use super::light::{resolve_shadows, PendingShadow};
-use super::path::{finite_radiance, PathStart};
+use super::path::{finite_radiance, PathStart, PathState};
 use super::shade_lanes::{Prepared, ShadeLanes};
 use super::Tracer;
 use crate::counters::Counters;
+use crate::dielectric::{self, Coincident, InteriorList, NestedStrategy};
 use crate::embree::RayPacket;
+use crate::error::Result;
 use crate::scene::shapes::{SetScratch, SurfaceLanes};
+use crate::scene::SurfacePoint;
 use glam::Vec3A as V3;
 
-/// [`path_stream`](super::path_stream) for a scene in the vector class, its
-/// analytic queries in `scratch`: the same contract.
+/// The wavefront's storage, kept across calls for its allocations.
+pub(super) struct Stream<'a, const N: usize, P> {
+    pub near: &'a mut P,
+    pub shadow: &'a mut P,
+    pub occupancy: &'a mut Counters,
+    pub cols: &'a mut PathColumns,
+    pub own: &'a mut Vec<Counters>,
+    pub waiting: &'a mut Vec<(u32, PendingShadow)>,
+    pub shade: &'a mut ShadeLanes,
+    pub scratch: &'a mut SetScratch<N>,
+}
+
+/// The paths `starts` (camera rays inside `list`) traced to their ends as
+/// one wavefront, `N` side by side (the contract of
+/// [`path_stream`](super::path_stream)); lanes shaded in vector registers
+/// where `vector` and [`ShadeLanes::applies`].
 #[allow(clippy::too_many_arguments)]
-pub(super) fn vector_stream<const N: usize, P: RayPacket<N>>(
+pub(super) fn stream<const N: usize, P: RayPacket<N>>(
     tr: Tracer<'_>,
+    list: &InteriorList,
     starts: &[PathStart],
     mut done: impl FnMut(u32, V3, &Counters),
     per_path: bool,
     stats: &mut Counters,
-    packets: (&mut P, &mut P),
-    occupancy: &mut Counters,
-    cols: &mut PathColumns,
-    own: &mut Vec<Counters>,
-    waiting: &mut Vec<(u32, PendingShadow)>,
-    shade: &mut ShadeLanes,
-    scratch: &mut SetScratch<N>,
-) {
-    debug_assert!(ShadeLanes::applies(tr) && N <= MAX);
+    vector: bool,
+    w: Stream<'_, N, P>,
+) -> Result<()> {
+    debug_assert!(N <= MAX);
     let scene = tr.scene;
-    let (near, shadow) = packets;
+    let Stream {
+        near,
+        shadow,
+        occupancy,
+        cols,
+        own,
+        waiting,
+        shade,
+        scratch,
+    } = w;
     let surfaces = &mut SurfaceLanes::<N>::default();
+    let kernel_on = vector && ShadeLanes::applies(tr);
     shade.start(scene);
-    cols.start(starts);
+    // Only overlapping solids make some segments need more than a plain
+    // query, and only absorbing ones attenuate a segment.
+    let nested = scene.has_overlap && tr.strategy != NestedStrategy::Off;
+    let absorbing = scene.solids.iter().any(|s| s.sigma_a.max_element() > 0.0);
+    cols.start(starts, list, !scene.solids.is_empty());
     let mut shared = Counters::default();
     own.clear();
     if per_path {
@@ -59,18 +99,50 @@ pub(super) fn vector_stream<const N: usize, P: RayPacket<N>>(
             }
         };
     }
+    // Some path has continued its line (`PathScalars::tnear`): the packets'
+    // rays then need their starts.
+    let mut lined = false;
     while cols.len > 0 {
         waiting.clear();
         for base in (0..cols.len).step_by(N) {
             let n = N.min(cols.len - base);
-            let r = base..base + n;
-            let (org, dir) = cols.rays::<N>(base);
-            near.set_unbounded_rays(org, dir, n);
+            let lanes = &mut cols.packet::<N>(base);
+            // Which lanes a plain query answers (`Some(check)`: check its hit
+            // with `plain_hit_is_true`); the others are traced one by one.
+            let mut plain = [Some(false); N];
+            if nested {
+                for (i, p) in plain.iter_mut().enumerate().take(n) {
+                    *p = dielectric::plain_query_suffices(scene, tr.strategy, &lanes.lists[i]);
+                }
+            }
+            let sent = plain[..n].iter().flatten().count();
+            if sent == n {
+                near.set_unbounded_rays(
+                    lanes.org.each_ref().map(|c| &**c),
+                    lanes.dir.each_ref().map(|c| &**c),
+                    n,
+                );
+            } else {
+                near.clear();
+            }
+            // A ray continuing its line starts past the hit it left (and the
+            // lanes of a mixed packet are set one by one).
+            if sent < n || lined {
+                for (i, p) in plain.iter().enumerate().take(n) {
+                    if p.is_some() && (sent < n || lanes.s[i].tnear != 0.0) {
+                        near.set_ray(i, &lanes.ray(i));
+                    }
+                }
+            }
             // Coherent while every path of the packet has only met smooth
-            // surfaces (as `path_stream`).
-            let coherent = cols.scalars[r.clone()].iter().all(|s| s.only_specular);
-            occupancy.packet_slots += N as u64;
-            occupancy.packet_lanes += n as u64;
+            // surfaces (a pixel's camera rays and their refractions stay
+            // nearly parallel); shadow rays go without (docs/peers.md).
+            let coherent = lanes.s[..n].iter().all(|s| s.only_specular);
+            // (A packet without a lane is not sent: `RayPacket::intersect`.)
+            if sent > 0 {
+                occupancy.packet_slots += N as u64;
+                occupancy.packet_lanes += sent as u64;
+            }
             let set_points = match (
                 &scene.analytic_set,
                 intersect_packet(scene, near, coherent, scratch),
@@ -83,19 +155,86 @@ pub(super) fn vector_stream<const N: usize, P: RayPacket<N>>(
             };
             shade.begin();
             let mut kernel = [false; N];
-            let lanes = &mut cols.packet::<N>(base);
             for i in 0..n {
                 let st = counts!(lanes.s[i].slot);
                 st.segments += 1;
-                st.queries += 1;
+                let sigma = if absorbing {
+                    tr.medium(&lanes.lists[i])
+                } else {
+                    None
+                };
                 let hit = near.hit(i);
-                let sp = hit.as_ref().map(|h| {
-                    let sp = packet_surface_point(scene, (set_points, surfaces), i, h, || lanes.ray(i));
-                    (h.geom_id, sp)
+                // The packet's answer stands for the trace, or the lane is
+                // traced alone: a touch at a mesh edge or a leaked entry (the
+                // packet's query was made and is counted; `trace` redoes it and
+                // continues past), or a ray inside overlapping solids.
+                let known = plain[i].is_some_and(|check| {
+                    !check
+                        || dielectric::plain_hit_is_true(
+                            scene,
+                            tr.strategy,
+                            &lanes.ray(i),
+                            hit.as_ref(),
+                            &lanes.lists[i],
+                        )
                 });
-                let prep = shade.prepare(i, tr, lanes, sp.as_ref().map(|(g, sp)| (*g, sp)), st);
-                kernel[i] = prep == Prepared::Kernel;
-                lanes.ended[i] = !kernel[i];
+                let traced = if known {
+                    None
+                } else {
+                    if plain[i].is_some() {
+                        st.queries += 1;
+                    }
+                    Some(cast(tr, &lanes.ray(i), &mut lanes.lists[i], st, None)?)
+                };
+                // (Without a medium a segment is straight: its chord is the
+                // lane's ray.)
+                let (hit, coincident) = match &traced {
+                    Some((seg, c)) => (seg.hit, c),
+                    None => (hit, &NO_COINCIDENT),
+                };
+                let sp = hit.as_ref().map(|h| match &traced {
+                    None => packet_surface_point(scene, (set_points, surfaces), i, h, || lanes.ray(i)),
+                    Some((seg, _)) => scene.surface_point(&seg.chord, h),
+                });
+                let prepared = if kernel_on {
+                    if known {
+                        st.queries += 1;
+                    }
+                    let at = hit.as_ref().zip(sp.as_ref());
+                    shade.prepare(i, tr, lanes, sigma, at, coincident, st)
+                } else {
+                    Prepared::Alone
+                };
+                let go = match prepared {
+                    Prepared::Ended => false,
+                    Prepared::Kernel => {
+                        kernel[i] = true;
+                        true
+                    }
+                    Prepared::Alone => {
+                        let ray = lanes.ray(i);
+                        let known_seg;
+                        let seg = match &traced {
+                            Some((seg, _)) => seg,
+                            None => {
+                                known_seg = if kernel_on {
+                                    // Counted already where the kernel was asked.
+                                    Segment::straight(&ray, hit)
+                                } else {
+                                    known_segment(tr, &ray, hit, lanes.s[i].only_specular, st)
+                                };
+                                &known_seg
+                            }
+                        };
+                        let (sh, go) = advance_lane(tr, lanes, i, sigma, seg, coincident, sp.as_ref(), st);
+                        if let Some(sh) = sh {
+                            waiting.push(((base + i) as u32, sh));
+                        }
+                        go
+                    }
+                };
+                lined |= lanes.s[i].tnear != 0.0;
+                lanes.ended[i] = !go;
             }
             if kernel.contains(&true) {
                 shade.shade(n, cols.io(base));
@@ -112,10 +251,13 @@ pub(super) fn vector_stream<const N: usize, P: RayPacket<N>>(
                         waiting.push(((base + i) as u32, sh));
                     }
                     lanes.ended[i] = !go;
+                    lined |= lanes.s[i].tnear != 0.0;
                 }
             }
         }
-        // The step's shadow rays, packed: each path's before its next segment.
+        // The step's shadow rays, packed: each path's before its next
+        // segment. (`waiting` is in path order per packet, kernel lanes
+        // after the packet's others: each path has at most one.)
         resolve_shadows(scene, shadow, waiting, occupancy, scratch, |at, contrib| {
             cols.scalars[at].l += contrib;
         });
@@ -133,4 +275,52 @@ pub(super) fn vector_stream<const N: usize, P: RayPacket<N>>(
     occupancy.set_lanes += scratch.answered;
     occupancy.set_replayed_lanes += scratch.replayed;
     *stats += shared;
+    Ok(())
+}
+
+/// Lane `i` shaded by the single-ray step: its path's state taken from the
+/// columns, advanced past `seg`, and put back. (Out of line: the step is
+/// large, and inlined it slows the lanes the kernel shades.)
+#[allow(clippy::too_many_arguments)]
+#[inline(never)]
+fn advance_lane<const N: usize>(
+    tr: Tracer<'_>,
+    lanes: &mut PacketPaths<'_, N>,
+    i: usize,
+    sigma: Option<V3>,
+    seg: &Segment,
+    coincident: &Coincident,
+    sp: Option<&SurfacePoint>,
+    st: &mut Counters,
+) -> (Option<PendingShadow>, bool) {
+    let ray = lanes.ray(i);
+    let s = &mut lanes.s[i];
+    let mut p = PathState {
+        l: s.l,
+        beta: columns::get3(&lanes.beta, i),
+        eta_scale: lanes.eta_scale[i],
+        ray,
+        specular: s.specular,
+        prev_p: s.prev_p,
+        prev_pdf: s.prev_pdf,
+        // Read only where a segment went through a gradient-index medium,
+        // which the wavefront never traces.
+        prev_wi: ray.dir,
+        prev_lambert: true,
+        depth: s.depth,
+        list: std::mem::take(&mut lanes.lists[i]),
+        only_specular: s.only_specular,
+    };
+    let out = p.advance(tr, sigma, seg, coincident, sp, &mut s.rng, st);
+    s.l = p.l;
+    s.specular = p.specular;
+    s.prev_p = p.prev_p;
+    s.prev_pdf = p.prev_pdf;
+    s.depth = p.depth;
+    s.only_specular = p.only_specular;
+    columns::set3(&mut lanes.beta, i, p.beta);
+    lanes.eta_scale[i] = p.eta_scale;
+    lanes.set_ray(i, &p.ray);
+    lanes.lists[i] = p.list;
+    out
 }

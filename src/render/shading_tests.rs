@@ -1,5 +1,6 @@
 //! Vector shading (`integrator::shade_lanes`) against scalar shading
-//! (`PathState::advance`) on the three reference scenes. Both draw each
+//! (`PathState::advance`) on the three reference scenes and the nested
+//! ones. Both draw each
 //! path's random numbers in the same order, so the same path gives the same
 //! radiance up to rounding (f32 against f64 Fresnel and Snell), but where a
 //! number falls within rounding of a Fresnel reflectance or a direction
@@ -7,7 +8,8 @@
 //! lobe, and its pixel differs by noise. The tests bound the share of
 //! pixels that differ, and show that known-wrong kernels (an interface
 //! reflecting with half its Fresnel reflectance; next-event estimation
-//! weighed against twice the bounce's density) are caught by the same bound.
+//! weighed against twice the bounce's density; a nested boundary's index
+//! pair taken against the ambient medium) are caught by the same bound.
 use super::{render, PacketWidth, RenderOptions, RenderSettings, Shading};
 use crate::scene::model::BsdfVariant;
 use crate::scene::{load_scene, BuildOptions, RenderScene};
@@ -88,6 +90,42 @@ fn vector_shading_gives_the_scalar_paths_and_wrong_kernels_do_not() {
         // that could sample a light is black).
         if name != "cylinder_refraction" {
             assert!(mis > LIMIT, "{name}: the wrong MIS passes: {mis}");
+        }
+    }
+}
+
+/// The nested scenes: their boundaries' index pairs come from the paths'
+/// interior lists (the nested rule) in vector shading as in scalar shading.
+#[test]
+fn vector_shading_of_nested_solids_gives_the_scalar_paths() {
+    for name in [
+        "glass_of_water_nested",
+        "glass_ice_bubbles",
+        "deep_nesting",
+        "nested_spheres_a",
+        "nested_spheres_b",
+    ] {
+        let mut s = scene(name);
+        assert!(!s.solids.is_empty(), "{name}");
+        let scalar = pixels(&s, Shading::Scalar);
+        let vector = pixels(&s, Shading::Vector);
+        let right = differing(&scalar, &vector);
+        let eight = differing(&scalar, &pixels_in(&s, Shading::Vector, PacketWidth::Eight));
+        s.bsdf_variant = BsdfVariant::WrongNestedPair;
+        let pair = differing(&scalar, &pixels(&s, Shading::Vector));
+        assert_eq!(differing(&scalar, &pixels(&s, Shading::Scalar)), 0.0, "{name}");
+        s.bsdf_variant = BsdfVariant::WrongNestedList;
+        let list = differing(&scalar, &pixels(&s, Shading::Vector));
+        eprintln!(
+            "{name}: pixels differing from scalar shading: vector {right:.4} (packets of 8 {eight:.4}), \
+             index pairs against the ambient medium {pair:.4}, lists kept through boundaries {list:.4}"
+        );
+        assert!(right <= LIMIT && eight <= LIMIT, "{name}: {right}, {eight}");
+        assert!(list > LIMIT, "{name}: lists kept through boundaries pass: {list}");
+        // The nested spheres have the ambient index (only their absorption
+        // shows the rule): no index pair can be wrong there.
+        if !name.starts_with("nested_spheres") {
+            assert!(pair > LIMIT, "{name}: the ambient index pair passes: {pair}");
         }
     }
 }

@@ -39,6 +39,12 @@ pub(crate) enum BsdfVariant {
     /// A smooth interface in vector shading reflects with half its
     /// Fresnel reflectance (its lobes still weighed as if drawn right).
     WrongHalfFresnel,
+    /// A nested solid's boundary in vector shading takes its index pair
+    /// against the ambient medium, not from the interior list.
+    WrongNestedPair,
+    /// A path transmitted through a nested solid's boundary in vector
+    /// shading keeps the interior list it had.
+    WrongNestedList,
 }
 
 /// Surface response.
