@@ -22,7 +22,6 @@ mod normalize;
 mod rect;
 mod segment;
 mod set;
-mod set_f32;
 mod sphere;
 mod tube;
 mod wall;

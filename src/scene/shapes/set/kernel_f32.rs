@@ -30,7 +30,8 @@
 //! surface starts `OFFSET_ULPS` ulps of its position away from it, several
 //! times the bound of the root at that surface, so that root is decided
 //! for sure: a render's unsure lanes are a few in a million.
-use super::set::{QuadricF32, Resolved, Split};
+use super::lanes::Resolved;
+use super::primitive::QuadricF32;
 use crate::embree::PacketRays;
 use crate::simd3::select;
 
@@ -785,14 +786,5 @@ impl<const N: usize> pulp::WithSimd for SetKernelF32<'_, N> {
             }
         }
         m
-    }
-}
-
-/// `x` as an f32 pair: `hi + lo` is `x` to about 2⁻⁴⁸ of it.
-pub(super) fn split(x: f64) -> Split {
-    let hi = x as f32;
-    Split {
-        hi,
-        lo: (x - hi as f64) as f32,
     }
 }
