@@ -77,7 +77,7 @@ pub enum Method {
     /// Closed form (catenary) for linear and constant fields.
     Exact,
     /// Stratified fields traced by their invariant n·cos θ (closed forms or a
-    /// 1-D quadrature, `stratified.rs`), chords only where geometry may be met,
+    /// 1-D quadrature, `stratified/`), chords only where geometry may be met,
     /// their deviation a fraction of the pixel footprint.
     Invariant,
 }
