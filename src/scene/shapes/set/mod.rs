@@ -43,8 +43,6 @@ mod lanes;
 mod predicates;
 mod primitive;
 mod surface;
-#[cfg(test)]
-mod tests;
 
 pub use surface::SurfaceLanes;
 
@@ -53,10 +51,12 @@ use super::Analytic;
 use crate::embree::{Candidate, Candidates, PacketRays, RayPacket, UserShape};
 use crate::ray::Hit;
 use glam::DVec3;
-use kernel_f32::{PrimF32, SetKernelF32, ERROR_SAFETY};
+pub(in crate::scene) use kernel_f32::ERROR_SAFETY;
+use kernel_f32::{PrimF32, SetKernelF32};
 use kernel_f64::SetKernel;
 use lanes::{LaneArrays, LaneValue, Resolved};
-use primitive::{Primitive, Quadric, QuadricF32};
+pub(in crate::scene) use primitive::Quadric;
+use primitive::{Primitive, QuadricF32};
 use surface::SurfaceKernel;
 
 /// The most primitives a scene may have for its analytic shapes to be
@@ -66,18 +66,18 @@ pub const MAX_SET_PRIMITIVES: usize = 8;
 /// The analytic primitives of a scene (at most [`MAX_SET_PRIMITIVES`]).
 #[derive(Debug, Clone)]
 pub struct AnalyticSet {
-    prims: Vec<Primitive>,
+    pub(in crate::scene) prims: Vec<Primitive>,
     /// The same primitives for the f32 kernel.
-    fast: Vec<PrimF32>,
+    pub(in crate::scene) fast: Vec<PrimF32>,
     /// The vector instructions the lane loops are compiled for.
-    arch: pulp::Arch,
+    pub(in crate::scene) arch: pulp::Arch,
     /// Take the kernel's answer for unsure lanes too (a known-wrong
     /// variant for the tests).
     #[cfg(test)]
-    trust_kernel: bool,
+    pub(in crate::scene) trust_kernel: bool,
     /// The f32 kernel's safety factor (tests widen it).
     #[cfg(test)]
-    safety: f32,
+    pub(in crate::scene) safety: f32,
 }
 
 /// A thread's working storage for [`AnalyticSet::intersect`] and
@@ -268,7 +268,7 @@ impl AnalyticSet {
     /// This set with its lane loops compiled for `arch` (a lower level
     /// than the CPU's: the tests compare every level).
     #[cfg(test)]
-    fn with_arch(self, arch: pulp::Arch) -> Self {
+    pub(in crate::scene) fn with_arch(self, arch: pulp::Arch) -> Self {
         AnalyticSet { arch, ..self }
     }
 

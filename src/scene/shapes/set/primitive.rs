@@ -7,7 +7,7 @@ use glam::DVec3;
 /// parallelogram or disk: its one root, the plane's crossing, where it lies
 /// inside).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub(super) enum Quadric {
+pub(in crate::scene) enum Quadric {
     /// `Sphere::roots`.
     Sphere { center: DVec3, radius: f64 },
     /// `Wall::roots` of a wall about the y axis (`AxisY`), `height` long,
@@ -129,13 +129,13 @@ impl QuadricF32 {
 /// One primitive of an analytic shape, with the geometry id Embree knows it
 /// by, its bounds and (for the quadrics the kernel knows) its quadric.
 #[derive(Debug, Clone, Copy)]
-pub(super) struct Primitive {
-    pub(super) geom: u32,
-    pub(super) prim: u32,
-    pub(super) shape: Analytic,
+pub(in crate::scene) struct Primitive {
+    pub(in crate::scene) geom: u32,
+    pub(in crate::scene) prim: u32,
+    pub(in crate::scene) shape: Analytic,
     /// Embree's padded box, as (low, high) corners.
-    pub(super) bounds: ([f64; 3], [f64; 3]),
-    pub(super) quadric: Option<Quadric>,
+    pub(in crate::scene) bounds: ([f64; 3], [f64; 3]),
+    pub(in crate::scene) quadric: Option<Quadric>,
 }
 
 /// `x` as an f32 pair: `hi + lo` is `x` to about 2⁻⁴⁸ of it.

@@ -25,7 +25,7 @@
 //! left to LLVM is not enough: it vectorises it mostly in pairs and keeps
 //! most square roots and divisions scalar, no faster than four scalar
 //! calls.
-use super::tube::{Family, HollowCylinder};
+use super::{Family, HollowCylinder};
 use glam::DVec2;
 
 /// The instruction sets the cylinder warp's fast solver can evaluate its

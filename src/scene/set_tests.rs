@@ -1,8 +1,10 @@
-//! The set's kernels against Embree's callbacks and the scalar code, at
-//! every vector level.
-use super::*;
+//! The analytic set's kernels against Embree's callbacks and the scalar
+//! code, at every vector level, on scenes the builder makes: here, above
+//! both the shapes and the builder.
+use super::shapes::{Analytic, AnalyticSet, Quadric, SetScratch, SurfaceLanes, ERROR_SAFETY};
 use crate::embree::{Packet8, Ray, RayPacket};
 use crate::scene::{load_scene_str, BuildOptions, RenderScene, Shape, SurfacePoint};
+use glam::DVec3;
 use glam::Vec3A as V3;
 
 use crate::vector_levels as levels;
