@@ -1,10 +1,18 @@
 //! The architecture, as a test: which top-level module of `src/` may use
-//! which. Reads the sources, collects every `crate::…` path (in `use` and in
-//! code; comments are skipped, so doc links do not count) and `super::…`
-//! from a module's root file, and fails on any use of a module that is not in
-//! a strictly lower layer, which also rules out every cycle. A new module
-//! must be given a layer here. Within each module the same check runs over
-//! its files (no circle between sibling files either).
+//! which, and no circle between the rooms of any module.
+//!
+//! Reads the sources (comments and string literals skipped, so doc links do
+//! not count; `#[cfg(test)]` code counts like any other) and resolves every
+//! path that starts with `crate::`, `super::` or `self::`, and every `use`,
+//! to the module it names, following `super::` out of inline modules and a
+//! module's re-exports (`pub use room::Item` in a `mod.rs`) to the room that
+//! defines the item. Then:
+//! - a top-level module may use only modules of strictly lower layers (which
+//!   also rules out every cycle between them); a new module must be given a
+//!   layer here;
+//! - at every folder level, the rooms of one module (its files and
+//!   subfolders, not its `mod.rs`, which holds them together) form no
+//!   circle.
 //!
 //! (`cargo modules … --acyclic` reports every type and its own methods as a
 //! cycle, so it cannot be used for this.)
@@ -43,6 +51,9 @@ fn layer_of(layers: &[&[&str]], m: &str) -> Option<usize> {
     layers.iter().position(|l| l.contains(&m))
 }
 
+/// A module path from the crate root, `["scene", "shapes", "set"]`.
+type ModPath = Vec<String>;
+
 /// Every `.rs` file under `dir`.
 fn files(dir: &Path, out: &mut Vec<PathBuf>) {
     for e in std::fs::read_dir(dir).unwrap() {
@@ -55,48 +66,25 @@ fn files(dir: &Path, out: &mut Vec<PathBuf>) {
     }
 }
 
-/// The source without comments (line comments, doc comments, block
-/// comments), without the contents of string literals, and without inline
-/// `#[cfg(test)] mod … { … }` blocks (tests may use whatever they test with).
-fn code_only(src: &str) -> String {
-    strip_test_modules(&strip_comments(src))
-}
-
-fn strip_test_modules(code: &str) -> String {
-    let mut out = String::with_capacity(code.len());
-    let mut rest = code;
-    while let Some(k) = rest.find("#[cfg(test)]") {
-        out.push_str(&rest[..k]);
-        let after = &rest[k + "#[cfg(test)]".len()..];
-        let t = after.trim_start();
-        if let Some(m) = t.strip_prefix("mod ") {
-            let open = m.find(['{', ';']).unwrap_or(m.len());
-            if m[open..].starts_with('{') {
-                let mut depth = 0;
-                let mut end = m.len();
-                for (j, c) in m[open..].char_indices() {
-                    match c {
-                        '{' => depth += 1,
-                        '}' => {
-                            depth -= 1;
-                            if depth == 0 {
-                                end = open + j + 1;
-                                break;
-                            }
-                        }
-                        _ => {}
-                    }
-                }
-                rest = &m[end..];
-                continue;
-            }
-        }
-        rest = after;
+/// The module a file under `src` holds (`lib.rs`: the root; `x/mod.rs`:
+/// `x`); None for the binaries, which see the library only as `snell::`.
+fn module_of(src: &Path, file: &Path) -> Option<ModPath> {
+    let rel = file.strip_prefix(src).ok()?;
+    let mut parts: Vec<String> = rel.iter().map(|c| c.to_string_lossy().into_owned()).collect();
+    if parts.first().is_some_and(|d| d == "bin") || parts == ["main.rs"] {
+        return None;
     }
-    out.push_str(rest);
-    out
+    let last = parts.pop()?;
+    match last.as_str() {
+        "lib.rs" if parts.is_empty() => {}
+        "mod.rs" => {}
+        f => parts.push(f.trim_end_matches(".rs").to_string()),
+    }
+    Some(parts)
 }
 
+/// The source without comments (line comments, doc comments, block
+/// comments) and without the contents of string literals.
 fn strip_comments(src: &str) -> String {
     let b = src.as_bytes();
     let mut out = String::with_capacity(src.len());
@@ -142,97 +130,296 @@ fn strip_comments(src: &str) -> String {
     out
 }
 
-fn ident_at(s: &str) -> &str {
-    let end = s
-        .find(|c: char| !(c.is_alphanumeric() || c == '_'))
-        .unwrap_or(s.len());
-    &s[..end]
+fn is_ident(c: u8) -> bool {
+    c.is_ascii_alphanumeric() || c == b'_'
 }
 
-/// First path segments named after every `prefix` in `code`, with
-/// `prefix{a, b::c}` groups expanded.
-fn uses_after(code: &str, prefix: &str) -> BTreeSet<String> {
-    let mut out = BTreeSet::new();
-    let mut rest = code;
-    while let Some(k) = rest.find(prefix) {
-        let before = rest[..k].chars().last();
-        rest = &rest[k + prefix.len()..];
-        if before.is_some_and(|c| c.is_alphanumeric() || c == '_' || c == ':') {
-            continue; // `foo_crate::x`, `a::crate::x`: not ours
+/// A path as written where it is used: its segments (`crate`, `super`,
+/// `self` included), the name it is known by (its last segment, or the
+/// alias after `as`), whether it sits in a `use`, and the inline modules
+/// (`mod tests { … }`) around it.
+#[derive(Debug, Clone, PartialEq)]
+struct Written {
+    segs: Vec<String>,
+    name: String,
+    in_use: bool,
+    inline: Vec<String>,
+}
+
+/// A path tree at `i` (`a::b`, `a::{b, c::d as e}`, `a::*`): every path
+/// it expands to, each with its name, appended to `prefix`; returns the
+/// position after the tree.
+fn path_tree(b: &[u8], mut i: usize, prefix: &[String], out: &mut Vec<(Vec<String>, String)>) -> usize {
+    let skip_ws = |mut i: usize| {
+        while i < b.len() && b[i].is_ascii_whitespace() {
+            i += 1;
         }
-        if let Some(group) = rest.strip_prefix('{') {
-            // Top-level items of a (possibly nested) brace group.
-            let (mut depth, mut item_start, mut end) = (0, true, group.len());
-            for (j, c) in group.char_indices() {
-                match c {
-                    '{' => depth += 1,
-                    '}' if depth == 0 => {
-                        end = j;
-                        break;
-                    }
-                    '}' => depth -= 1,
-                    ',' if depth == 0 => item_start = true,
-                    c if item_start && !c.is_whitespace() => {
-                        item_start = false;
-                        let id = ident_at(&group[j..]);
-                        if !id.is_empty() {
-                            out.insert(id.to_string());
-                        }
-                    }
-                    _ => {}
+        i
+    };
+    let mut segs = prefix.to_vec();
+    loop {
+        i = skip_ws(i);
+        if i < b.len() && b[i] == b'{' {
+            i += 1;
+            loop {
+                i = skip_ws(i);
+                if i >= b.len() || b[i] == b'}' {
+                    return i + 1;
+                }
+                if b[i] == b',' {
+                    i += 1;
+                    continue;
+                }
+                let before = i;
+                i = path_tree(b, i, &segs, out);
+                if i == before {
+                    i += 1; // not a path: step over it
                 }
             }
-            rest = &group[end..];
-        } else {
-            let id = ident_at(rest);
-            if !id.is_empty() {
-                out.insert(id.to_string());
+        }
+        if i < b.len() && b[i] == b'*' {
+            return i + 1;
+        }
+        let s = i;
+        while i < b.len() && is_ident(b[i]) {
+            i += 1;
+        }
+        if s == i {
+            return i;
+        }
+        segs.push(String::from_utf8_lossy(&b[s..i]).into_owned());
+        let j = skip_ws(i);
+        if b[j..].starts_with(b"::") {
+            i = j + 2;
+            continue;
+        }
+        let mut name = segs.last().unwrap().clone();
+        if b[j..].starts_with(b"as") && b.get(j + 2).is_some_and(|c| c.is_ascii_whitespace()) {
+            let k = skip_ws(j + 2);
+            let mut e = k;
+            while e < b.len() && is_ident(b[e]) {
+                e += 1;
             }
+            name = String::from_utf8_lossy(&b[k..e]).into_owned();
+            i = e;
+        }
+        out.push((segs, name));
+        return i;
+    }
+}
+
+/// Every path of `code` (comments stripped) that starts with `crate::`,
+/// `super::` or `self::`, and every path of a `use`.
+fn written_paths(code: &str) -> Vec<Written> {
+    let b = code.as_bytes();
+    let mut out = Vec::new();
+    // Inline modules open around the cursor, with the depth inside each.
+    let mut inline: Vec<(String, usize)> = Vec::new();
+    let mut depth = 0usize;
+    let mut pending_mod: Option<String> = None;
+    let mut i = 0;
+    while i < b.len() {
+        let c = b[i];
+        if c == b'{' {
+            depth += 1;
+            if let Some(m) = pending_mod.take() {
+                inline.push((m, depth));
+            }
+            i += 1;
+            continue;
+        }
+        if c == b'}' {
+            if inline.last().is_some_and(|(_, d)| *d == depth) {
+                inline.pop();
+            }
+            depth = depth.saturating_sub(1);
+            i += 1;
+            continue;
+        }
+        if c == b';' {
+            pending_mod = None;
+        }
+        if !is_ident(c) || (i > 0 && (is_ident(b[i - 1]) || b[i - 1] == b':')) {
+            i += 1;
+            continue;
+        }
+        let s = i;
+        while i < b.len() && is_ident(b[i]) {
+            i += 1;
+        }
+        let word = &code[s..i];
+        let names: Vec<String> = inline.iter().map(|(m, _)| m.clone()).collect();
+        match word {
+            "mod" => {
+                let mut j = i;
+                while j < b.len() && b[j].is_ascii_whitespace() {
+                    j += 1;
+                }
+                let k = j;
+                while j < b.len() && is_ident(b[j]) {
+                    j += 1;
+                }
+                pending_mod = (j > k).then(|| code[k..j].to_string());
+                i = j;
+            }
+            "use" => {
+                let mut paths = Vec::new();
+                i = path_tree(b, i, &[], &mut paths);
+                for (segs, name) in paths {
+                    out.push(Written {
+                        segs,
+                        name,
+                        in_use: true,
+                        inline: names.clone(),
+                    });
+                }
+            }
+            "crate" | "super" | "self" if b[i..].starts_with(b"::") => {
+                let mut paths = Vec::new();
+                i = path_tree(b, s, &[], &mut paths);
+                for (segs, name) in paths {
+                    out.push(Written {
+                        segs,
+                        name,
+                        in_use: false,
+                        inline: names.clone(),
+                    });
+                }
+            }
+            _ => {}
         }
     }
     out
 }
 
-/// Top-level module of a file under src/, and whether the file is that
-/// module's root (where `super::` is the crate root).
-fn module_of(src: &Path, file: &Path) -> Option<(String, bool)> {
-    let rel = file.strip_prefix(src).ok()?;
-    let parts: Vec<String> = rel.iter().map(|c| c.to_string_lossy().into_owned()).collect();
-    match parts.as_slice() {
-        [f] if f == "lib.rs" => None,
-        // The `snell` binary: its own crate, which sees the library only as `snell::`.
-        [d, ..] if d == "bin" => None,
-        [f] => Some((f.trim_end_matches(".rs").to_string(), true)),
-        [d, f] => Some((d.clone(), f == "mod.rs")),
-        [d, ..] => Some((d.clone(), false)),
-        [] => None,
+/// `segs` as a path from the crate root, written in module `at`; None for
+/// a path that leaves the crate (an extern crate's, or too many `super`s).
+fn resolve(at: &[String], segs: &[String], in_use: bool) -> Option<ModPath> {
+    let mut cur: ModPath = at.to_vec();
+    let mut rest = segs;
+    match segs.first().map(String::as_str) {
+        Some("crate") => {
+            cur.clear();
+            rest = &segs[1..];
+        }
+        Some("super" | "self") => {}
+        // A bare path: in a `use`, relative to the module (or an extern crate).
+        Some(_) if in_use => {}
+        _ => return None,
+    }
+    for s in rest {
+        match s.as_str() {
+            "super" => {
+                cur.pop()?;
+            }
+            "self" => {}
+            _ => cur.push(s.clone()),
+        }
+    }
+    Some(cur)
+}
+
+/// The sources of a crate: for each file its module and its paths.
+struct Crate {
+    files: Vec<(PathBuf, ModPath, Vec<Written>)>,
+    /// Every module that is a file or a folder.
+    modules: BTreeSet<ModPath>,
+    /// Re-exports: in module `P`, the name `n` is the room `r` of `P`'s.
+    reexports: BTreeMap<(ModPath, String), String>,
+}
+
+impl Crate {
+    fn read(src: &Path) -> Crate {
+        let mut all = Vec::new();
+        files(src, &mut all);
+        all.sort();
+        let mut files_ = Vec::new();
+        let mut modules = BTreeSet::new();
+        for f in all {
+            let Some(m) = module_of(src, &f) else { continue };
+            let code = strip_comments(&std::fs::read_to_string(&f).unwrap());
+            for k in 0..=m.len() {
+                modules.insert(m[..k].to_vec());
+            }
+            files_.push((f, m, written_paths(&code)));
+        }
+        let mut reexports = BTreeMap::new();
+        for (_, m, paths) in &files_ {
+            for w in paths.iter().filter(|w| w.in_use && w.inline.is_empty()) {
+                let Some(t) = resolve(m, &w.segs, true) else {
+                    continue;
+                };
+                if t.len() > m.len() + 1 && t.starts_with(m) && modules.contains(&t[..m.len() + 1]) {
+                    reexports.insert((m.clone(), w.name.clone()), t[m.len()].clone());
+                }
+            }
+        }
+        Crate {
+            files: files_,
+            modules,
+            reexports,
+        }
+    }
+
+    /// The room of module `p` that `name` (a path segment after `p`) is in:
+    /// a room's own name, or an item `p` re-exports from a room.
+    fn room(&self, p: &[String], name: &str) -> Option<String> {
+        let mut q = p.to_vec();
+        q.push(name.to_string());
+        if self.modules.contains(&q) {
+            return Some(name.to_string());
+        }
+        self.reexports.get(&(p.to_vec(), name.to_string())).cloned()
+    }
+
+    /// Every use of one room by another: (the module whose rooms they are,
+    /// user, used, the file that uses).
+    fn edges(&self) -> BTreeSet<(ModPath, String, String, PathBuf)> {
+        let mut out = BTreeSet::new();
+        for (f, m, paths) in &self.files {
+            for w in paths {
+                let at: ModPath = m.iter().chain(&w.inline).cloned().collect();
+                let Some(t) = resolve(&at, &w.segs, w.in_use) else {
+                    continue;
+                };
+                let k = m.iter().zip(&t).take_while(|(a, b)| a == b).count();
+                if k == m.len() || k == t.len() {
+                    continue; // the module's own file, or an ancestor's item
+                }
+                let p = m[..k].to_vec();
+                if let Some(used) = self.room(&p, &t[k]) {
+                    if used != m[k] {
+                        out.insert((p, m[k].clone(), used, f.clone()));
+                    }
+                }
+            }
+        }
+        out
     }
 }
 
-/// Which top-level module uses which.
-fn module_graph() -> BTreeMap<String, BTreeSet<String>> {
-    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
-    let mut all = Vec::new();
-    files(&src, &mut all);
+/// Which top-level module uses which (every top-level module a key).
+fn module_graph(src: &Path) -> BTreeMap<String, BTreeSet<String>> {
+    let c = Crate::read(src);
     let mut g: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
-    for f in all {
-        let Some((m, root)) = module_of(&src, &f) else {
-            continue;
-        };
-        let code = code_only(&std::fs::read_to_string(&f).unwrap());
-        let mut used = uses_after(&code, "crate::");
-        if root {
-            used.extend(uses_after(&code, "super::"));
+    for m in c.modules.iter().filter(|m| m.len() == 1) {
+        g.entry(m[0].clone()).or_default();
+    }
+    for (p, user, used, _) in c.edges() {
+        if p.is_empty() {
+            g.entry(user).or_default().insert(used);
         }
-        let e = g.entry(m.clone()).or_default();
-        e.extend(used.into_iter().filter(|u| *u != m));
     }
     g
 }
 
+fn src_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("src")
+}
+
 /// Every use against `layers` in the graph of `src/`.
 fn violations(layers: &[&[&str]]) -> Vec<String> {
-    let g = module_graph();
+    let g = module_graph(&src_dir());
     let mut wrong = Vec::new();
     for (m, uses) in &g {
         let Some(lm) = layer_of(layers, m) else {
@@ -241,8 +428,7 @@ fn violations(layers: &[&[&str]]) -> Vec<String> {
         };
         for u in uses {
             match layer_of(layers, u) {
-                None if g.contains_key(u) => wrong.push(format!("{u}: not in LAYERS")),
-                None => {} // not a module of ours (e.g. `crate::Result` re-exports)
+                None => wrong.push(format!("{u}: not in LAYERS")),
                 Some(lu) if lu >= lm => wrong.push(format!(
                     "{m} (layer {lm}) uses {u} (layer {lu}): only lower layers may be used"
                 )),
@@ -252,6 +438,74 @@ fn violations(layers: &[&[&str]]) -> Vec<String> {
     }
     wrong.sort();
     wrong.dedup();
+    wrong
+}
+
+/// The circles between the rooms of every module of the crate at `src`,
+/// one per module that has any, with the files that make each step.
+fn circles(src: &Path) -> Vec<String> {
+    let c = Crate::read(src);
+    let mut levels: BTreeMap<ModPath, BTreeMap<String, BTreeMap<String, PathBuf>>> = BTreeMap::new();
+    for (p, user, used, file) in c.edges() {
+        levels
+            .entry(p)
+            .or_default()
+            .entry(user)
+            .or_default()
+            .entry(used)
+            .or_insert(file);
+    }
+    // Depth-first search for a back edge.
+    fn visit(
+        n: &str,
+        g: &BTreeMap<String, BTreeMap<String, PathBuf>>,
+        state: &mut BTreeMap<String, u8>,
+        path: &mut Vec<String>,
+    ) -> Option<Vec<String>> {
+        match state.get(n) {
+            Some(1) => {
+                let k = path.iter().position(|p| p == n).unwrap();
+                let mut c = path[k..].to_vec();
+                c.push(n.to_string());
+                return Some(c);
+            }
+            Some(_) => return None,
+            None => {}
+        }
+        state.insert(n.to_string(), 1);
+        path.push(n.to_string());
+        for u in g.get(n).into_iter().flat_map(|m| m.keys()) {
+            if let Some(c) = visit(u, g, state, path) {
+                return Some(c);
+            }
+        }
+        path.pop();
+        state.insert(n.to_string(), 2);
+        None
+    }
+    let mut wrong = Vec::new();
+    for (p, g) in &levels {
+        let mut state = BTreeMap::new();
+        for n in g.keys() {
+            if let Some(cycle) = visit(n, g, &mut state, &mut Vec::new()) {
+                let module = if p.is_empty() {
+                    "crate".to_string()
+                } else {
+                    p.join("::")
+                };
+                let steps: Vec<String> = cycle
+                    .windows(2)
+                    .map(|w| {
+                        let f = &g[&w[0]][&w[1]];
+                        let f = f.strip_prefix(src).unwrap_or(f).display();
+                        format!("{} -> {} ({f})", w[0], w[1])
+                    })
+                    .collect();
+                wrong.push(format!("{module}: {}", steps.join(", ")));
+                break;
+            }
+        }
+    }
     wrong
 }
 
@@ -279,81 +533,113 @@ fn a_wrong_order_is_caught() {
 }
 
 #[test]
-fn no_circle_between_the_files_of_a_module() {
-    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
-    let mut wrong = Vec::new();
-    for e in std::fs::read_dir(&src).unwrap() {
-        let dir = e.unwrap().path();
-        if !dir.is_dir() {
-            continue;
-        }
-        let module = dir.file_name().unwrap().to_string_lossy().into_owned();
-        // Sibling files (not mod.rs) and which siblings each one uses.
-        let mut g: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
-        for f in std::fs::read_dir(&dir).unwrap() {
-            let p = f.unwrap().path();
-            if p.extension().is_none_or(|x| x != "rs") || p.ends_with("mod.rs") {
-                continue;
-            }
-            let name = p.file_stem().unwrap().to_string_lossy().into_owned();
-            let code = code_only(&std::fs::read_to_string(&p).unwrap());
-            let mut used = uses_after(&code, "super::");
-            used.extend(uses_after(&code, &format!("crate::{module}::")));
-            g.insert(name, used);
-        }
-        let names: BTreeSet<String> = g.keys().cloned().collect();
-        for v in g.values_mut() {
-            v.retain(|u| names.contains(u));
-        }
-        // Depth-first search for a back edge.
-        fn visit(
-            n: &str,
-            g: &BTreeMap<String, BTreeSet<String>>,
-            state: &mut BTreeMap<String, u8>,
-            path: &mut Vec<String>,
-        ) -> Option<Vec<String>> {
-            match state.get(n) {
-                Some(1) => {
-                    let k = path.iter().position(|p| p == n).unwrap();
-                    let mut c = path[k..].to_vec();
-                    c.push(n.to_string());
-                    return Some(c);
-                }
-                Some(_) => return None,
-                None => {}
-            }
-            state.insert(n.to_string(), 1);
-            path.push(n.to_string());
-            for u in &g[n] {
-                if u != n {
-                    if let Some(c) = visit(u, g, state, path) {
-                        return Some(c);
-                    }
-                }
-            }
-            path.pop();
-            state.insert(n.to_string(), 2);
-            None
-        }
-        let mut state = BTreeMap::new();
-        for n in g.keys() {
-            if let Some(c) = visit(n, &g, &mut state, &mut Vec::new()) {
-                wrong.push(format!("{module}: {}", c.join(" -> ")));
-                break;
-            }
-        }
+fn no_circle_between_the_rooms_of_any_module() {
+    let wrong = circles(&src_dir());
+    assert!(wrong.is_empty(), "circles between rooms:\n{}", wrong.join("\n"));
+}
+
+/// A crate written out for the check: `files` as (path under src, text).
+fn synthetic(name: &str, files: &[(&str, &str)]) -> PathBuf {
+    let src = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name).join("src");
+    let _ = std::fs::remove_dir_all(&src);
+    for (p, text) in files {
+        let p = src.join(p);
+        std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+        std::fs::write(p, text).unwrap();
     }
-    assert!(wrong.is_empty(), "circles between files:\n{}", wrong.join("\n"));
+    src
+}
+
+/// The circle check has power at every depth: a circle made through a
+/// re-export and a test module's `super::super::`, and one between two
+/// folders' files through `crate::` paths, are each reported; without
+/// their back edges there is none.
+#[test]
+fn circles_are_caught_at_every_depth() {
+    let lib = ("lib.rs", "mod a;\nmod b;\n");
+    let a = [
+        ("a/mod.rs", "mod x;\nmod y;\npub use y::Thing;\n"),
+        ("a/x.rs", "use super::Thing;\npub fn f() -> Thing { Thing }\n"),
+    ];
+    let b = [
+        ("b/mod.rs", "mod p;\nmod q;\n"),
+        ("b/p/mod.rs", "mod deep;\n"),
+        ("b/p/deep.rs", "pub fn g() { crate::b::q::leaf::h() }\n"),
+        ("b/q/mod.rs", "pub mod leaf;\n"),
+    ];
+    let y_back = (
+        "a/y.rs",
+        "pub struct Thing;\n#[cfg(test)]\nmod tests {\n    use super::super::x::f;\n}\n",
+    );
+    let leaf_back = (
+        "b/q/leaf.rs",
+        "// crate::b::p::deep::g() in a comment\npub fn h() { let _ = crate::b::p::deep::g; }\n",
+    );
+    let mut files: Vec<(&str, &str)> = vec![lib];
+    files.extend(a);
+    files.extend(b);
+    files.extend([y_back, leaf_back]);
+    let wrong = circles(&synthetic("layering_circles", &files));
+    assert_eq!(wrong.len(), 2, "{wrong:?}");
+    assert!(
+        wrong[0].starts_with("a: x -> y (a/x.rs), y -> x (a/y.rs)"),
+        "{wrong:?}"
+    );
+    assert!(
+        wrong[1].starts_with("b: p -> q (b/p/deep.rs), q -> p (b/q/leaf.rs)"),
+        "{wrong:?}"
+    );
+    // The same crate without the back edges (the comment does not count).
+    let y = ("a/y.rs", "pub struct Thing;\n");
+    let leaf = (
+        "b/q/leaf.rs",
+        "// crate::b::p::deep::g() in a comment\npub fn h() {}\n",
+    );
+    let mut files: Vec<(&str, &str)> = vec![lib];
+    files.extend(a);
+    files.extend(b);
+    files.extend([y, leaf]);
+    assert_eq!(
+        circles(&synthetic("layering_no_circles", &files)),
+        Vec::<String>::new()
+    );
 }
 
 #[test]
 fn the_parser_sees_groups_paths_and_not_comments() {
-    let code = code_only(
-        "use crate::{a::X, b, c::{d, e}};\n// crate::commented\n/// [`crate::doc_link`]\nlet s = \"crate::in_a_string\";\nlet y = crate::f::g(1);\nlet z = other_crate::h;\n",
+    let code = strip_comments(
+        "use crate::{a::X, b, c::{d, e as f}};\n// crate::commented\n/// [`crate::doc_link`]\nlet s = \"crate::in_a_string\";\nlet y = crate::g::h(1);\nlet z = other_crate::i;\nuse super::j::*;\n",
     );
-    let got: Vec<String> = uses_after(&code, "crate::").into_iter().collect();
-    assert_eq!(got, vec!["a", "b", "c", "f"]);
-    let code = code_only("use crate::kept;\n#[cfg(test)]\nmod tests {\n    use crate::only_in_tests;\n    fn f() { if x { crate::nested::y(); } }\n}\nuse crate::after;\n");
-    let got: Vec<String> = uses_after(&code, "crate::").into_iter().collect();
-    assert_eq!(got, vec!["after", "kept"]);
+    let got: Vec<(Vec<String>, String)> = written_paths(&code)
+        .into_iter()
+        .map(|w| (w.segs, w.name))
+        .collect();
+    let p = |s: &str, n: &str| (s.split("::").map(String::from).collect::<Vec<_>>(), n.to_string());
+    assert_eq!(
+        got,
+        vec![
+            p("crate::a::X", "X"),
+            p("crate::b", "b"),
+            p("crate::c::d", "d"),
+            p("crate::c::e", "f"),
+            p("crate::g::h", "h"),
+        ]
+    );
+    // Test modules count, and `super::` inside them starts from them.
+    let code = strip_comments("use crate::kept;\n#[cfg(test)]\nmod tests {\n    use super::super::up;\n    fn f() { if x { crate::nested::y(); } }\n}\nuse crate::after;\n");
+    let w = written_paths(&code);
+    let at = |k: usize| {
+        resolve(
+            &["m".to_string()]
+                .iter()
+                .chain(&w[k].inline)
+                .cloned()
+                .collect::<Vec<_>>(),
+            &w[k].segs,
+            w[k].in_use,
+        )
+        .unwrap()
+    };
+    let got: Vec<String> = (0..w.len()).map(|k| at(k).join("::")).collect();
+    assert_eq!(got, vec!["kept", "up", "nested::y", "after"]);
 }

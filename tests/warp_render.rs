@@ -1,7 +1,8 @@
 //! The warp renderer end to end: the warp image against the exact trace of
 //! the same scene, with stated tolerances; the paper's approximation is
 //! measurably worse; `snell render` traces the same [warp] scene; bad input.
-use snell::scene::{load_scene, load_scene_str, BuildOptions};
+use snell::scene::shapes::Analytic;
+use snell::scene::{load_scene, load_scene_str, BuildOptions, Shape};
 use snell::warp::WarpMethod;
 use snell::warp_render::{run, WarpRunOptions};
 use std::path::Path;
@@ -46,6 +47,25 @@ fn paper_method_is_measurably_worse_on_the_tube() {
         paper.px_mean > 10.0 * exact.px_mean.max(1e-3),
         "paper {paper:?} exact {exact:?}"
     );
+}
+
+/// A `[warp]` scene keeps its rects as meshes even in a build for the
+/// analytic set, since the warp renderer moves mesh vertices; the shipped
+/// ones prepare.
+#[test]
+fn warp_scenes_keep_rects_as_meshes_and_prepare() {
+    let set = BuildOptions::default();
+    for path in ["scenes/warp_plate.toml", "scenes/warp_cylinder.toml"] {
+        let s = load_scene(Path::new(path), &set).unwrap();
+        let rects = s
+            .geoms
+            .iter()
+            .filter(|g| matches!(g.shape, Shape::Analytic(Analytic::Rect(_))))
+            .count();
+        assert_eq!(rects, 0, "{path}");
+        let spec = s.warp.clone().unwrap();
+        snell::warp_render::prepare(&s, &spec, 1e9).unwrap();
+    }
 }
 
 #[test]

@@ -308,3 +308,53 @@ impl Scene {
         p.query(self.raw, true, false);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::scene::tests::Plane;
+    use super::super::{BuildQuality, Device, Ray, SceneBuilder, SceneFlags};
+    use super::*;
+    use glam::Vec3A as V3;
+
+    /// A meshes-only twin without meshes is never queried (a packet's
+    /// lanes all miss without entering Embree); one with meshes is, and
+    /// without a twin the whole scene is.
+    #[test]
+    fn an_empty_meshes_only_twin_is_not_queried() {
+        let d = Device::new("").unwrap();
+        let quad = [
+            [-1.0, -1.0, 1.0],
+            [1.0, -1.0, 1.0],
+            [1.0, 1.0, 1.0],
+            [-1.0, 1.0, 1.0],
+        ];
+        let ray = Ray::new(V3::new(0.1, 0.2, 0.0), V3::Z);
+        for (twin, mesh) in [(true, false), (true, true), (false, false)] {
+            let mut b = SceneBuilder::new(&d, SceneFlags::default(), BuildQuality::Medium).unwrap();
+            if twin {
+                b = b.with_meshes_only().unwrap();
+            }
+            b.add_user(Box::new(Plane(2.0))).unwrap();
+            if mesh {
+                b.add_triangles(&quad, &[[0, 1, 2], [0, 2, 3]]).unwrap();
+            }
+            let s = b.commit().unwrap();
+            let queried = s.meshes_or_all();
+            assert_eq!(queried.is_some(), mesh || !twin, "twin {twin}, mesh {mesh}");
+            let mut p = Packet8::new();
+            p.set_ray(3, &ray);
+            p.intersect_meshes(&s, false);
+            // The mesh at z = 1 if queried with it, the plane at z = 2 if
+            // queried without a twin, nothing when not queried.
+            let want = match (twin, mesh) {
+                (_, true) => Some(1),
+                (false, false) => Some(0),
+                (true, false) => None,
+            };
+            assert_eq!(p.hit(3).map(|h| h.geom_id), want, "twin {twin}, mesh {mesh}");
+            p.set_ray(3, &ray);
+            p.occlude_meshes(&s, false);
+            assert_eq!(p.occluded(3), want.is_some(), "twin {twin}, mesh {mesh}");
+        }
+    }
+}

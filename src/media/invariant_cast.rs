@@ -1,5 +1,5 @@
 //! Chords of a ray in a stratified field evaluated from its invariant
-//! (`stratified.rs`), for method `invariant`.
+//! (`stratified/`), for method `invariant`.
 //!
 //! The arc lies in the vertical plane of its azimuth: x = b·τ along the
 //! horizontal direction e, h(τ) along up. A box of geometry is met only on

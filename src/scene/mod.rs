@@ -7,12 +7,14 @@ pub mod build;
 pub mod desc;
 pub mod emitter;
 pub mod import;
-pub mod meshgen;
 pub mod model;
 pub mod shapes;
 pub mod source;
 pub mod sun;
 pub mod texture;
+
+#[cfg(test)]
+mod set_tests;
 
 pub use build::{build_scene_text, load_scene, load_scene_source, load_scene_str, BuildOptions};
 pub use import::{ImportOptions, SceneText};
@@ -20,3 +22,4 @@ pub use model::{
     Environment, GeomRecord, IntegratorKind, Light, LightSample, Material, RenderScene, Shape, Solid,
     SurfacePoint, MAX_PIXELS,
 };
+pub use shapes::meshgen;

@@ -5,15 +5,15 @@
 //! are in `warp_render` (above the scene layer; these solvers are below it).
 pub mod approx_tube;
 pub mod glass;
-mod lanes;
 pub mod plate;
 pub mod points;
 pub mod tube;
+#[cfg(test)]
+mod tube_tests;
 
 pub use glass::{CopyKey, ExactPath, RayClass, Segment, WarpGlass};
-pub use lanes::SimdLevel;
 pub use plate::{Plate, PlateImage, PlateStatus};
-pub use tube::{CylImage, CylStatus, CylinderWarper, Family, HollowCylinder};
+pub use tube::{CylImage, CylStatus, CylinderWarper, Family, HollowCylinder, SimdLevel};
 
 /// How vertex images are found.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -188,7 +188,7 @@ impl Builder<'_> {
 #[cfg(test)]
 mod tests {
     use crate::scene::shapes::Analytic;
-    use crate::scene::{load_scene, load_scene_str, BuildOptions, RenderScene, Shape};
+    use crate::scene::{load_scene_str, BuildOptions, RenderScene, Shape};
 
     /// `balls` spheres above a ground rect, lit by a rect light.
     fn scene(balls: usize, extra: &str, opts: &BuildOptions) -> RenderScene {
@@ -247,9 +247,8 @@ material = {{ type = "diffuse", reflectance = [0.5, 0.5, 0.5] }}
 
     /// Rects are analytic only in a scene built for the analytic set (the
     /// path tracer, no medium, the option on) whose primitives, rects
-    /// included, stay within its limit; then the set holds them. Not in a
-    /// `[warp]` scene, whose renderer moves mesh vertices (the shipped
-    /// ones prepare as before).
+    /// included, stay within its limit; then the set holds them. (Not in a
+    /// `[warp]` scene: tests/warp_render.rs, above the warp renderer.)
     #[test]
     fn rects_are_analytic_only_for_the_analytic_set() {
         let set = BuildOptions::default();
@@ -272,11 +271,5 @@ material = {{ type = "diffuse", reflectance = [0.5, 0.5, 0.5] }}
         assert_eq!(rects_and_meshes(&scene(1, cube, &set)), (0, 3));
         let whitted = "[integrator]\ntype = \"whitted\"";
         assert_eq!(rects_and_meshes(&scene(3, whitted, &set)), (0, 2));
-        for path in ["scenes/warp_plate.toml", "scenes/warp_cylinder.toml"] {
-            let s = load_scene(std::path::Path::new(path), &set).unwrap();
-            assert_eq!(rects_and_meshes(&s).0, 0, "{path}");
-            let spec = s.warp.clone().unwrap();
-            crate::warp_render::prepare(&s, &spec, 1e9).unwrap();
-        }
     }
 }

@@ -1,50 +1,9 @@
 //! The analytic shapes as Embree user geometry: bounds and intersection per
 //! primitive, one ray or the active lanes of a packet callback at a time.
-use super::segment::{Roots, Segment};
+use super::segment::{lane_by_lane, Segment};
 use super::Analytic;
 use crate::embree::{Bounds, Candidates, LaneRay, UserShape};
 use glam::Vec3A as V3;
-
-/// Lanes whose roots [`side_by_side`] computes together (a callback of
-/// Embree's 16-wide packet traversal has one to four active lanes).
-const LANES_SIDE_BY_SIDE: usize = 4;
-
-/// The crossings of the lanes of a callback with a quadric: every lane's
-/// `roots` first, then each lane's `push` of its crossings, so that the
-/// lanes' square roots and divisions overlap instead of waiting one on the
-/// other.
-#[inline(always)]
-pub(super) fn side_by_side(
-    rays: &[LaneRay],
-    out: &mut [Candidates],
-    roots: impl Fn(&Segment) -> Roots,
-    mut push: impl FnMut(&Segment, Roots, &mut Candidates),
-) {
-    for (rays, out) in rays
-        .chunks(LANES_SIDE_BY_SIDE)
-        .zip(out.chunks_mut(LANES_SIDE_BY_SIDE))
-    {
-        let mut lane_roots = [Roots::default(); LANES_SIDE_BY_SIDE];
-        for (root, ray) in lane_roots.iter_mut().zip(rays) {
-            *root = roots(&Segment::of(ray));
-        }
-        for ((ray, out), &root) in rays.iter().zip(out).zip(&lane_roots) {
-            push(&Segment::of(ray), root, out);
-        }
-    }
-}
-
-/// The crossings of the lanes of a callback, one lane after the other.
-#[inline(always)]
-pub(super) fn lane_by_lane(
-    rays: &[LaneRay],
-    out: &mut [Candidates],
-    mut intersect: impl FnMut(&Segment, &mut Candidates),
-) {
-    for (r, o) in rays.iter().zip(out) {
-        intersect(&Segment::of(r), o);
-    }
-}
 
 impl UserShape for Analytic {
     fn prim_count(&self) -> u32 {

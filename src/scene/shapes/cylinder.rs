@@ -1,8 +1,8 @@
 //! The cylinder: an open wall (normals out, or in towards the axis) or a
 //! solid closed by two caps (primitives 1 and 2).
 use super::axis::axial;
-use super::callbacks::lane_by_lane;
 use super::disk::Disk;
+use super::segment::lane_by_lane;
 use super::segment::{candidate, Segment};
 use super::wall::Wall;
 use crate::embree::{Bounds, Candidates, LaneRay};

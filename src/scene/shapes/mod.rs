@@ -11,6 +11,8 @@
 //! its intersection, normal, projection, point-in-solid and proximity tests;
 //! the cylinder's and tube's walls share `wall`; [`Analytic`] dispatches to
 //! them, and `callbacks` hands them to Embree.
+//! `meshgen` makes the triangle meshes of the scene format's generated
+//! shapes and loads OBJ files.
 mod axis;
 mod bounds;
 mod callbacks;
@@ -18,11 +20,11 @@ mod contains_grid;
 mod cylinder;
 mod disk;
 mod mesh;
+pub mod meshgen;
 mod normalize;
 mod rect;
 mod segment;
 mod set;
-mod set_f32;
 mod sphere;
 mod tube;
 mod wall;
@@ -34,6 +36,8 @@ pub use mesh::Mesh;
 pub(crate) use normalize::normalize_or;
 pub use rect::Rect;
 pub use set::{AnalyticSet, SetScratch, SurfaceLanes, MAX_SET_PRIMITIVES};
+#[cfg(test)]
+pub(super) use set::{Quadric, ERROR_SAFETY};
 pub use sphere::Sphere;
 pub use tube::Tube;
 

@@ -1,6 +1,7 @@
 //! What a shape's intersection sees of a query: the ray segment, the roots of
-//! a quadratic along it, and the candidate it reports for each crossing.
-use crate::embree::{Candidate, LaneRay};
+//! a quadratic along it, the candidate it reports for each crossing, and a
+//! packet callback's lanes taken side by side or one after the other.
+use crate::embree::{Candidate, Candidates, LaneRay};
 use glam::{DVec3, Vec3A as V3};
 
 /// A ray `o + t·d` restricted to `[tn, tf]`, in f64 (the ray interval stays
@@ -104,6 +105,47 @@ pub(super) fn candidate(t: f64, n: DVec3) -> Candidate {
         ng: n.as_vec3a().into(),
         u: 1.0 / 3.0,
         v: 1.0 / 3.0,
+    }
+}
+
+/// Lanes whose roots [`side_by_side`] computes together (a callback of
+/// Embree's 16-wide packet traversal has one to four active lanes).
+const LANES_SIDE_BY_SIDE: usize = 4;
+
+/// The crossings of the lanes of a callback with a quadric: every lane's
+/// `roots` first, then each lane's `push` of its crossings, so that the
+/// lanes' square roots and divisions overlap instead of waiting one on the
+/// other.
+#[inline(always)]
+pub(super) fn side_by_side(
+    rays: &[LaneRay],
+    out: &mut [Candidates],
+    roots: impl Fn(&Segment) -> Roots,
+    mut push: impl FnMut(&Segment, Roots, &mut Candidates),
+) {
+    for (rays, out) in rays
+        .chunks(LANES_SIDE_BY_SIDE)
+        .zip(out.chunks_mut(LANES_SIDE_BY_SIDE))
+    {
+        let mut lane_roots = [Roots::default(); LANES_SIDE_BY_SIDE];
+        for (root, ray) in lane_roots.iter_mut().zip(rays) {
+            *root = roots(&Segment::of(ray));
+        }
+        for ((ray, out), &root) in rays.iter().zip(out).zip(&lane_roots) {
+            push(&Segment::of(ray), root, out);
+        }
+    }
+}
+
+/// The crossings of the lanes of a callback, one lane after the other.
+#[inline(always)]
+pub(super) fn lane_by_lane(
+    rays: &[LaneRay],
+    out: &mut [Candidates],
+    mut intersect: impl FnMut(&Segment, &mut Candidates),
+) {
+    for (r, o) in rays.iter().zip(out) {
+        intersect(&Segment::of(r), o);
     }
 }
 

@@ -2,8 +2,8 @@
 //! solid, and the distance tests the nested rule's tables use (a sphere's
 //! surface against a point, a box and another sphere).
 use super::bounds::pad;
-use super::callbacks::side_by_side;
 use super::normalize::normalize_or_f64;
+use super::segment::side_by_side;
 use super::segment::{candidate, Roots, Segment};
 use crate::embree::{Bounds, Candidates, LaneRay};
 use glam::DVec3;

@@ -2,8 +2,8 @@
 //! inner wall (normal in, towards the axis), 2 and 3 the annular caps at
 //! `p0` (normal −axis) and `p0 + height·axis` (normal +axis).
 use super::axis::axial;
-use super::callbacks::lane_by_lane;
 use super::disk::Disk;
+use super::segment::lane_by_lane;
 use super::segment::{candidate, Segment};
 use super::wall::Wall;
 use crate::embree::{Bounds, Candidates, LaneRay};

@@ -2,9 +2,9 @@
 //! walls): its crossings with a ray, its normal and the projection onto it.
 use super::axis::{across_axis, Axis, AxisY};
 use super::bounds::cylinder_bounds;
-use super::callbacks::side_by_side;
 use super::disk::Disk;
 use super::normalize::normalize_or_f64;
+use super::segment::side_by_side;
 use super::segment::{candidate, Roots, Segment};
 use crate::embree::{Bounds, Candidates, LaneRay};
 use glam::DVec3;

@@ -19,15 +19,19 @@
 //! form Jacobian), `newton` (the damped Newton), `scan` (brackets from
 //! sampled residuals), `robust` (`HollowCylinder::images`: one target, no
 //! tables); the fast solver for many targets: `table`, `plan` (the
-//! inverse table), `polish` (Newton in vector lanes), `warper`
-//! (`CylinderWarper`).
+//! inverse table), `lanes` (the Newton steps in vector lanes, which
+//! `polish` drives), `warper` (`CylinderWarper`). The solver's tests against
+//! the exact 3-D trace are in `warp::tube_tests`.
 mod family;
 mod geometry;
 mod image;
 mod jacobian;
+mod lanes;
 mod newton;
 mod path;
 mod plan;
+#[cfg(test)]
+mod plan_tests;
 mod polish;
 mod robust;
 mod scan;
@@ -36,11 +40,10 @@ mod warper;
 
 #[cfg(test)]
 pub(crate) mod test_rng;
-#[cfg(test)]
-mod tests;
 
 pub use family::Family;
 pub(crate) use geometry::circle;
 pub use geometry::HollowCylinder;
 pub use image::{CylImage, CylStatus};
+pub use lanes::SimdLevel;
 pub use warper::CylinderWarper;

@@ -4,7 +4,7 @@
 //! (`lanes`).
 use super::family::Family;
 use super::geometry::Target;
-use crate::warp::lanes::{newton_rows, Consts, LaneIn, Rows, NEXT, ROOT};
+use super::lanes::{newton_rows, Consts, LaneIn, Rows, NEXT, ROOT};
 use glam::DVec2;
 
 /// Newton in (b, β) with the closed-form Jacobian from the table's first

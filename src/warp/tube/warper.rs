@@ -15,11 +15,11 @@
 use super::family::Family;
 use super::geometry::{Eye, HollowCylinder, Target};
 use super::image::{CylImage, CylStatus, EyeTerms};
+use super::lanes::{Consts, SimdLevel};
 use super::plan::{Plans, PLAN_MIN_TARGETS};
 use super::polish::{polish_all, Job, Polish, PolishScratch};
 use super::scan::Candidate;
 use super::table::{Tables, BIN, FAMILIES};
-use crate::warp::lanes::{Consts, SimdLevel};
 use glam::{DVec2, DVec3};
 
 /// Tables for one eye and one tube.

@@ -42,7 +42,7 @@ pub fn lookup(name: &str) -> Option<f64> {
 pub fn param(o: &Obj<'_, '_>, key: &str, default: &str) -> Result<f64> {
     let v = if let Some(n) = o.value(key) {
         match n.tag.as_str() {
-            "float" | "integer" => super::props::number(n, n.need("value")?)?,
+            "float" | "integer" => super::numbers::number(n, n.need("value")?)?,
             "string" => {
                 let s = n.need("value")?;
                 lookup(s).ok_or_else(|| {

@@ -12,6 +12,7 @@ use std::path::Path;
 mod bsdf;
 mod emitters;
 mod ior;
+mod numbers;
 mod props;
 mod sensor;
 mod shapes;

@@ -2,6 +2,7 @@
 //! `<ref id=…>`), read by name and type. Every child a plugin does not read
 //! is an unknown parameter: an error with its line, or with `--lenient` a
 //! warning.
+use super::numbers::{number, numbers, xyz};
 use super::spectra;
 use super::xml::{Document, Node};
 use crate::error::Result;
@@ -328,39 +329,4 @@ pub fn color_value(ctx: &Ctx<'_>, n: &Node, emitter: bool) -> Result<[f64; 3]> {
             .at
             .error(format!("expected <rgb>, <spectrum> or <float>, found <{t}>"))),
     }
-}
-
-/// A number attribute of `n`.
-pub fn number(n: &Node, v: &str) -> Result<f64> {
-    v.trim()
-        .parse::<f64>()
-        .map_err(|_| n.at.error(format!("expected a number, got \"{v}\"")))
-}
-
-/// Numbers separated by commas and/or spaces.
-pub fn numbers(n: &Node, v: &str) -> Result<Vec<f64>> {
-    v.split(|c: char| c == ',' || c.is_whitespace())
-        .filter(|t| !t.is_empty())
-        .map(|t| number(n, t))
-        .collect()
-}
-
-/// `x`, `y`, `z` attributes (each `default` when absent), or `value` with
-/// one or three numbers.
-pub fn xyz(n: &Node, default: f64) -> Result<DVec3> {
-    if let Some(v) = n.attr("value") {
-        let v = numbers(n, v)?;
-        return match v[..] {
-            [a] => Ok(DVec3::splat(a)),
-            [a, b, c] => Ok(DVec3::new(a, b, c)),
-            _ => Err(n.at.error("expected one or three numbers in `value`")),
-        };
-    }
-    let get = |k: &str| {
-        n.attr(k)
-            .map(|v| number(n, v))
-            .transpose()
-            .map(|o| o.unwrap_or(default))
-    };
-    Ok(DVec3::new(get("x")?, get("y")?, get("z")?))
 }

@@ -1,7 +1,7 @@
 //! `<transform>`: `translate`, `rotate`, `scale`, `matrix` and `lookat`
 //! steps, each applied after the ones before it (as Mitsuba composes them),
 //! and the snell transform steps of a matrix.
-use super::props::{number, numbers, xyz};
+use super::numbers::{number, numbers, xyz};
 use super::xml::Node;
 use crate::error::Result;
 use crate::scene::desc::TransformDesc;

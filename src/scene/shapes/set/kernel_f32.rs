@@ -30,22 +30,23 @@
 //! surface starts `OFFSET_ULPS` ulps of its position away from it, several
 //! times the bound of the root at that surface, so that root is decided
 //! for sure: a render's unsure lanes are a few in a million.
-use super::set::{QuadricF32, Resolved, Split};
+use super::lanes::Resolved;
+use super::primitive::QuadricF32;
 use crate::embree::PacketRays;
 use crate::simd3::select;
 
 /// The safety factor of the error bounds (the analysis gives about 2).
-pub(super) const ERROR_SAFETY: f32 = 4.0;
+pub(in crate::scene) const ERROR_SAFETY: f32 = 4.0;
 
 /// One primitive as the kernel reads it.
 #[derive(Debug, Clone, Copy)]
-pub(super) struct PrimF32 {
-    pub geom: u32,
-    pub prim: u32,
-    pub bounds: ([f32; 3], [f32; 3]),
+pub(in crate::scene) struct PrimF32 {
+    pub(super) geom: u32,
+    pub(super) prim: u32,
+    pub(super) bounds: ([f32; 3], [f32; 3]),
     /// None: a primitive without a vector form (a lane meeting its box is
     /// unsure).
-    pub quadric: Option<QuadricF32>,
+    pub(super) quadric: Option<QuadricF32>,
 }
 
 /// The set's query for the first `m` lanes at one vector level (see the
@@ -785,14 +786,5 @@ impl<const N: usize> pulp::WithSimd for SetKernelF32<'_, N> {
             }
         }
         m
-    }
-}
-
-/// `x` as an f32 pair: `hi + lo` is `x` to about 2⁻⁴⁸ of it.
-pub(super) fn split(x: f64) -> Split {
-    let hi = x as f32;
-    Split {
-        hi,
-        lo: (x - hi as f64) as f32,
     }
 }

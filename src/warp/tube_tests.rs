@@ -1,7 +1,7 @@
 //! The fast solver against the robust sampler: every robust image found,
 //! every extra image real (re-traced in 3-D), at the family edges too.
-use super::test_rng::Lcg;
-use super::{CylinderWarper, HollowCylinder};
+use super::tube::test_rng::Lcg;
+use super::tube::{CylinderWarper, HollowCylinder};
 use crate::warp::WarpGlass;
 use glam::{DVec2, DVec3};
 

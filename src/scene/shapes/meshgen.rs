@@ -1,5 +1,5 @@
 //! Mesh generators (rect, box, lathe, diamond-square heightfield) and the OBJ loader.
-use super::shapes::Mesh;
+use super::Mesh;
 use crate::sampling::Rng;
 use glam::DVec3;
 use std::path::Path;
