@@ -509,3 +509,79 @@ fn rough_metal_and_plastic_bsdfs_map_exactly_and_refuse_what_they_cannot() {
         }
     }
 }
+
+/// A JPEG texture loads from snell's TOML and from a Mitsuba `bitmap`,
+/// and its texels are the decoded JPEG's (8-bit sRGB, decoded to linear).
+#[test]
+fn jpeg_textures_load_in_toml_and_xml() {
+    use snell::scene::model::Material;
+    use snell::scene::texture::Texture;
+    let dir = std::env::temp_dir().join(format!("snell-import-jpeg-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (w, h) = (12u32, 6u32);
+    let img = image::RgbImage::from_fn(w, h, |x, y| {
+        image::Rgb([(x * 20) as u8, (y * 40) as u8, ((x + y) * 9) as u8])
+    });
+    let jpg = dir.join("wood.jpg");
+    img.save(&jpg).unwrap();
+    // What the file decodes to, from the image crate's own decoder, in linear RGB.
+    let decoded = image::open(&jpg).unwrap().to_rgb8();
+    let lin = |c: u8| {
+        let c = c as f64 / 255.0;
+        if c <= 0.04045 {
+            c / 12.92
+        } else {
+            ((c + 0.055) / 1.055).powf(2.4)
+        }
+    };
+    let want: Vec<[f64; 3]> = decoded
+        .pixels()
+        .map(|p| [lin(p[0]), lin(p[1]), lin(p[2])])
+        .collect();
+    std::fs::write(
+        dir.join("quad.obj"),
+        "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nf 1/1 2/2 3/3\nf 1/1 3/3 4/4\n",
+    )
+    .unwrap();
+    let toml = "[camera]\nposition = [0.0, 0.0, 5.0]\ntarget = [0.0, 0.0, 0.0]\nfov = 40.0\n[film]\nwidth = 16\nheight = 16\n\
+         [[objects]]\nshape = { type = \"mesh\", file = \"quad.obj\" }\n\
+         material = { type = \"diffuse\", reflectance = { type = \"image\", file = \"wood.jpg\" } }\n";
+    let from_toml = load_scene_str("t.toml", toml, &dir, &BuildOptions::default()).unwrap();
+    let xml = format!(
+        r#"<scene version="3.0.0">
+{SENSOR}
+<shape type="obj"><string name="filename" value="quad.obj"/>
+  <bsdf type="diffuse"><texture type="bitmap" name="reflectance"><string name="filename" value="wood.jpg"/></texture></bsdf>
+</shape>
+</scene>"#
+    );
+    let imp = mitsuba::import_str("t.xml", &xml, &dir, &ImportOptions::default()).unwrap();
+    let from_xml = load_scene_str(
+        "t.xml (imported)",
+        &to_toml(&imp.desc).unwrap(),
+        &dir,
+        &BuildOptions::default(),
+    )
+    .unwrap();
+    for (what, scene) in [("toml", &from_toml), ("xml", &from_xml)] {
+        let image = match &scene.geoms[0].material {
+            Material::Diffuse {
+                reflectance: Texture::Image { image, .. },
+                ..
+            } => image.clone(),
+            other => panic!("{what}: {other:?}"),
+        };
+        assert_eq!((image.width, image.height), (w as usize, h as usize), "{what}");
+        for (i, (got, want)) in image.pixels.iter().zip(&want).enumerate() {
+            for k in 0..3 {
+                assert!(
+                    (got[k] as f64 - want[k]).abs() < 1e-6,
+                    "{what}: texel {i} channel {k}: {} vs {}",
+                    got[k],
+                    want[k]
+                );
+            }
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
