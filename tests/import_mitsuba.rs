@@ -510,6 +510,125 @@ fn rough_metal_and_plastic_bsdfs_map_exactly_and_refuse_what_they_cannot() {
     }
 }
 
+/// The vertical field of view the importer gives a `perspective` sensor
+/// with `params` on a `w` × `h` film.
+fn imported_fov(w: u32, h: u32, params: &str) -> snell::Result<f64> {
+    let xml = format!(
+        r#"<scene version="3.0.0"><sensor type="perspective">{params}<film type="hdrfilm"><integer name="width" value="{w}"/><integer name="height" value="{h}"/><rfilter type="box"/></film></sensor></scene>"#
+    );
+    Ok(import_text(&xml, &ImportOptions::default())?.desc.camera.fov)
+}
+
+/// What a sensor's field is, written out from Mitsuba 3's `parse_fov`
+/// (src/render/sensor.cpp) and `perspective_projection`
+/// (include/mitsuba/render/sensor.h): the half-width tangent of the
+/// image plane at unit distance, then the vertical field in degrees from
+/// the film's aspect.
+#[derive(Clone, Copy, Debug)]
+enum Field<'a> {
+    Fov(f64, &'a str),
+    FocalMm(f64),
+    Default,
+}
+
+fn mitsuba_vertical_fov(w: u32, h: u32, f: Field<'_>) -> f64 {
+    let (w, h) = (w as f64, h as f64);
+    let tan_half = |deg: f64| (deg.to_radians() / 2.0).tan();
+    // Tangents of the half-angles across the film's width and height.
+    let across_width = match f {
+        Field::Fov(fov, "x") => tan_half(fov),
+        Field::Fov(fov, "y") => tan_half(fov) * w / h,
+        // The diagonal's half-tangent, shared out along the diagonal.
+        Field::Fov(fov, "diagonal") => tan_half(fov) * w / w.hypot(h),
+        // Mitsuba: "smaller" is y when the film is wider than tall, else x.
+        Field::Fov(fov, "smaller") if w > h => tan_half(fov) * w / h,
+        Field::Fov(fov, "smaller") => tan_half(fov),
+        Field::Fov(fov, "larger") if w > h => tan_half(fov),
+        Field::Fov(fov, "larger") => tan_half(fov) * w / h,
+        Field::Fov(_, other) => panic!("{other}"),
+        // The 35 mm frame's diagonal (36 × 24 mm) over twice the focal length.
+        Field::FocalMm(mm) => 36f64.hypot(24.0) / (2.0 * mm) * w / w.hypot(h),
+        Field::Default => 36f64.hypot(24.0) / 100.0 * w / w.hypot(h),
+    };
+    2.0 * (across_width * h / w).atan().to_degrees()
+}
+
+/// A `perspective` sensor maps as Mitsuba 3's: every `fov_axis`, a
+/// `focal_length`, and no field at all (Mitsuba's 50 mm, 34.02° across a
+/// square film), on square, wide and tall films. Known wrong: the 90° the
+/// importer used to default to, and a diagonal field read as a horizontal one.
+#[test]
+fn perspective_fields_of_view_map_as_mitsubas() {
+    let films = [(512, 512), (640, 480), (300, 700), (1920, 800)];
+    let mut cases: Vec<(String, Field<'_>)> = Vec::new();
+    for axis in ["x", "y", "diagonal", "smaller", "larger"] {
+        for fov in [10.0, 40.0, 75.5, 120.0] {
+            cases.push((
+                format!(r#"<float name="fov" value="{fov}"/><string name="fov_axis" value="{axis}"/>"#),
+                Field::Fov(fov, axis),
+            ));
+        }
+    }
+    cases.push((r#"<float name="fov" value="40"/>"#.into(), Field::Fov(40.0, "x")));
+    // Mitsuba lower-cases the axis name.
+    cases.push((
+        r#"<float name="fov" value="40"/><string name="fov_axis" value="Diagonal"/>"#.into(),
+        Field::Fov(40.0, "diagonal"),
+    ));
+    for (f, mm) in [("35mm", 35.0), ("50mm", 50.0), ("120", 120.0), ("17.5mm", 17.5)] {
+        cases.push((
+            format!(r#"<string name="focal_length" value="{f}"/>"#),
+            Field::FocalMm(mm),
+        ));
+    }
+    cases.push((String::new(), Field::Default));
+    for (w, h) in films {
+        for (params, field) in &cases {
+            let got = imported_fov(w, h, params).unwrap();
+            let want = mitsuba_vertical_fov(w, h, *field);
+            assert!(
+                (got - want).abs() < 1e-9,
+                "{w}x{h} {params}: imported {got}, Mitsuba {want}"
+            );
+        }
+        // Known wrong: no field as 90° across the width; a diagonal as x.
+        let none = imported_fov(w, h, "").unwrap();
+        let ninety = mitsuba_vertical_fov(w, h, Field::Fov(90.0, "x"));
+        assert!((none - ninety).abs() > 1.0, "{w}x{h}: {none} vs {ninety}");
+        let diag = imported_fov(
+            w,
+            h,
+            r#"<float name="fov" value="40"/><string name="fov_axis" value="diagonal"/>"#,
+        )
+        .unwrap();
+        let as_x = mitsuba_vertical_fov(w, h, Field::Fov(40.0, "x"));
+        assert!((diag - as_x).abs() > 1.0, "{w}x{h}: {diag} vs {as_x}");
+    }
+    // Mitsuba's default across a square film: 34.02° horizontally.
+    let square = imported_fov(512, 512, "").unwrap();
+    assert!((square - 34.02).abs() < 0.005, "{square}");
+    // A fov_axis without a fov is unused (Mitsuba refuses unused
+    // parameters); both fov and focal_length is an error; a bad axis names itself.
+    for (params, want) in [
+        (r#"<string name="fov_axis" value="y"/>"#, "fov_axis"),
+        (
+            r#"<float name="fov" value="40"/><string name="focal_length" value="50mm"/>"#,
+            "not both",
+        ),
+        (
+            r#"<float name="fov" value="40"/><string name="fov_axis" value="z"/>"#,
+            "fov_axis \"z\"",
+        ),
+        (r#"<string name="focal_length" value="wide"/>"#, "focal length"),
+        (r#"<string name="focal_length" value="-5mm"/>"#, "focal length"),
+    ] {
+        match imported_fov(640, 480, params) {
+            Err(e) => assert!(e.to_string().contains(want), "{params}: {e}"),
+            Ok(f) => panic!("accepted {params}: {f}"),
+        }
+    }
+}
+
 /// A JPEG texture loads from snell's TOML and from a Mitsuba `bitmap`,
 /// and its texels are the decoded JPEG's (8-bit sRGB, decoded to linear).
 #[test]
