@@ -629,6 +629,207 @@ fn perspective_fields_of_view_map_as_mitsubas() {
     }
 }
 
+/// A `w` × `h` map of values that differ from texel to texel (row 0 on top).
+fn envmap_texels(w: usize, h: usize) -> Vec<[f64; 3]> {
+    let mut s = 0x9e37_79b9_7f4a_7c15u64;
+    (0..w * h)
+        .map(|_| {
+            [0, 1, 2].map(|_| {
+                s = s
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                0.1 + (s >> 40) as f64 / (1u64 << 24) as f64
+            })
+        })
+        .collect()
+}
+
+/// Rotation by `deg` degrees about `axis` (Rodrigues), rows of the matrix.
+fn rotation(axis: [f64; 3], deg: f64) -> [[f64; 3]; 3] {
+    let n = (axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]).sqrt();
+    let [x, y, z] = axis.map(|a| a / n);
+    let (s, c) = deg.to_radians().sin_cos();
+    let t = 1.0 - c;
+    [
+        [c + t * x * x, t * x * y - s * z, t * x * z + s * y],
+        [t * x * y + s * z, c + t * y * y, t * y * z - s * x],
+        [t * x * z - s * y, t * y * z + s * x, c + t * z * z],
+    ]
+}
+
+/// How a map is looked up, for the known-wrong variants.
+#[derive(Clone, Copy, PartialEq)]
+enum EnvLookup {
+    /// Mitsuba 3's own.
+    Mitsuba,
+    /// Mitsuba's turned half a turn about +y (no turn when importing).
+    NoTurn,
+    /// Rows at pixel centres (v·H − 0.5) instead of on the poles.
+    RowCentres,
+}
+
+/// The radiance Mitsuba 3's `envmap` (src/emitters/envmap.cpp) gives a ray
+/// along world direction `d`: the map-space direction is to_world⁻¹·d, u =
+/// atan2(x, −z)/2π and v = acos(y)/π; bilinear over texels at u·W − 0.5
+/// (wrapping around) and v·(H − 1) (row 0 on the upper pole, row H − 1 on
+/// the lower).
+fn mitsuba_envmap(
+    px: &[[f64; 3]],
+    (w, h): (usize, usize),
+    to_world: &[[f64; 3]; 3],
+    scale: f64,
+    d: [f64; 3],
+    how: EnvLookup,
+) -> [f64; 3] {
+    let local: [f64; 3] = [0, 1, 2].map(|i| (0..3).map(|k| to_world[k][i] * d[k]).sum::<f64>());
+    let n = local.iter().map(|c| c * c).sum::<f64>().sqrt();
+    let l = local.map(|c| c / n);
+    let mut u = l[0].atan2(-l[2]) / std::f64::consts::TAU;
+    if how == EnvLookup::NoTurn {
+        u += 0.5;
+    }
+    let v = l[1].clamp(-1.0, 1.0).acos() / std::f64::consts::PI;
+    let x = (u - u.floor()) * w as f64 - 0.5;
+    let (y, y0) = if how == EnvLookup::RowCentres {
+        let y = v * h as f64 - 0.5;
+        (y, y.floor())
+    } else {
+        let y = v * (h - 1) as f64;
+        (y, y.floor().min((h - 2) as f64))
+    };
+    let x0 = x.floor();
+    let (fx, fy) = (x - x0, y - y0);
+    let at = |xi: f64, yi: f64| {
+        let xi = (xi as i64).rem_euclid(w as i64) as usize;
+        let yi = (yi as i64).clamp(0, h as i64 - 1) as usize;
+        px[yi * w + xi]
+    };
+    let (a, b, c, e) = (
+        at(x0, y0),
+        at(x0 + 1.0, y0),
+        at(x0, y0 + 1.0),
+        at(x0 + 1.0, y0 + 1.0),
+    );
+    [0, 1, 2].map(|k| {
+        let top = (1.0 - fx) * a[k] + fx * b[k];
+        let bottom = (1.0 - fx) * c[k] + fx * e[k];
+        scale * ((1.0 - fy) * top + fy * bottom)
+    })
+}
+
+/// Directions spread over the sphere (none exactly on a pole).
+fn spread_directions(n: usize) -> Vec<[f64; 3]> {
+    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+    (0..n)
+        .map(|i| {
+            let y = 1.0 - (i as f64 + 0.5) / n as f64 * 2.0;
+            let r = (1.0 - y * y).sqrt();
+            let phi = golden * i as f64;
+            [r * phi.cos(), y, r * phi.sin()]
+        })
+        .collect()
+}
+
+/// Mitsuba's `envmap`, with and without `to_world`, imports so that every
+/// direction reads the value Mitsuba's formula gives (the 180° turn about
+/// +y between the two lat-long conventions and Mitsuba's rows on the
+/// poles); known wrong: the lookup without the turn, and rows at pixel
+/// centres.
+#[test]
+fn envmaps_look_up_what_mitsuba_looks_up() {
+    let dir = std::env::temp_dir().join(format!("snell-import-envmap-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (w, h) = (16usize, 8usize);
+    let texels = envmap_texels(w, h);
+    let v3: Vec<glam::Vec3A> = texels
+        .iter()
+        .map(|t| glam::Vec3A::new(t[0] as f32, t[1] as f32, t[2] as f32))
+        .collect();
+    std::fs::write(
+        dir.join("sky.exr"),
+        snell::image_io::encode_exr(w as u32, h as u32, &v3, &[], &[]).unwrap(),
+    )
+    .unwrap();
+    // The texels as stored (f32).
+    let px: Vec<[f64; 3]> = v3.iter().map(|p| [p.x as f64, p.y as f64, p.z as f64]).collect();
+    let ident = rotation([0.0, 1.0, 0.0], 0.0);
+    let cases = [
+        ("", ident),
+        (
+            r#"<transform name="to_world"><rotate x="0.3" y="1" z="-0.4" angle="37"/></transform>"#,
+            rotation([0.3, 1.0, -0.4], 37.0),
+        ),
+        (
+            r#"<transform name="to_world"><rotate y="1" angle="180"/></transform>"#,
+            rotation([0.0, 1.0, 0.0], 180.0),
+        ),
+        (
+            r#"<transform name="to_world"><rotate x="1" angle="-90"/><translate x="5"/></transform>"#,
+            rotation([1.0, 0.0, 0.0], -90.0),
+        ),
+    ];
+    let dirs = spread_directions(400);
+    for (xf, m) in cases {
+        let xml = format!(
+            r#"<scene version="3.0.0">
+{SENSOR}
+<emitter type="envmap"><string name="filename" value="sky.exr"/><float name="scale" value="1.5"/>{xf}</emitter>
+<shape type="sphere"/>
+</scene>"#
+        );
+        let imp = mitsuba::import_str("t.xml", &xml, &dir, &ImportOptions::default()).unwrap();
+        assert!(
+            imp.warnings.iter().all(|w| !w.message.contains("orientation")),
+            "{:?}",
+            imp.warnings
+        );
+        let toml = to_toml(&imp.desc).unwrap();
+        let scene = load_scene_str("t.xml (imported)", &toml, &dir, &BuildOptions::default()).unwrap();
+        let worst = |how: EnvLookup| {
+            dirs.iter()
+                .map(|d| {
+                    let got = scene
+                        .environment
+                        .eval(glam::Vec3A::new(d[0] as f32, d[1] as f32, d[2] as f32));
+                    let want = mitsuba_envmap(&px, (w, h), &m, 1.5, *d, how);
+                    (0..3)
+                        .map(|k| (got[k] as f64 - want[k]).abs())
+                        .fold(0.0, f64::max)
+                })
+                .fold(0.0, f64::max)
+        };
+        let good = worst(EnvLookup::Mitsuba);
+        assert!(good < 1e-4, "{xf}: {good}\n{toml}");
+        let no_turn = worst(EnvLookup::NoTurn);
+        let centres = worst(EnvLookup::RowCentres);
+        eprintln!(
+            "envmap {xf:?}: worst difference {good:.1e}; no turn {no_turn:.2}, rows at centres {centres:.2}"
+        );
+        assert!(
+            no_turn > 0.1 && centres > 0.05,
+            "{xf}: no power ({no_turn}, {centres})"
+        );
+    }
+    // Scales, skews and mirrors have no counterpart: refused at the emitter.
+    for xf in [
+        r#"<scale value="2"/>"#,
+        r#"<scale x="-1"/>"#,
+        r#"<matrix value="1 0.5 0 0  0 1 0 0  0 0 1 0  0 0 0 1"/>"#,
+    ] {
+        let xml = format!(
+            "<scene version=\"3.0.0\">\n{SENSOR}\n<emitter type=\"envmap\"><string name=\"filename\" value=\"sky.exr\"/><transform name=\"to_world\">{xf}</transform></emitter>\n</scene>"
+        );
+        match mitsuba::import_str("t.xml", &xml, &dir, &ImportOptions::default()) {
+            Err(Error::Input { line, message, .. }) => {
+                assert_eq!(line, 3, "{message}");
+                assert!(message.contains("rotation"), "{xf}: {message}");
+            }
+            r => panic!("{xf}: {:?}", r.map(|_| ())),
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// A JPEG texture loads from snell's TOML and from a Mitsuba `bitmap`,
 /// and its texels are the decoded JPEG's (8-bit sRGB, decoded to linear).
 #[test]
