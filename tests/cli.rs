@@ -411,3 +411,103 @@ fn light_sampling_flag_turns_next_event_estimation_off() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("light-sampling"));
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// glTF has no world light: `--set` gives an imported scene its
+/// environment, a constant one key by key or a whole table (a map), also
+/// replacing the one a file names (docs/import-gltf.md).
+#[test]
+fn set_gives_a_gltf_scene_its_environment() {
+    let d = tmpdir("gltf-env");
+    // A triangle in the upper right of the view; the top-left pixel sees the sky.
+    let gltf = d.join("t.gltf");
+    std::fs::write(
+        &gltf,
+        r#"{"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0, 1]}],
+ "nodes": [{"camera": 0, "translation": [0.0, 0.0, 3.0]}, {"mesh": 0}],
+ "cameras": [{"type": "perspective", "perspective": {"yfov": 0.8, "znear": 0.1}}],
+ "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}],
+ "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0.0, 0.0, 0.0], "max": [1.0, 1.0, 0.0]},
+               {"bufferView": 1, "componentType": 5123, "count": 3, "type": "SCALAR"}],
+ "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 36}, {"buffer": 0, "byteOffset": 36, "byteLength": 6}],
+ "buffers": [{"byteLength": 44, "uri": "data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAAAAABAAIAAAA="}]}"#,
+    )
+    .unwrap();
+    let sky = [0.75f32, 0.5, 0.25];
+    let px = vec![glam::Vec3A::from(sky); 8 * 4];
+    std::fs::write(
+        d.join("sky.exr"),
+        snell::image_io::encode_exr(8, 4, &px, &[], &[]).unwrap(),
+    )
+    .unwrap();
+    let film = ["--width", "16", "--height", "12", "--spp", "4"];
+    let corner = |scene: &Path, extra: &[&str]| -> [f32; 3] {
+        let exr = d.join("o.exr");
+        let bits = rendered_bits(scene.to_str().unwrap(), &exr, &film, extra);
+        [0, 1, 2].map(|k| f32::from_bits(bits[k]))
+    };
+    assert_eq!(corner(&gltf, &[]), [0.0; 3], "no environment: black");
+    let c = corner(
+        &gltf,
+        &[
+            "--set",
+            "environment.type=constant",
+            "--set",
+            "environment.radiance=[0.25, 0.5, 1.0]",
+        ],
+    );
+    assert_eq!(c, [0.25, 0.5, 1.0]);
+    // A map, relative to the glTF's directory, as one inline table.
+    let c = corner(
+        &gltf,
+        &[
+            "--set",
+            r#"environment={ type = "map", file = "sky.exr", rows = "poles" }"#,
+        ],
+    );
+    assert!(c.iter().zip(sky).all(|(a, b)| (a - b).abs() < 1e-6), "{c:?}");
+    // The glass of water names a constant 0.3 in its extras: a table
+    // replaces it (a uniform 0.3 map renders the same, twice that does not).
+    let grey = vec![glam::Vec3A::splat(0.3); 8 * 4];
+    std::fs::write(
+        d.join("grey.exr"),
+        snell::image_io::encode_exr(8, 4, &grey, &[], &[]).unwrap(),
+    )
+    .unwrap();
+    let glb = "scenes/glass_of_water.glb";
+    let image = |extra: &[&str]| {
+        let bits = rendered_bits(glb, &d.join("g.exr"), &film, extra);
+        bits.into_iter().map(f32::from_bits).collect::<Vec<f32>>()
+    };
+    let map = |scale: f64| {
+        format!(
+            "environment={{ type = \"map\", file = {:?}, scale = {scale} }}",
+            d.join("grey.exr").to_str().unwrap()
+        )
+    };
+    let plain = image(&[]);
+    let same = image(&["--set", &map(1.0)]);
+    let twice = image(&["--set", &map(2.0)]);
+    let diff = |a: &[f32], b: &[f32]| a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0f32, f32::max);
+    assert!(diff(&plain, &same) < 1e-4, "{}", diff(&plain, &same));
+    assert!(diff(&plain, &twice) > 0.05, "{}", diff(&plain, &twice));
+    // A key the environment does not have is an error naming it.
+    let out = snell()
+        .args(["render"])
+        .arg(&gltf)
+        .arg("-o")
+        .arg(d.join("x.exr"))
+        .args([
+            "--set",
+            "environment.type=constant",
+            "--set",
+            "environment.radius=1.0",
+        ])
+        .args(film)
+        .arg("--quiet")
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("radius") && !err.contains("panicked"), "{err}");
+    let _ = std::fs::remove_dir_all(&d);
+}

@@ -322,7 +322,8 @@ fn unmapped_material_features_warn_once_per_material_and_strict_refuses() {
     assert_eq!(spots.len(), 2, "{spots:?}");
     assert!((spots[0].cutoff_angle - 45.0).abs() < 1e-5, "{spots:?}");
     assert_eq!(spots[0].beam_width, Some(0.0));
-    assert_eq!(spots[0].intensity, [2.0; 3]);
+    // 2 cd at 683 lm/W.
+    assert_eq!(spots[0].intensity, [2.0 / 683.0; 3]);
     assert_eq!(spots[1].position, [0.0, 3.0, 0.0]);
     assert_eq!(spots[1].direction, Some([0.0, 0.0, -1.0]));
     assert!(
@@ -344,4 +345,83 @@ fn unmapped_material_features_warn_once_per_material_and_strict_refuses() {
     let s = load_scene(&f, &BuildOptions::default()).unwrap();
     assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `KHR_lights_punctual` intensities are photometric (candela for point and
+/// spot lights, lux for directional ones, at 683 lm/W): snell's W/sr and
+/// W/m² are them over 683. Blender writes a P-watt point or spot lamp as P ×
+/// 683 / 4π cd and a sun of E W/m² as E × 683 lx (io_scene_gltf2's
+/// blender/exp/lights.py, PBR_WATTS_TO_LUMENS = 683), so those come back as
+/// P / 4π W/sr and E W/m². Known wrong: the intensity read as radiometric.
+#[test]
+fn punctual_light_intensities_are_photometric() {
+    use snell::scene::desc::LightDesc;
+    let (watts, sun) = (100.0f64, 3.0f64);
+    let cd = watts * 683.0 / (4.0 * std::f64::consts::PI);
+    let bytes = tri_gltf(|v| {
+        v["extensionsUsed"] = serde_json::json!(["KHR_lights_punctual"]);
+        v["extensions"] = serde_json::json!({"KHR_lights_punctual": {"lights": [
+            {"type": "point", "intensity": cd, "color": [1.0, 0.5, 0.25]},
+            {"type": "directional", "intensity": sun * 683.0},
+            {"type": "spot", "intensity": cd, "spot": {"innerConeAngle": 0.2, "outerConeAngle": 0.4}}
+        ]}});
+        v["scenes"][0]["nodes"] = serde_json::json!([0, 1, 2, 3, 4]);
+        let nodes = v["nodes"].as_array_mut().unwrap();
+        for (i, t) in [[0.0, 4.0, 0.0], [0.0, 0.0, 0.0], [1.0, 2.0, 3.0]]
+            .iter()
+            .enumerate()
+        {
+            nodes.push(
+                serde_json::json!({"translation": t, "extensions": {"KHR_lights_punctual": {"light": i}}}),
+            );
+        }
+    });
+    let i = imp(&bytes, &ImportOptions::default()).unwrap();
+    let ls = &i.desc.lights;
+    assert_eq!(ls.len(), 3, "{ls:?}");
+    // glTF stores f32: the intended values to f32 precision.
+    let close = |got: f64, want: f64| (got - want).abs() <= 1e-6 * want.abs();
+    let per_sr = watts / (4.0 * std::f64::consts::PI);
+    match &ls[0] {
+        LightDesc::Point(p) => {
+            for (k, c) in [1.0, 0.5, 0.25].into_iter().enumerate() {
+                assert!(
+                    close(p.intensity[k], per_sr * c),
+                    "{:?} vs {}",
+                    p.intensity,
+                    per_sr
+                );
+                // Known wrong: candela taken as W/sr.
+                assert!(!close(p.intensity[k], cd * c));
+            }
+        }
+        other => panic!("{other:?}"),
+    }
+    match &ls[1] {
+        LightDesc::Directional(d) => {
+            assert!(d.irradiance.iter().all(|&e| close(e, sun)), "{:?}", d.irradiance);
+            assert!(!close(d.irradiance[0], sun * 683.0));
+        }
+        other => panic!("{other:?}"),
+    }
+    match &ls[2] {
+        LightDesc::Spot(s) => {
+            assert!(s.intensity.iter().all(|&e| close(e, per_sr)), "{:?}", s.intensity);
+            assert!(!close(s.intensity[0], cd));
+        }
+        other => panic!("{other:?}"),
+    }
+    // The built point light holds the radiant intensity (W/sr).
+    let dir = std::env::temp_dir().join(format!("snell-gltf-lights-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("t.gltf"), &bytes).unwrap();
+    let s = load_scene(&dir.join("t.gltf"), &BuildOptions::default()).unwrap();
+    let _ = std::fs::remove_dir_all(&dir);
+    assert_eq!(s.lights.len(), 3);
+    match &s.lights[0] {
+        snell::scene::Light::Point { intensity, .. } => {
+            assert!(close(intensity.x as f64, per_sr), "{intensity}")
+        }
+        _ => panic!("not a point light"),
+    }
 }

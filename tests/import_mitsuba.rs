@@ -509,3 +509,399 @@ fn rough_metal_and_plastic_bsdfs_map_exactly_and_refuse_what_they_cannot() {
         }
     }
 }
+
+/// The vertical field of view the importer gives a `perspective` sensor
+/// with `params` on a `w` × `h` film.
+fn imported_fov(w: u32, h: u32, params: &str) -> snell::Result<f64> {
+    let xml = format!(
+        r#"<scene version="3.0.0"><sensor type="perspective">{params}<film type="hdrfilm"><integer name="width" value="{w}"/><integer name="height" value="{h}"/><rfilter type="box"/></film></sensor></scene>"#
+    );
+    Ok(import_text(&xml, &ImportOptions::default())?.desc.camera.fov)
+}
+
+/// What a sensor's field is, written out from Mitsuba 3's `parse_fov`
+/// (src/render/sensor.cpp) and `perspective_projection`
+/// (include/mitsuba/render/sensor.h): the half-width tangent of the
+/// image plane at unit distance, then the vertical field in degrees from
+/// the film's aspect.
+#[derive(Clone, Copy, Debug)]
+enum Field<'a> {
+    Fov(f64, &'a str),
+    FocalMm(f64),
+    Default,
+}
+
+fn mitsuba_vertical_fov(w: u32, h: u32, f: Field<'_>) -> f64 {
+    let (w, h) = (w as f64, h as f64);
+    let tan_half = |deg: f64| (deg.to_radians() / 2.0).tan();
+    // Tangents of the half-angles across the film's width and height.
+    let across_width = match f {
+        Field::Fov(fov, "x") => tan_half(fov),
+        Field::Fov(fov, "y") => tan_half(fov) * w / h,
+        // The diagonal's half-tangent, shared out along the diagonal.
+        Field::Fov(fov, "diagonal") => tan_half(fov) * w / w.hypot(h),
+        // Mitsuba: "smaller" is y when the film is wider than tall, else x.
+        Field::Fov(fov, "smaller") if w > h => tan_half(fov) * w / h,
+        Field::Fov(fov, "smaller") => tan_half(fov),
+        Field::Fov(fov, "larger") if w > h => tan_half(fov),
+        Field::Fov(fov, "larger") => tan_half(fov) * w / h,
+        Field::Fov(_, other) => panic!("{other}"),
+        // The 35 mm frame's diagonal (36 × 24 mm) over twice the focal length.
+        Field::FocalMm(mm) => 36f64.hypot(24.0) / (2.0 * mm) * w / w.hypot(h),
+        Field::Default => 36f64.hypot(24.0) / 100.0 * w / w.hypot(h),
+    };
+    2.0 * (across_width * h / w).atan().to_degrees()
+}
+
+/// A `perspective` sensor maps as Mitsuba 3's: every `fov_axis`, a
+/// `focal_length`, and no field at all (Mitsuba's 50 mm, 34.02° across a
+/// square film), on square, wide and tall films. Known wrong: the 90° the
+/// importer used to default to, and a diagonal field read as a horizontal one.
+#[test]
+fn perspective_fields_of_view_map_as_mitsubas() {
+    let films = [(512, 512), (640, 480), (300, 700), (1920, 800)];
+    let mut cases: Vec<(String, Field<'_>)> = Vec::new();
+    for axis in ["x", "y", "diagonal", "smaller", "larger"] {
+        for fov in [10.0, 40.0, 75.5, 120.0] {
+            cases.push((
+                format!(r#"<float name="fov" value="{fov}"/><string name="fov_axis" value="{axis}"/>"#),
+                Field::Fov(fov, axis),
+            ));
+        }
+    }
+    cases.push((r#"<float name="fov" value="40"/>"#.into(), Field::Fov(40.0, "x")));
+    // Mitsuba lower-cases the axis name.
+    cases.push((
+        r#"<float name="fov" value="40"/><string name="fov_axis" value="Diagonal"/>"#.into(),
+        Field::Fov(40.0, "diagonal"),
+    ));
+    for (f, mm) in [("35mm", 35.0), ("50mm", 50.0), ("120", 120.0), ("17.5mm", 17.5)] {
+        cases.push((
+            format!(r#"<string name="focal_length" value="{f}"/>"#),
+            Field::FocalMm(mm),
+        ));
+    }
+    cases.push((String::new(), Field::Default));
+    for (w, h) in films {
+        for (params, field) in &cases {
+            let got = imported_fov(w, h, params).unwrap();
+            let want = mitsuba_vertical_fov(w, h, *field);
+            assert!(
+                (got - want).abs() < 1e-9,
+                "{w}x{h} {params}: imported {got}, Mitsuba {want}"
+            );
+        }
+        // Known wrong: no field as 90° across the width; a diagonal as x.
+        let none = imported_fov(w, h, "").unwrap();
+        let ninety = mitsuba_vertical_fov(w, h, Field::Fov(90.0, "x"));
+        assert!((none - ninety).abs() > 1.0, "{w}x{h}: {none} vs {ninety}");
+        let diag = imported_fov(
+            w,
+            h,
+            r#"<float name="fov" value="40"/><string name="fov_axis" value="diagonal"/>"#,
+        )
+        .unwrap();
+        let as_x = mitsuba_vertical_fov(w, h, Field::Fov(40.0, "x"));
+        assert!((diag - as_x).abs() > 1.0, "{w}x{h}: {diag} vs {as_x}");
+    }
+    // Mitsuba's default across a square film: 34.02° horizontally.
+    let square = imported_fov(512, 512, "").unwrap();
+    assert!((square - 34.02).abs() < 0.005, "{square}");
+    // A fov_axis without a fov is unused (Mitsuba refuses unused
+    // parameters); both fov and focal_length is an error; a bad axis names itself.
+    for (params, want) in [
+        (r#"<string name="fov_axis" value="y"/>"#, "fov_axis"),
+        (
+            r#"<float name="fov" value="40"/><string name="focal_length" value="50mm"/>"#,
+            "not both",
+        ),
+        (
+            r#"<float name="fov" value="40"/><string name="fov_axis" value="z"/>"#,
+            "fov_axis \"z\"",
+        ),
+        (r#"<string name="focal_length" value="wide"/>"#, "focal length"),
+        (r#"<string name="focal_length" value="-5mm"/>"#, "focal length"),
+    ] {
+        match imported_fov(640, 480, params) {
+            Err(e) => assert!(e.to_string().contains(want), "{params}: {e}"),
+            Ok(f) => panic!("accepted {params}: {f}"),
+        }
+    }
+}
+
+/// A `w` × `h` map of values that differ from texel to texel (row 0 on top).
+fn envmap_texels(w: usize, h: usize) -> Vec<[f64; 3]> {
+    let mut s = 0x9e37_79b9_7f4a_7c15u64;
+    (0..w * h)
+        .map(|_| {
+            [0, 1, 2].map(|_| {
+                s = s
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                0.1 + (s >> 40) as f64 / (1u64 << 24) as f64
+            })
+        })
+        .collect()
+}
+
+/// Rotation by `deg` degrees about `axis` (Rodrigues), rows of the matrix.
+fn rotation(axis: [f64; 3], deg: f64) -> [[f64; 3]; 3] {
+    let n = (axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]).sqrt();
+    let [x, y, z] = axis.map(|a| a / n);
+    let (s, c) = deg.to_radians().sin_cos();
+    let t = 1.0 - c;
+    [
+        [c + t * x * x, t * x * y - s * z, t * x * z + s * y],
+        [t * x * y + s * z, c + t * y * y, t * y * z - s * x],
+        [t * x * z - s * y, t * y * z + s * x, c + t * z * z],
+    ]
+}
+
+/// How a map is looked up, for the known-wrong variants.
+#[derive(Clone, Copy, PartialEq)]
+enum EnvLookup {
+    /// Mitsuba 3's own.
+    Mitsuba,
+    /// Mitsuba's turned half a turn about +y (no turn when importing).
+    NoTurn,
+    /// Rows at pixel centres (v·H − 0.5) instead of on the poles.
+    RowCentres,
+}
+
+/// The radiance Mitsuba 3's `envmap` (src/emitters/envmap.cpp) gives a ray
+/// along world direction `d`: the map-space direction is to_world⁻¹·d, u =
+/// atan2(x, −z)/2π and v = acos(y)/π; bilinear over texels at u·W − 0.5
+/// (wrapping around) and v·(H − 1) (row 0 on the upper pole, row H − 1 on
+/// the lower).
+fn mitsuba_envmap(
+    px: &[[f64; 3]],
+    (w, h): (usize, usize),
+    to_world: &[[f64; 3]; 3],
+    scale: f64,
+    d: [f64; 3],
+    how: EnvLookup,
+) -> [f64; 3] {
+    let local: [f64; 3] = [0, 1, 2].map(|i| (0..3).map(|k| to_world[k][i] * d[k]).sum::<f64>());
+    let n = local.iter().map(|c| c * c).sum::<f64>().sqrt();
+    let l = local.map(|c| c / n);
+    let mut u = l[0].atan2(-l[2]) / std::f64::consts::TAU;
+    if how == EnvLookup::NoTurn {
+        u += 0.5;
+    }
+    let v = l[1].clamp(-1.0, 1.0).acos() / std::f64::consts::PI;
+    let x = (u - u.floor()) * w as f64 - 0.5;
+    let (y, y0) = if how == EnvLookup::RowCentres {
+        let y = v * h as f64 - 0.5;
+        (y, y.floor())
+    } else {
+        let y = v * (h - 1) as f64;
+        (y, y.floor().min((h - 2) as f64))
+    };
+    let x0 = x.floor();
+    let (fx, fy) = (x - x0, y - y0);
+    let at = |xi: f64, yi: f64| {
+        let xi = (xi as i64).rem_euclid(w as i64) as usize;
+        let yi = (yi as i64).clamp(0, h as i64 - 1) as usize;
+        px[yi * w + xi]
+    };
+    let (a, b, c, e) = (
+        at(x0, y0),
+        at(x0 + 1.0, y0),
+        at(x0, y0 + 1.0),
+        at(x0 + 1.0, y0 + 1.0),
+    );
+    [0, 1, 2].map(|k| {
+        let top = (1.0 - fx) * a[k] + fx * b[k];
+        let bottom = (1.0 - fx) * c[k] + fx * e[k];
+        scale * ((1.0 - fy) * top + fy * bottom)
+    })
+}
+
+/// Directions spread over the sphere (none exactly on a pole).
+fn spread_directions(n: usize) -> Vec<[f64; 3]> {
+    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+    (0..n)
+        .map(|i| {
+            let y = 1.0 - (i as f64 + 0.5) / n as f64 * 2.0;
+            let r = (1.0 - y * y).sqrt();
+            let phi = golden * i as f64;
+            [r * phi.cos(), y, r * phi.sin()]
+        })
+        .collect()
+}
+
+/// Mitsuba's `envmap`, with and without `to_world`, imports so that every
+/// direction reads the value Mitsuba's formula gives (the 180° turn about
+/// +y between the two lat-long conventions and Mitsuba's rows on the
+/// poles); known wrong: the lookup without the turn, and rows at pixel
+/// centres.
+#[test]
+fn envmaps_look_up_what_mitsuba_looks_up() {
+    let dir = std::env::temp_dir().join(format!("snell-import-envmap-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (w, h) = (16usize, 8usize);
+    let texels = envmap_texels(w, h);
+    let v3: Vec<glam::Vec3A> = texels
+        .iter()
+        .map(|t| glam::Vec3A::new(t[0] as f32, t[1] as f32, t[2] as f32))
+        .collect();
+    std::fs::write(
+        dir.join("sky.exr"),
+        snell::image_io::encode_exr(w as u32, h as u32, &v3, &[], &[]).unwrap(),
+    )
+    .unwrap();
+    // The texels as stored (f32).
+    let px: Vec<[f64; 3]> = v3.iter().map(|p| [p.x as f64, p.y as f64, p.z as f64]).collect();
+    let ident = rotation([0.0, 1.0, 0.0], 0.0);
+    let cases = [
+        ("", ident),
+        (
+            r#"<transform name="to_world"><rotate x="0.3" y="1" z="-0.4" angle="37"/></transform>"#,
+            rotation([0.3, 1.0, -0.4], 37.0),
+        ),
+        (
+            r#"<transform name="to_world"><rotate y="1" angle="180"/></transform>"#,
+            rotation([0.0, 1.0, 0.0], 180.0),
+        ),
+        (
+            r#"<transform name="to_world"><rotate x="1" angle="-90"/><translate x="5"/></transform>"#,
+            rotation([1.0, 0.0, 0.0], -90.0),
+        ),
+    ];
+    let dirs = spread_directions(400);
+    for (xf, m) in cases {
+        let xml = format!(
+            r#"<scene version="3.0.0">
+{SENSOR}
+<emitter type="envmap"><string name="filename" value="sky.exr"/><float name="scale" value="1.5"/>{xf}</emitter>
+<shape type="sphere"/>
+</scene>"#
+        );
+        let imp = mitsuba::import_str("t.xml", &xml, &dir, &ImportOptions::default()).unwrap();
+        assert!(
+            imp.warnings.iter().all(|w| !w.message.contains("orientation")),
+            "{:?}",
+            imp.warnings
+        );
+        let toml = to_toml(&imp.desc).unwrap();
+        let scene = load_scene_str("t.xml (imported)", &toml, &dir, &BuildOptions::default()).unwrap();
+        let worst = |how: EnvLookup| {
+            dirs.iter()
+                .map(|d| {
+                    let got = scene
+                        .environment
+                        .eval(glam::Vec3A::new(d[0] as f32, d[1] as f32, d[2] as f32));
+                    let want = mitsuba_envmap(&px, (w, h), &m, 1.5, *d, how);
+                    (0..3)
+                        .map(|k| (got[k] as f64 - want[k]).abs())
+                        .fold(0.0, f64::max)
+                })
+                .fold(0.0, f64::max)
+        };
+        let good = worst(EnvLookup::Mitsuba);
+        assert!(good < 1e-4, "{xf}: {good}\n{toml}");
+        let no_turn = worst(EnvLookup::NoTurn);
+        let centres = worst(EnvLookup::RowCentres);
+        eprintln!(
+            "envmap {xf:?}: worst difference {good:.1e}; no turn {no_turn:.2}, rows at centres {centres:.2}"
+        );
+        assert!(
+            no_turn > 0.1 && centres > 0.05,
+            "{xf}: no power ({no_turn}, {centres})"
+        );
+    }
+    // Scales, skews and mirrors have no counterpart: refused at the emitter.
+    for xf in [
+        r#"<scale value="2"/>"#,
+        r#"<scale x="-1"/>"#,
+        r#"<matrix value="1 0.5 0 0  0 1 0 0  0 0 1 0  0 0 0 1"/>"#,
+    ] {
+        let xml = format!(
+            "<scene version=\"3.0.0\">\n{SENSOR}\n<emitter type=\"envmap\"><string name=\"filename\" value=\"sky.exr\"/><transform name=\"to_world\">{xf}</transform></emitter>\n</scene>"
+        );
+        match mitsuba::import_str("t.xml", &xml, &dir, &ImportOptions::default()) {
+            Err(Error::Input { line, message, .. }) => {
+                assert_eq!(line, 3, "{message}");
+                assert!(message.contains("rotation"), "{xf}: {message}");
+            }
+            r => panic!("{xf}: {:?}", r.map(|_| ())),
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A JPEG texture loads from snell's TOML and from a Mitsuba `bitmap`,
+/// and its texels are the decoded JPEG's (8-bit sRGB, decoded to linear).
+#[test]
+fn jpeg_textures_load_in_toml_and_xml() {
+    use snell::scene::model::Material;
+    use snell::scene::texture::Texture;
+    let dir = std::env::temp_dir().join(format!("snell-import-jpeg-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (w, h) = (12u32, 6u32);
+    let img = image::RgbImage::from_fn(w, h, |x, y| {
+        image::Rgb([(x * 20) as u8, (y * 40) as u8, ((x + y) * 9) as u8])
+    });
+    let jpg = dir.join("wood.jpg");
+    img.save(&jpg).unwrap();
+    // What the file decodes to, from the image crate's own decoder, in linear RGB.
+    let decoded = image::open(&jpg).unwrap().to_rgb8();
+    let lin = |c: u8| {
+        let c = c as f64 / 255.0;
+        if c <= 0.04045 {
+            c / 12.92
+        } else {
+            ((c + 0.055) / 1.055).powf(2.4)
+        }
+    };
+    let want: Vec<[f64; 3]> = decoded
+        .pixels()
+        .map(|p| [lin(p[0]), lin(p[1]), lin(p[2])])
+        .collect();
+    std::fs::write(
+        dir.join("quad.obj"),
+        "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nf 1/1 2/2 3/3\nf 1/1 3/3 4/4\n",
+    )
+    .unwrap();
+    let toml = "[camera]\nposition = [0.0, 0.0, 5.0]\ntarget = [0.0, 0.0, 0.0]\nfov = 40.0\n[film]\nwidth = 16\nheight = 16\n\
+         [[objects]]\nshape = { type = \"mesh\", file = \"quad.obj\" }\n\
+         material = { type = \"diffuse\", reflectance = { type = \"image\", file = \"wood.jpg\" } }\n";
+    let from_toml = load_scene_str("t.toml", toml, &dir, &BuildOptions::default()).unwrap();
+    let xml = format!(
+        r#"<scene version="3.0.0">
+{SENSOR}
+<shape type="obj"><string name="filename" value="quad.obj"/>
+  <bsdf type="diffuse"><texture type="bitmap" name="reflectance"><string name="filename" value="wood.jpg"/></texture></bsdf>
+</shape>
+</scene>"#
+    );
+    let imp = mitsuba::import_str("t.xml", &xml, &dir, &ImportOptions::default()).unwrap();
+    let from_xml = load_scene_str(
+        "t.xml (imported)",
+        &to_toml(&imp.desc).unwrap(),
+        &dir,
+        &BuildOptions::default(),
+    )
+    .unwrap();
+    for (what, scene) in [("toml", &from_toml), ("xml", &from_xml)] {
+        let image = match &scene.geoms[0].material {
+            Material::Diffuse {
+                reflectance: Texture::Image { image, .. },
+                ..
+            } => image.clone(),
+            other => panic!("{what}: {other:?}"),
+        };
+        assert_eq!((image.width, image.height), (w as usize, h as usize), "{what}");
+        for (i, (got, want)) in image.pixels.iter().zip(&want).enumerate() {
+            for k in 0..3 {
+                assert!(
+                    (got[k] as f64 - want[k]).abs() < 1e-6,
+                    "{what}: texel {i} channel {k}: {} vs {}",
+                    got[k],
+                    want[k]
+                );
+            }
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

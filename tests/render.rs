@@ -307,6 +307,30 @@ fn bad_scene_files_give_located_errors() {
             "environment.sun_direction",
             "non-zero",
         ),
+        (
+            "[film]",
+            "[environment]\ntype = \"map\"\nfile = \"glass_of_water_backdrop.png\"\nto_world = [{ scale = [1.0, 2.0, 1.0] }]\n[film]",
+            "environment.to_world",
+            "expected a rotation",
+        ),
+        (
+            "[film]",
+            "[environment]\ntype = \"map\"\nfile = \"glass_of_water_backdrop.png\"\nto_world = [{ matrix = [[-1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]] }]\n[film]",
+            "environment.to_world",
+            "mirrors",
+        ),
+        (
+            "[film]",
+            "[environment]\ntype = \"map\"\nfile = \"glass_of_water_backdrop.png\"\nto_world = [{ rotate = { axis = [0.0, 1.0, 0.0], degrees = 30.0 } }, { translate = [0.0, 1.0, 0.0] }]\n[film]",
+            "environment.to_world",
+            "translation",
+        ),
+        (
+            "[film]",
+            "[environment]\ntype = \"map\"\nfile = \"glass_of_water_backdrop.png\"\nrows = \"middle\"\n[film]",
+            "environment.rows",
+            "poles",
+        ),
     ];
     assert!(cases.len() >= 20);
     for (from, to, key, words) in cases {
@@ -774,4 +798,87 @@ fn packet_counters_count_the_lanes_sent() {
             ),
         }
     }
+}
+
+/// `[environment] type = "map"`: without `to_world` and `rows` the lookup
+/// is the one snell has always made (bit for bit); `to_world` turns the
+/// map (direction R·e reads what e read before; known wrong: Rᵀ·e);
+/// `rows = "poles"` puts row j at polar angle j/(H − 1) · 180°.
+#[test]
+fn map_environment_turns_by_to_world_and_places_rows() {
+    use snell::scene::texture::{load_image, Rows};
+    let dir = std::env::temp_dir().join(format!("snell-render-envmap-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (w, h) = (12u32, 6u32);
+    // Columns differ within a row, rows by whole units.
+    let px: Vec<V3> = (0..w * h)
+        .map(|i| {
+            let (x, y) = ((i % w) as f32, (i / w) as f32);
+            V3::new(y + 1.0 + 0.01 * x, y + 1.0, y + 1.0 + 0.02 * (x * 7.0 % 5.0))
+        })
+        .collect();
+    let file = dir.join("sky.exr");
+    std::fs::write(&file, snell::image_io::encode_exr(w, h, &px, &[], &[]).unwrap()).unwrap();
+    let scene = |extra: &str| {
+        let text = format!(
+            "[camera]\nposition = [0.0, 0.0, 5.0]\ntarget = [0.0, 0.0, 0.0]\nfov = 40.0\n\
+             [environment]\ntype = \"map\"\nfile = \"sky.exr\"\nscale = 2.0\n{extra}\n\
+             [[objects]]\nshape = {{ type = \"sphere\", center = [0.0, 0.0, 0.0], radius = 0.5 }}\n\
+             material = {{ type = \"diffuse\", reflectance = [0.5, 0.5, 0.5] }}\n"
+        );
+        load_scene_str("m.toml", &text, &dir, &BuildOptions::default()).unwrap()
+    };
+    let image = load_image(&file).unwrap();
+    let golden = std::f32::consts::PI * (3.0 - 5f32.sqrt());
+    let dirs: Vec<V3> = (0..300)
+        .map(|i| {
+            let y = 1.0 - (i as f32 + 0.5) / 150.0;
+            let r = (1.0 - y * y).sqrt();
+            let phi = golden * i as f32;
+            V3::new(r * phi.cos(), y, r * phi.sin())
+        })
+        .collect();
+    let plain = scene("");
+    for d in &dirs {
+        let u = 0.5 + d.x.atan2(-d.z) / std::f32::consts::TAU;
+        let v = d.y.clamp(-1.0, 1.0).acos() / std::f32::consts::PI;
+        let old = image.lookup(u, v) * 2.0;
+        let got = plain.environment.eval(*d);
+        assert_eq!(
+            got.to_array().map(f32::to_bits),
+            old.to_array().map(f32::to_bits),
+            "{d}"
+        );
+        assert_eq!(image.lookup_rows(u, v, Rows::Centres), image.lookup(u, v));
+    }
+    let axis = glam::Vec3::new(1.0, 1.0, 0.0).normalize();
+    let r = glam::Mat3A::from_axis_angle(axis, 50f32.to_radians());
+    let turned = scene("to_world = [{ rotate = { axis = [1.0, 1.0, 0.0], degrees = 50.0 } }]");
+    let worst = |f: &dyn Fn(V3) -> V3| {
+        dirs.iter()
+            .map(|e| {
+                (turned.environment.eval(f(*e)) - plain.environment.eval(*e))
+                    .abs()
+                    .max_element()
+            })
+            .fold(0.0f32, f32::max)
+    };
+    let good = worst(&|e| r * e);
+    let wrong = worst(&|e| r.transpose() * e);
+    assert!(good < 1e-3, "{good}");
+    assert!(wrong > 0.5, "no power: {wrong}");
+    // Rows on the poles: at polar angle j/(H − 1) · 180° a direction reads
+    // row j (every value of row j is within 0.1 of j + 1); at pixel centres
+    // (the default) it reads between rows.
+    let poles = scene("rows = \"poles\"");
+    for j in 1..h - 1 {
+        let theta = std::f32::consts::PI * j as f32 / (h - 1) as f32;
+        let d = V3::new(theta.sin() * 0.6, theta.cos(), theta.sin() * -0.8);
+        let want = 2.0 * (j as f32 + 1.0);
+        let at_poles = poles.environment.eval(d).y;
+        let at_centres = plain.environment.eval(d).y;
+        assert!((at_poles - want).abs() < 1e-3, "row {j}: {at_poles} vs {want}");
+        assert!((at_centres - want).abs() > 0.1, "row {j}: {at_centres}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -249,6 +249,11 @@ pub enum Environment {
         image: Arc<ImageData>,
         /// Multiplier of the image's values.
         scale: f32,
+        /// World to map directions (the inverse of the map's `to_world`
+        /// rotation); `None`: the map's frame is the world's.
+        to_local: Option<glam::Mat3A>,
+        /// Where the image's rows sit between the poles.
+        rows: super::texture::Rows,
     },
     /// A sun of finite angular size in an analytic sky; the path tracer
     /// samples its disk by next-event estimation.
@@ -262,10 +267,19 @@ impl Environment {
         match self {
             Environment::Black => V3::ZERO,
             Environment::Constant(c) => *c,
-            Environment::Map { image, scale } => {
-                let u = 0.5 + dir.x.atan2(-dir.z) / std::f32::consts::TAU;
-                let v = dir.y.clamp(-1.0, 1.0).acos() / std::f32::consts::PI;
-                image.lookup(u, v) * *scale
+            Environment::Map {
+                image,
+                scale,
+                to_local,
+                rows,
+            } => {
+                let d = match to_local {
+                    Some(m) => *m * dir,
+                    None => dir,
+                };
+                let u = 0.5 + d.x.atan2(-d.z) / std::f32::consts::TAU;
+                let v = d.y.clamp(-1.0, 1.0).acos() / std::f32::consts::PI;
+                image.lookup_rows(u, v, *rows) * *scale
             }
             Environment::Sky(sky) => sky.eval(dir),
         }

@@ -23,8 +23,22 @@ impl ImageData {
     ///
     /// If the image is empty or `pixels` holds fewer than `width × height` values.
     pub fn lookup(&self, u: f32, v: f32) -> V3 {
+        self.lookup_rows(u, v, Rows::Centres)
+    }
+
+    /// [`ImageData::lookup`] with the rows placed by `rows`: texel centres
+    /// in u (wrapping around) and `rows` in v (clamped).
+    ///
+    /// # Panics
+    ///
+    /// If the image is empty or `pixels` holds fewer than `width × height` values.
+    #[inline]
+    pub fn lookup_rows(&self, u: f32, v: f32, rows: Rows) -> V3 {
         let x = (u - u.floor()) * self.width as f32 - 0.5;
-        let y = v.clamp(0.0, 1.0) * self.height as f32 - 0.5;
+        let y = match rows {
+            Rows::Centres => v.clamp(0.0, 1.0) * self.height as f32 - 0.5,
+            Rows::Poles => v.clamp(0.0, 1.0) * (self.height - 1) as f32,
+        };
         let x0 = x.floor();
         let y0 = y.floor();
         let fx = x - x0;
@@ -42,6 +56,17 @@ impl ImageData {
             + px(x0, y0 + 1) * ((1.0 - fx) * fy)
             + px(x0 + 1, y0 + 1) * (fx * fy)
     }
+}
+
+/// Where an image's rows sit in v (a lat-long map's polar angle over π).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Rows {
+    /// Row j's centre at v = (j + 0.5) / H: the texture convention, and
+    /// snell's for environment maps.
+    Centres,
+    /// Row 0 at v = 0 and row H − 1 at v = 1 (on the poles of a lat-long
+    /// map): Mitsuba 3's `envmap`.
+    Poles,
 }
 
 /// Load an EXR (linear) or an 8-bit/HDR image (PNG/JPEG are sRGB-decoded).

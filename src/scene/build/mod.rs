@@ -4,11 +4,11 @@ use super::desc::*;
 use super::import::{ImportOptions, SceneText};
 use super::model::{Containment, Environment, IntegratorKind, Material, RenderScene, Shape};
 use super::source::Source;
-use super::texture::{load_image, Texture};
+use super::texture::{load_image, Rows, Texture};
 use crate::camera::Camera;
 use crate::embree::BuildQuality;
 use crate::error::{Error, Result};
-use glam::{DVec3, Vec3A as V3};
+use glam::{DMat3, DVec3, Vec3A as V3};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use upload::analytic_rects;
@@ -386,9 +386,26 @@ impl Builder<'_> {
                 let image = load_image(&path)
                     .map_err(|e| self.err("environment.file", format!("{}: {e}", path.display())))?;
                 let scale = self.positive("environment.scale", m.scale)?;
+                let rows = match m.rows.as_str() {
+                    "centres" => Rows::Centres,
+                    "poles" => Rows::Poles,
+                    other => {
+                        return Err(self.err(
+                            "environment.rows",
+                            format!("expected \"centres\" (the default) or \"poles\", got \"{other}\""),
+                        ))
+                    }
+                };
+                let to_local = if m.to_world.is_empty() {
+                    None
+                } else {
+                    Some(self.env_rotation(&m.to_world)?.transpose().as_mat3().into())
+                };
                 Environment::Map {
                     image: Arc::new(image),
                     scale: scale as f32,
+                    to_local,
+                    rows,
                 }
             }
             Some(EnvironmentDesc::Sky(k)) => {
@@ -409,6 +426,34 @@ impl Builder<'_> {
                 })
             }
         })
+    }
+
+    /// `environment.to_world`: its steps' product, which must be a
+    /// rotation (a map's directions neither move nor stretch).
+    fn env_rotation(&self, steps: &[TransformDesc]) -> Result<DMat3> {
+        let key = "environment.to_world";
+        let m = self.transform(key, steps)?;
+        if m.w_axis.truncate() != DVec3::ZERO {
+            return Err(self.err(
+                key,
+                "expected a rotation: an environment is infinitely far away, a translation cannot move it",
+            ));
+        }
+        let r = DMat3::from_mat4(m);
+        let gram = r.transpose() * r - DMat3::IDENTITY;
+        let off = gram.to_cols_array().iter().fold(0.0f64, |a, x| a.max(x.abs()));
+        let det = r.determinant();
+        // Rounding in a hand-written matrix, not a scale or skew.
+        if !(off <= 1e-6 && det > 0.0) {
+            return Err(self.err(
+                key,
+                format!(
+                    "expected a rotation (orthonormal, no mirror), got a transform that {} (largest entry of RᵀR − I {off:.2e}, determinant {det:.6})",
+                    if det <= 0.0 { "mirrors" } else { "scales or skews" }
+                ),
+            ));
+        }
+        Ok(r)
     }
 
     /// `[medium]`: the gradient-index medium, if any.

@@ -779,7 +779,7 @@ impl Builder<'_> {
         })
     }
 
-    fn transform(&self, key: &str, list: &[TransformDesc]) -> Result<DMat4> {
+    pub(super) fn transform(&self, key: &str, list: &[TransformDesc]) -> Result<DMat4> {
         let mut m = DMat4::IDENTITY;
         for (i, t) in list.iter().enumerate() {
             let k = format!("{key}[{i}]");

@@ -54,6 +54,13 @@ pub fn to_toml(desc: &SceneDesc) -> Result<String> {
             let _ = writeln!(o, "\n[environment]\ntype = \"map\"");
             let _ = writeln!(o, "file = {}", string(&m.file));
             let _ = writeln!(o, "scale = {}", num(m.scale));
+            if !m.to_world.is_empty() {
+                let steps: Vec<String> = m.to_world.iter().map(transform_step).collect();
+                let _ = writeln!(o, "to_world = [{}]", steps.join(", "));
+            }
+            if m.rows != "centres" {
+                let _ = writeln!(o, "rows = {}", string(&m.rows));
+            }
         }
         Some(EnvironmentDesc::Sky(k)) => {
             let _ = writeln!(o, "\n[environment]\ntype = \"sky\"");

@@ -1,9 +1,10 @@
 //! glTF 2.0 scenes (docs/import-gltf.md): the default scene's node tree
 //! (transforms composed, a node reached twice refused), its first
-//! perspective camera, `KHR_lights_punctual` point and directional lights,
-//! and one object per triangle primitive whose mesh the description names
-//! by file, mesh and primitive index. An emissive black quad becomes a rect
-//! light; `snell:environment` in the scene's extras is a constant sky.
+//! perspective camera, `KHR_lights_punctual` point, spot and directional
+//! lights (photometric units over 683 lm/W), and one object per triangle
+//! primitive whose mesh the description names by file, mesh and primitive
+//! index. An emissive black quad becomes a rect light; `snell:environment`
+//! in the scene's extras is a constant sky.
 use super::{ImportOptions, Imported, Location, Warning};
 use crate::error::{Error, Result};
 use crate::scene::desc::*;
@@ -19,6 +20,10 @@ pub use material::PRIORITY_KEY;
 
 /// The scene extras key of a constant environment radiance `[r, g, b]`.
 pub const ENVIRONMENT_KEY: &str = "snell:environment";
+
+/// Luminous efficacy dividing glTF's photometric light units into snell's
+/// radiometric ones (the 555 nm maximum; Blender's exporter multiplies watts by it).
+pub const LUMENS_PER_WATT: f64 = 683.0;
 
 /// Deepest node hierarchy followed.
 const MAX_NODE_DEPTH: usize = 1024;
@@ -214,9 +219,12 @@ impl Walk<'_> {
         ptr: &str,
         name: Option<&str>,
     ) -> Result<()> {
+        // KHR_lights_punctual is photometric (candela for point and spot
+        // lights, lux for directional ones); snell's W/sr and W/m² are
+        // those at the 683 lm/W exporters such as Blender's assume.
         let power = l
             .color()
-            .map(|c| material::short(c) * material::short(l.intensity()));
+            .map(|c| material::short(c) * material::short(l.intensity()) / LUMENS_PER_WATT);
         let name = name
             .map(|n| n.to_string())
             .or_else(|| l.name().map(str::to_string));

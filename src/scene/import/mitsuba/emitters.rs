@@ -9,6 +9,39 @@ use crate::error::Result;
 use crate::scene::desc::*;
 use glam::{DMat4, DVec3};
 
+/// snell's `to_world` for an `envmap` placed by Mitsuba's `m`. Mitsuba
+/// reads map direction (x, y, z) at u = atan2(x, −z)/2π, snell at 0.5 +
+/// atan2(x, −z)/2π: the same map turned half a turn about +y, so snell's
+/// rotation is `m`'s followed by that turn (none when they cancel).
+fn envmap_to_world(o: &Obj<'_, '_>, m: &DMat4) -> Result<Vec<TransformDesc>> {
+    let r = glam::DMat3::from_mat4(*m);
+    let gram = r.transpose() * r - glam::DMat3::IDENTITY;
+    let off = gram.to_cols_array().iter().fold(0.0f64, |a, x| a.max(x.abs()));
+    if !(off <= 1e-6 && r.determinant() > 0.0) {
+        return Err(o.at().error(
+            "an envmap's to_world must be a rotation (translations are ignored; no scale, skew or mirror)",
+        ));
+    }
+    // Negating x and z is exact, unlike a product with a computed half turn.
+    let turned = glam::DMat3::from_cols(-r.x_axis, r.y_axis, -r.z_axis);
+    if turned.abs_diff_eq(glam::DMat3::IDENTITY, 1e-12) {
+        return Ok(Vec::new());
+    }
+    let c = |v: DVec3| v.to_array();
+    let [x, y, z] = [c(turned.x_axis), c(turned.y_axis), c(turned.z_axis)];
+    Ok(vec![TransformDesc {
+        translate: None,
+        rotate: None,
+        scale: None,
+        matrix: Some([
+            [x[0], y[0], z[0], 0.0],
+            [x[1], y[1], z[1], 0.0],
+            [x[2], y[2], z[2], 0.0],
+            [0.0, 0.0, 0.0, 1.0],
+        ]),
+    }])
+}
+
 /// Read top-level `<emitter>` `n`.
 pub fn top_level(ctx: &Ctx<'_>, n: &Node, out: &mut Out) -> Result<()> {
     let o = Obj::new(ctx, n)?;
@@ -49,19 +82,17 @@ pub fn top_level(ctx: &Ctx<'_>, n: &Node, out: &mut Out) -> Result<()> {
             }
             let scale = o.float_or("scale", 1.0)?;
             let (m, _) = o.transform("to_world")?;
-            // snell's map is Mitsuba's turned half a turn about +y.
-            let half_turn = DMat4::from_axis_angle(DVec3::Y, std::f64::consts::PI);
-            if !m.abs_diff_eq(half_turn, 1e-9) {
-                ctx.warn(
-                    o.at(),
-                    "the map's orientation differs: snell places Mitsuba's envmap as if its to_world were <rotate y=\"1\" angle=\"180\"/> (no other rotation is mapped)",
-                );
-            }
+            let to_world = envmap_to_world(&o, &m)?;
+            // Only importance sampling changes; the radiance does not.
+            o.bool_or("mis_compensation", false)?;
             o.string("filter_type")?;
             o.string("wrap_mode")?;
             set_env(EnvironmentDesc::Map(MapEnv {
                 file: ctx.doc.desc_path(&path),
                 scale,
+                to_world,
+                // Mitsuba interpolates its rows from pole to pole.
+                rows: "poles".into(),
             }))?;
         }
         "point" => {

@@ -33,55 +33,7 @@ pub fn sensor(ctx: &Ctx<'_>, n: &Node) -> Result<(CameraDesc, FilmDesc)> {
     if film.width == 0 || film.height == 0 {
         return Err(o.at().error("the film needs a width and height of at least 1"));
     }
-    let (fov, axis) = match (o.float("fov")?, o.string("focal_length")?) {
-        (Some(_), Some((_, at))) => return Err(at.error("give fov or focal_length, not both")),
-        (Some(f), None) => (
-            f,
-            o.string("fov_axis")?.map(|(s, at)| (s.to_string(), at.clone())),
-        ),
-        (None, Some((f, at))) => {
-            let mm: f64 =
-                f.trim().trim_end_matches("mm").trim().parse().map_err(|_| {
-                    at.error(format!("expected a focal length such as \"50mm\", got \"{f}\""))
-                })?;
-            if mm.is_nan() || mm <= 0.0 {
-                return Err(at.error("expected a focal length > 0"));
-            }
-            // 35 mm film equivalent: the diagonal of a 36 × 24 mm frame.
-            let d = (36.0f64 * 36.0 + 24.0 * 24.0).sqrt();
-            (
-                (2.0 * (d / (2.0 * mm)).atan()).to_degrees(),
-                Some(("diagonal".to_string(), at.clone())),
-            )
-        }
-        (None, None) => (
-            90.0,
-            o.string("fov_axis")?.map(|(s, at)| (s.to_string(), at.clone())),
-        ),
-    };
-    if !(fov > 0.0 && fov < 180.0) {
-        return Err(o.at().error(format!("fov {fov}: expected degrees in (0, 180)")));
-    }
-    let half = (fov.to_radians() / 2.0).tan();
-    let axis_name = axis.as_ref().map(|(s, _)| s.as_str()).unwrap_or("x");
-    let vertical = match axis_name {
-        "y" => None,
-        "x" => Some(half * h / w),
-        "diagonal" => Some(half * h / (w * w + h * h).sqrt()),
-        "smaller" => (w < h).then_some(half * h / w),
-        "larger" => (w > h).then_some(half * h / w),
-        other => {
-            let at = axis.as_ref().map(|(_, a)| a).unwrap_or(o.at());
-            return Err(at.error(format!(
-                "fov_axis \"{other}\": expected x, y, diagonal, smaller or larger"
-            )));
-        }
-    };
-    // The vertical field keeps the file's number when it is given directly.
-    let fov_y = match vertical {
-        None => fov,
-        Some(t) => 2.0 * t.atan().to_degrees(),
-    };
+    let fov_y = field_of_view(ctx, &o, w, h)?;
     let (m, tnode) = o.transform("to_world")?;
     let (position, target, up) = camera_frame(&m, tnode)?;
     for k in ["near_clip", "far_clip"] {
@@ -124,6 +76,85 @@ pub fn sensor(ctx: &Ctx<'_>, n: &Node) -> Result<(CameraDesc, FilmDesc)> {
         },
         film,
     ))
+}
+
+/// snell's vertical field of view (degrees) for Mitsuba 3's `parse_fov`
+/// (src/render/sensor.cpp) on a `w` × `h` film: `fov` along `fov_axis`
+/// (default x; "smaller" and "larger" name y or x by the film's aspect),
+/// else `focal_length` (default "50mm") as a 35 mm-equivalent diagonal.
+/// Mitsuba turns every field into a horizontal one; the vertical follows
+/// from the aspect, as its projection does.
+fn field_of_view(ctx: &Ctx<'_>, o: &Obj<'_, '_>, w: f64, h: f64) -> Result<f64> {
+    let aspect = w / h;
+    let (fov, axis) = match (o.float("fov")?, o.string("focal_length")?) {
+        (Some(_), Some((_, at))) => return Err(at.error("give fov or focal_length, not both")),
+        (Some(f), None) => {
+            let (name, at) = match o.string("fov_axis")? {
+                Some((s, at)) => (s.to_ascii_lowercase(), at),
+                None => ("x".to_string(), o.at()),
+            };
+            let axis = match name.as_str() {
+                "smaller" if aspect > 1.0 => "y",
+                "smaller" => "x",
+                "larger" if aspect > 1.0 => "x",
+                "larger" => "y",
+                "x" => "x",
+                "y" => "y",
+                "diagonal" => "diagonal",
+                other => {
+                    return Err(at.error(format!(
+                        "fov_axis \"{other}\": expected x, y, diagonal, smaller or larger"
+                    )))
+                }
+            };
+            (f, axis)
+        }
+        (None, focal) => {
+            // Mitsuba reads fov_axis only with a fov and refuses what it leaves unread.
+            if let Some((_, at)) = o.string("fov_axis")? {
+                ctx.unknown(
+                    at,
+                    "fov_axis applies to a fov only (this sensor's field is its focal_length)".into(),
+                )?;
+            }
+            let (text, at) = focal.unwrap_or(("50mm", o.at()));
+            let mm: f64 = text
+                .strip_suffix("mm")
+                .unwrap_or(text)
+                .trim()
+                .parse()
+                .ok()
+                .filter(|v: &f64| v.is_finite() && *v > 0.0)
+                .ok_or_else(|| {
+                    at.error(format!(
+                        "expected a focal length > 0 such as \"50mm\", got \"{text}\""
+                    ))
+                })?;
+            // The diagonal of a 36 × 24 mm frame.
+            let d = (36.0f64 * 36.0 + 24.0 * 24.0).sqrt();
+            ((2.0 * (d / (2.0 * mm)).atan()).to_degrees(), "diagonal")
+        }
+    };
+    let half = (fov.to_radians() / 2.0).tan();
+    let x_fov = match axis {
+        "x" => fov,
+        "y" => (2.0 * (half * aspect).atan()).to_degrees(),
+        _ => {
+            let width = 2.0 * half / (1.0 + 1.0 / (aspect * aspect)).sqrt();
+            (2.0 * (width * 0.5).atan()).to_degrees()
+        }
+    };
+    if !(x_fov > 0.0 && x_fov < 180.0) {
+        return Err(o.at().error(format!(
+            "fov {fov} along {axis}: expected a horizontal field in (0, 180) degrees, got {x_fov}"
+        )));
+    }
+    // A field given along y keeps the file's number.
+    Ok(if axis == "y" {
+        fov
+    } else {
+        (2.0 * ((x_fov.to_radians() / 2.0).tan() / aspect).atan()).to_degrees()
+    })
 }
 
 /// Position, target and up of the camera placed by `m`: a single
