@@ -38,7 +38,10 @@ pub use filter::{
 };
 pub use list::InteriorList;
 pub use settle::settle_child;
-pub use trace::{plain_hit_is_true, plain_query_suffices, trace, trace_timing_list_updates, ListUpdateTimer};
+pub use trace::{
+    masked_hit_is_true, packet_query, plain_hit_is_true, plain_query_suffices, settle_masked_after, trace,
+    trace_timing_list_updates, ListUpdateTimer, PacketQuery,
+};
 
 /// A test scene: water (priority 1, the unit box at the origin) whose right
 /// half lies inside a glass box (priority 2, x from -0.2 to 0.8), then the

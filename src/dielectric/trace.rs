@@ -517,6 +517,88 @@ fn settle_masked(
     changed
 }
 
+/// How a ray inside a list may be answered by a packet's plain query
+/// ([`packet_query`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PacketQuery {
+    /// The hit must be checked: [`plain_hit_is_true`] outside every solid,
+    /// [`masked_hit_is_true`] inside one.
+    pub check: bool,
+    /// The query's ray mask (`u32::MAX`: every geometry).
+    pub mask: u32,
+    /// How many of the scene's masked solids (sorted by rank) the mask
+    /// leaves out: their membership is settled after the hit.
+    pub below: usize,
+}
+
+/// [`plain_query_suffices`], and for a ray inside overlapping solids that
+/// the filter strategy would answer by one masked query (every solid below
+/// its P0 is an analytic solid the mask leaves out: `masked_plain`), that
+/// query: a packet lane can make it, checked by [`masked_hit_is_true`] and
+/// settled by [`settle_masked_after`]. The re-cast and toggle baselines keep
+/// their own single-ray queries.
+#[inline]
+pub fn packet_query(
+    scene: &RenderScene,
+    strategy: NestedStrategy,
+    list: &InteriorList,
+) -> Option<PacketQuery> {
+    if let Some(check) = plain_query_suffices(scene, strategy, list) {
+        return Some(PacketQuery {
+            check,
+            mask: u32::MAX,
+            below: 0,
+        });
+    }
+    let p0 = list.top_rank().unwrap_or(0);
+    if strategy != NestedStrategy::Filter || p0 > scene.lowest_unmasked_rank {
+        return None;
+    }
+    let (mask, below) = ray_mask(scene, p0);
+    // The analytic set answers packets without masks: a lane that must not
+    // see some of its solids would often be traced again alone.
+    (below == 0 || scene.analytic_set.is_none()).then_some(PacketQuery {
+        check: true,
+        mask,
+        below,
+    })
+}
+
+/// Does the hit `hit` of a masked packet query (`q` from [`packet_query`])
+/// of `ray`, inside the non-empty `list`, stand for [`trace`]'s? Not when it
+/// is a solid ranked below the list's P0 (the analytic set answers packets
+/// without masks), a touch at a mesh edge (the filter decides there), or
+/// another solid's surface passes near it (`trace` looks ahead there).
+#[inline]
+pub fn masked_hit_is_true(scene: &RenderScene, ray: &Ray, hit: Option<&Hit>, list: &InteriorList) -> bool {
+    hit.is_none_or(|h| {
+        let p0 = list.top_rank().unwrap_or(0);
+        scene.rank_by_geom[h.geom_id as usize] >= p0
+            && !is_touch(scene, ray, h, list)
+            && !has_neighbours(scene, ray, h)
+    })
+}
+
+/// After a masked packet query's true hit (or miss, `t` = `None`) that
+/// [`masked_hit_is_true`] accepted: the memberships of the `q.below`
+/// masked solids, as [`trace`] settles them; counted in `c` as `trace`
+/// counts them.
+#[inline]
+pub fn settle_masked_after(
+    scene: &RenderScene,
+    q: PacketQuery,
+    ray: &Ray,
+    t: Option<f32>,
+    list: &mut InteriorList,
+    c: &mut Counters,
+) {
+    c.false_hits += settle_masked(scene, &scene.masked_solids[..q.below], ray, t, list);
+    c.max_list_depth = c.max_list_depth.max(list.len() as u64);
+    if list.spilled() {
+        c.list_spills += 1;
+    }
+}
+
 /// Can one plain query of a ray inside `list` stand in for [`trace`]?
 /// `Some(check)` when it can: without overlapping solids (or with nesting
 /// off) its hit is the true hit; outside every solid (`list` empty) too,

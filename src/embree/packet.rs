@@ -19,6 +19,9 @@ pub trait RayPacket<const N: usize>: Default {
     /// whole arrays copy without a call); a ray with a non-finite component
     /// leaves its lane inactive.
     fn set_unbounded_rays(&mut self, org: [&[f32; N]; 3], dir: [&[f32; N]; 3], n: usize);
+    /// Lane `i`'s ray mask (every lane's is `u32::MAX` until set: set it
+    /// back after a query that needed another).
+    fn set_mask(&mut self, i: usize, mask: u32);
     /// Lane `i`'s hit after [`intersect`](Self::intersect).
     fn hit(&self, i: usize) -> Option<Hit>;
     /// Was lane `i` occluded by the last [`occlude`](Self::occlude)?
@@ -212,6 +215,10 @@ macro_rules! ray_packet {
                         && r.dir_z[i].is_finite();
                     self.valid[i] = if finite { -1 } else { 0 };
                 }
+            }
+            #[inline]
+            fn set_mask(&mut self, i: usize, mask: u32) {
+                self.rh.ray.mask[i] = mask;
             }
             #[inline]
             fn hit(&self, i: usize) -> Option<Hit> {

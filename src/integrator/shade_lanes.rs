@@ -119,6 +119,9 @@ pub(super) struct ShadeLanes {
     light: Option<RectLight>,
     /// Misses and emission need no MIS weight against a sampled sun or sky.
     plain_env: bool,
+    /// Some path continued its line through an index-matched boundary
+    /// (`PathScalars::tnear`) since [`ShadeLanes::start`].
+    pub(super) lined: bool,
     /// Lambertian lanes can sample the scene's lights in the kernel: none,
     /// or the one rectangle (a black surface samples nothing anywhere).
     lights_in_kernel: bool,
@@ -426,6 +429,7 @@ impl ShadeLanes {
                 }
                 if let Some(ray) = self.matched[i].filter(|_| self.moves[i] & MATCHED != 0) {
                     paths.set_ray(i, &ray);
+                    self.lined |= ray.tnear != 0.0;
                 }
             }
         }

@@ -31,7 +31,7 @@ use super::path::{finite_radiance, PathStart, PathState};
 use super::shade_lanes::{Prepared, ShadeLanes};
 use super::Tracer;
 use crate::counters::Counters;
-use crate::dielectric::{self, Coincident, InteriorList, NestedStrategy};
+use crate::dielectric::{self, Coincident, InteriorList, NestedStrategy, PacketQuery};
 use crate::embree::RayPacket;
 use crate::error::Result;
 use crate::scene::shapes::{SetScratch, SurfaceLanes};
@@ -107,12 +107,20 @@ pub(super) fn stream<const N: usize, P: RayPacket<N>>(
         for base in (0..cols.len).step_by(N) {
             let n = N.min(cols.len - base);
             let lanes = &mut cols.packet::<N>(base);
-            // Which lanes a plain query answers (`Some(check)`: check its hit
-            // with `plain_hit_is_true`); the others are traced one by one.
-            let mut plain = [Some(false); N];
+            // Which lanes a plain query answers (perhaps masked, its hit to be
+            // checked: `dielectric::packet_query`); the others are traced one
+            // by one.
+            const PLAIN: Option<PacketQuery> = Some(PacketQuery {
+                check: false,
+                mask: u32::MAX,
+                below: 0,
+            });
+            let mut plain = [PLAIN; N];
+            let mut masked = false;
             if nested {
                 for (i, p) in plain.iter_mut().enumerate().take(n) {
-                    *p = dielectric::plain_query_suffices(scene, tr.strategy, &lanes.lists[i]);
+                    *p = dielectric::packet_query(scene, tr.strategy, &lanes.lists[i]);
+                    masked |= p.is_some_and(|q| q.mask != u32::MAX);
                 }
             }
             let sent = plain[..n].iter().flatten().count();
@@ -131,6 +139,13 @@ pub(super) fn stream<const N: usize, P: RayPacket<N>>(
                 for (i, p) in plain.iter().enumerate().take(n) {
                     if p.is_some() && (sent < n || lanes.s[i].tnear != 0.0) {
                         near.set_ray(i, &lanes.ray(i));
+                    }
+                }
+            }
+            if masked {
+                for (i, p) in plain.iter().enumerate().take(n) {
+                    if let Some(q) = p {
+                        near.set_mask(i, q.mask);
                     }
                 }
             }
@@ -153,6 +168,11 @@ pub(super) fn stream<const N: usize, P: RayPacket<N>>(
                 }
                 _ => false,
             };
+            if masked {
+                for i in 0..n {
+                    near.set_mask(i, u32::MAX);
+                }
+            }
             shade.begin();
             let mut kernel = [false; N];
             for i in 0..n {
@@ -168,15 +188,21 @@ pub(super) fn stream<const N: usize, P: RayPacket<N>>(
                 // traced alone: a touch at a mesh edge or a leaked entry (the
                 // packet's query was made and is counted; `trace` redoes it and
                 // continues past), or a ray inside overlapping solids.
-                let known = plain[i].is_some_and(|check| {
-                    !check
-                        || dielectric::plain_hit_is_true(
-                            scene,
-                            tr.strategy,
-                            &lanes.ray(i),
-                            hit.as_ref(),
-                            &lanes.lists[i],
-                        )
+                let known = plain[i].is_some_and(|q| {
+                    !q.check || {
+                        let ray = lanes.ray(i);
+                        let list = &mut lanes.lists[i];
+                        if list.is_empty() {
+                            dielectric::plain_hit_is_true(scene, tr.strategy, &ray, hit.as_ref(), list)
+                        } else {
+                            let true_hit = dielectric::masked_hit_is_true(scene, &ray, hit.as_ref(), list);
+                            if true_hit {
+                                let t = hit.as_ref().map(|h| h.t);
+                                dielectric::settle_masked_after(scene, q, &ray, t, list, st);
+                            }
+                            true_hit
+                        }
+                    }
                 });
                 let traced = if known {
                     None
@@ -227,13 +253,13 @@ pub(super) fn stream<const N: usize, P: RayPacket<N>>(
                             }
                         };
                         let (sh, go) = advance_lane(tr, lanes, i, sigma, seg, coincident, sp.as_ref(), st);
+                        lined |= lanes.s[i].tnear != 0.0;
                         if let Some(sh) = sh {
                             waiting.push(((base + i) as u32, sh));
                         }
                         go
                     }
                 };
-                lined |= lanes.s[i].tnear != 0.0;
                 lanes.ended[i] = !go;
             }
             if kernel.contains(&true) {
@@ -251,10 +277,10 @@ pub(super) fn stream<const N: usize, P: RayPacket<N>>(
                         waiting.push(((base + i) as u32, sh));
                     }
                     lanes.ended[i] = !go;
-                    lined |= lanes.s[i].tnear != 0.0;
                 }
             }
         }
+        lined |= shade.lined;
         // The step's shadow rays, packed: each path's before its next
         // segment. (`waiting` is in path order per packet, kernel lanes
         // after the packet's others: each path has at most one.)
