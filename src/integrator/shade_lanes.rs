@@ -36,6 +36,7 @@ use crate::counters::Counters;
 use crate::dielectric::{self, Coincident, InteriorList};
 use crate::ray::{front_facing, spawn_transmitted, Hit, Ray, OFFSET_ULPS};
 use crate::sampling::power_heuristic;
+use crate::scene::texture::Texture;
 use crate::scene::{Environment, Light, Material, RenderScene, SurfacePoint};
 use crate::simd3::{add, dot, mul, scale, select, splat, sub, Vec3s};
 use glam::Vec3A as V3;
@@ -233,12 +234,14 @@ impl ShadeLanes {
                 reflectance,
                 two_sided,
             } if front || *two_sided => {
-                let albedo = reflectance.eval(sp.p, sp.uv);
-                // The kernel's next-event estimation samples one rectangle.
-                if !(self.lights_in_kernel || albedo == V3::ZERO) {
+                // The kernel's next-event estimation samples one rectangle
+                // (a black surface samples nothing): known without the
+                // texture's lookup, which the single-ray step would repeat.
+                let black = matches!(reflectance, Texture::Constant(c) if *c == V3::ZERO);
+                if !(self.lights_in_kernel || black) {
                     return Prepared::Alone;
                 }
-                Some(albedo)
+                Some(reflectance.eval(sp.p, sp.uv))
             }
             Material::Diffuse { .. } | Material::Black | Material::Interface { .. } | Material::Solid(_) => {
                 None
