@@ -511,3 +511,56 @@ fn set_gives_a_gltf_scene_its_environment() {
     assert!(err.contains("radius") && !err.contains("panicked"), "{err}");
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// `--stats-json` names the method the medium was traced by, `auto`
+/// resolved: invariant for mirage_road's height-only closed-form field,
+/// rk45 for hot_road_air's tabulated profile (`Method::auto_for`), the
+/// method an override sets, and null without a medium.
+#[test]
+fn stats_json_names_the_method_auto_chose() {
+    let d = tmpdir("grin_method");
+    let stats = |scene: &str, extra: &[&str]| {
+        let json = d.join("s.json");
+        let out = snell()
+            .args(["render", scene, "-o"])
+            .arg(d.join("x.png"))
+            .args([
+                "--width",
+                "8",
+                "--height",
+                "4",
+                "--spp",
+                "1",
+                "--threads",
+                "1",
+                "--quiet",
+            ])
+            .arg("--stats-json")
+            .arg(&json)
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let s: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        (s["grin_method"].clone(), s["grin_field"].clone())
+    };
+    use serde_json::json;
+    assert_eq!(
+        stats("scenes/mirage_road.toml", &[]),
+        (json!("invariant"), json!("hot_ground"))
+    );
+    assert_eq!(
+        stats("scenes/mirage_road.toml", &["--set", "medium.method=rk45"]),
+        (json!("rk45"), json!("hot_ground"))
+    );
+    assert_eq!(
+        stats("scenes/hot_road_air.toml", &[]),
+        (json!("rk45"), json!("profile"))
+    );
+    assert_eq!(
+        stats("scenes/mirage_road_nofield.toml", &[]),
+        (json!(null), json!(null))
+    );
+    let _ = std::fs::remove_dir_all(&d);
+}
+
