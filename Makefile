@@ -6,7 +6,7 @@ DEMO_SCENE ?= scenes/three_spheres.toml
 DEMO_OUT ?= out/demo.png
 APT_PACKAGES := libembree-dev libclang-dev
 
-.PHONY: deps demo test build bench fmt lint clean fuzz check-memory openjd bench-peers
+.PHONY: deps demo test build bench fmt lint clean fuzz check-memory openjd bench-peers bench-grin
 
 # Probes for exactly what the build loads: Embree's header and libembree3.so, and
 # the libclang that bindgen (clang-sys) opens: libclang.so or libclang-<version>.so*.
@@ -107,6 +107,20 @@ bench-peers: build
 	@llvm=$$(bench/peers/setup.sh '$(PEERS_VENV)' '$(PEERS_MITSUBA)' '$(PEERS_NUMPY)') || exit 1; \
 	echo "bench-peers: DRJIT_LIBLLVM_PATH=$$llvm"; \
 	DRJIT_LIBLLVM_PATH="$$llvm" $(PEERS_VENV)/bin/python bench/peers/bench_peers.py --snell '$(SNELL_BIN)' $(PEERS_ARGS)
+
+# Every curved-ray scene against its no-field twin (docs/grin.md, "Every
+# curved-ray scene against its twin"): each scene's own film, one thread, 5
+# interleaved repetitions (over an hour on 2 cores: hot_road_air takes
+# minutes a render). The table replaces the one between the markers in
+# GRIN_DOC. Options through GRIN_ARGS: make bench-grin GRIN_ARGS='--reps 3 --scale 0.25'
+GRIN_ARGS ?=
+GRIN_DOC ?= docs/grin.md
+bench-grin: build
+	grep -q '<!-- bench-grin:begin -->' '$(GRIN_DOC)' && grep -q '<!-- bench-grin:end -->' '$(GRIN_DOC)'
+	$(SNELL_BIN) bench grin $(GRIN_ARGS) --markdown '$(GRIN_DOC).table'
+	awk -v t='$(GRIN_DOC).table' '/<!-- bench-grin:end -->/ { skip = 0 } !skip { print } /<!-- bench-grin:begin -->/ { while ((getline l < t) > 0) print l; skip = 1 }' '$(GRIN_DOC)' > '$(GRIN_DOC).tmp'
+	mv '$(GRIN_DOC).tmp' '$(GRIN_DOC)'
+	rm -f '$(GRIN_DOC).table' '$(GRIN_DOC).tmp'
 
 fmt:
 	$(CARGO) fmt --all

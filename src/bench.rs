@@ -7,6 +7,7 @@
 //!   real refraction paths) and full render, repeats interleaved.
 //! - `chord_sweep`: render time and image change against the chord tolerance
 //!   of a gradient-index medium.
+//! - `grin`: every curved-ray scene against its no-field twin (`grin.rs`).
 //!
 //! Conventions: times are wall-clock seconds; speeds are rays per second
 //! (`rays_per_s`) or millions of rays per second where a name or a printed
@@ -28,6 +29,9 @@ use crate::timing::{median, spread};
 use glam::Vec3A as V3;
 use std::path::Path;
 use std::time::Instant;
+
+mod grin;
+pub use grin::{grin, grin_pairs, grin_table, GrinBenchOptions, GrinPair, GrinRun};
 
 /// A benchmark's medians need at least one repetition.
 fn at_least_one_rep(reps: usize) -> Result<()> {

@@ -9,19 +9,30 @@ pub const RUSTC_VERSION: &str = env!("SNELL_RUSTC_VERSION");
 /// Cargo profile ("release", "debug").
 pub const PROFILE: &str = env!("SNELL_PROFILE");
 
-/// A short description of the machine: CPU model and logical core count.
+/// A short description of the machine: CPU model (lscpu's model name),
+/// logical core count and which of the SIMD levels the kernels choose
+/// between (avx2, avx512f) the CPU has.
 pub fn machine() -> String {
-    let cpu = std::fs::read_to_string("/proc/cpuinfo")
-        .ok()
-        .and_then(|s| {
-            s.lines()
-                .find(|l| l.starts_with("model name"))
-                .and_then(|l| l.split(':').nth(1))
-                .map(|s| s.trim().to_string())
-        })
-        .unwrap_or_else(|| "unknown CPU".into());
+    let info = std::fs::read_to_string("/proc/cpuinfo").unwrap_or_default();
+    let field = |name: &str| {
+        info.lines()
+            .find(|l| l.split(':').next().map(str::trim) == Some(name))
+            .and_then(|l| l.split(':').nth(1))
+            .map(|s| s.trim().to_string())
+    };
+    let cpu = field("model name").unwrap_or_else(|| "unknown CPU".into());
     let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(0);
-    format!("{cpu}, {cores} logical cores")
+    let flags = field("flags").unwrap_or_default();
+    let simd: Vec<&str> = ["avx2", "avx512f"]
+        .into_iter()
+        .filter(|f| flags.split_whitespace().any(|x| x == *f))
+        .collect();
+    let simd = if simd.is_empty() {
+        "neither avx2 nor avx512f".to_string()
+    } else {
+        simd.join(" ")
+    };
+    format!("{cpu}, {cores} logical cores, SIMD {simd}")
 }
 
 /// One line naming the build and the machine, for reports.

@@ -511,3 +511,142 @@ fn set_gives_a_gltf_scene_its_environment() {
     assert!(err.contains("radius") && !err.contains("panicked"), "{err}");
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// `--stats-json` names the method the medium was traced by, `auto`
+/// resolved: invariant for mirage_road's height-only closed-form field,
+/// rk45 for hot_road_air's tabulated profile (`Method::auto_for`), the
+/// method an override sets, and null without a medium.
+#[test]
+fn stats_json_names_the_method_auto_chose() {
+    let d = tmpdir("grin_method");
+    let stats = |scene: &str, extra: &[&str]| {
+        let json = d.join("s.json");
+        let out = snell()
+            .args(["render", scene, "-o"])
+            .arg(d.join("x.png"))
+            .args([
+                "--width",
+                "8",
+                "--height",
+                "4",
+                "--spp",
+                "1",
+                "--threads",
+                "1",
+                "--quiet",
+            ])
+            .arg("--stats-json")
+            .arg(&json)
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let s: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        (s["grin_method"].clone(), s["grin_field"].clone())
+    };
+    use serde_json::json;
+    assert_eq!(
+        stats("scenes/mirage_road.toml", &[]),
+        (json!("invariant"), json!("hot_ground"))
+    );
+    assert_eq!(
+        stats("scenes/mirage_road.toml", &["--set", "medium.method=rk45"]),
+        (json!("rk45"), json!("hot_ground"))
+    );
+    assert_eq!(
+        stats("scenes/hot_road_air.toml", &[]),
+        (json!("rk45"), json!("profile"))
+    );
+    assert_eq!(
+        stats("scenes/mirage_road_nofield.toml", &[]),
+        (json!(null), json!(null))
+    );
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// `snell bench grin --scenes DIR`: one row per medium scene with a finite
+/// positive ratio, the Markdown written whole with the provenance and the
+/// command; a medium scene without a twin is an error naming both files.
+#[test]
+fn bench_grin_tables_each_medium_scene_against_its_twin() {
+    let d = tmpdir("bench_grin");
+    let scenes = d.join("scenes");
+    let _ = std::fs::remove_dir_all(&scenes);
+    std::fs::create_dir_all(&scenes).unwrap();
+    let twin = r#"
+[camera]
+position = [0.0, 1.0, 5.0]
+target = [0.0, 0.5, 0.0]
+fov = 40.0
+
+[film]
+width = 16
+height = 8
+spp = 1
+
+[environment]
+type = "constant"
+radiance = [0.5, 0.7, 1.0]
+
+[[objects]]
+name = "ball"
+shape = { type = "sphere", center = [0.0, 0.5, 0.0], radius = 0.5 }
+material = { type = "diffuse", reflectance = [0.6, 0.1, 0.1] }
+"#;
+    let medium = format!(
+        "{twin}\n[medium]\nfield = {{ kind = \"plume\", n_amb = 1.0, dn = 0.01, center = [0.0, 1.2, 0.0], radius = 0.3, height = 1.0, amplitude = 0.5, wavelength = 0.2, waves = 3, seed = 1 }}\nbounds = {{ min = [-1.0, 1.1, -1.0], max = [1.0, 2.5, 1.0] }}\n"
+    );
+    std::fs::write(scenes.join("air.toml"), &medium).unwrap();
+    std::fs::write(scenes.join("air_nofield.toml"), twin).unwrap();
+    let md = d.join("grin.md");
+    let bench = |extra: &[&str]| {
+        snell()
+            .args(["bench", "grin", "--scenes"])
+            .arg(&scenes)
+            .args(["--reps", "2", "--spp", "1", "--scale", "0.5"])
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    let out = bench(&["--markdown", md.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let doc = std::fs::read_to_string(&md).unwrap();
+    assert!(
+        doc.starts_with("provenance: ") && doc.contains("Embree 3.") && doc.contains("SIMD"),
+        "{doc}"
+    );
+    assert!(
+        doc.contains("`snell bench grin --scenes") && !doc.contains("--markdown"),
+        "{doc}"
+    );
+    let rows: Vec<&str> = doc.lines().filter(|l| l.starts_with("| air ")).collect();
+    assert_eq!(rows.len(), 1, "{doc}");
+    let cells: Vec<&str> = rows[0].split('|').map(str::trim).collect();
+    // | scene | twin | field | method | film | chords | scene s | twin s | ratio | CPU ratio |
+    assert_eq!(
+        &cells[1..6],
+        ["air", "air_nofield", "plume", "rk45 (auto)", "8×4×1"],
+        "{doc}"
+    );
+    let ratio: f64 = cells[9].split('×').next().unwrap().parse().unwrap();
+    assert!(ratio.is_finite() && ratio > 0.0, "{doc}");
+    // The table is on stdout too; no temporary file is left beside the document.
+    assert!(String::from_utf8_lossy(&out.stdout).contains(rows[0]));
+    let left: Vec<_> = std::fs::read_dir(&d)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .map(|e| e.file_name())
+        .collect();
+    assert_eq!(left.len(), 2, "{left:?}");
+
+    std::fs::write(scenes.join("lone.toml"), &medium).unwrap();
+    let out = bench(&[]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("lone.toml") && err.contains("lone_nofield.toml"),
+        "{err}"
+    );
+    let out = bench(&["--frobnicate"]);
+    assert!(!out.status.success());
+    let _ = std::fs::remove_dir_all(&d);
+}

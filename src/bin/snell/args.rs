@@ -84,6 +84,10 @@ pub enum BenchCmd {
     Nested(BenchNestedArgs),
     /// The renderer against the Embree ceiling of its own rays (recorded, replayed through bare Embree).
     Render(BenchRenderArgs),
+    /// Every curved-ray scene (a TOML with a [medium]) against its no-field
+    /// twin (NAME_nofield.toml): render times, their ratio and the chords, as
+    /// a Markdown table.
+    Grin(BenchGrinArgs),
 }
 
 // `snell render`.
@@ -576,6 +580,31 @@ pub struct BenchRenderArgs {
     pub scenes: Vec<String>,
     #[arg(long, default_value = "scenes")]
     pub scenes_dir: PathBuf,
+}
+
+// `snell bench grin`.
+#[derive(Args)]
+pub struct BenchGrinArgs {
+    /// Write the Markdown document (provenance, options, table) to this file.
+    #[arg(long)]
+    pub markdown: Option<PathBuf>,
+    /// Write one JSON object per scene (a JSON array, with provenance).
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    #[arg(long, default_value_t = 5, value_parser = at_least_one::<usize>)]
+    pub reps: usize,
+    /// Samples per pixel (default: each scene's own).
+    #[arg(long, value_parser = at_least_one::<u32>)]
+    pub spp: Option<u32>,
+    /// Factor on each scene's film width and height.
+    #[arg(long, default_value_t = 1.0)]
+    pub scale: f64,
+    #[arg(long, default_value_t = 1, value_parser = at_least_one::<usize>)]
+    pub threads: usize,
+    /// Directory whose *.toml scenes with a [medium] are benched, each with
+    /// its NAME_nofield.toml twin.
+    #[arg(long, default_value = "scenes")]
+    pub scenes: PathBuf,
 }
 
 /// `--spp`, `--reps`: a count of at least 1.

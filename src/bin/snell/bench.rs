@@ -1,5 +1,5 @@
 //! `snell bench`: the benchmarks that print ratios measured in one run.
-use crate::args::{BenchEmbreeArgs, BenchNestedArgs, BenchRenderArgs};
+use crate::args::{BenchEmbreeArgs, BenchGrinArgs, BenchNestedArgs, BenchRenderArgs};
 use crate::write::write_runs_json;
 use snell::{Error, Result};
 
@@ -69,6 +69,42 @@ pub fn bench_render(a: BenchRenderArgs) -> Result<()> {
     say!("{}", snell::bench_header());
     let runs = snell::ceiling::ceiling(&opts, |m| eprintln!("{m}"))?;
     say!("{}", snell::ceiling::table(&runs, &opts).trim_end());
+    if let Some(p) = &a.json {
+        write_runs_json(p, &runs)?;
+    }
+    Ok(())
+}
+
+pub fn bench_grin(a: BenchGrinArgs) -> Result<()> {
+    let opts = snell::bench::GrinBenchOptions {
+        scenes_dir: a.scenes,
+        reps: a.reps,
+        spp: a.spp,
+        scale: a.scale,
+        threads: a.threads,
+    };
+    // The command that regenerates the table, as the document shows it:
+    // the output files are left out, they do not change the figures.
+    let mut command = vec!["snell".to_string()];
+    let mut args = std::env::args().skip(1);
+    while let Some(arg) = args.next() {
+        match arg.as_str() {
+            "--markdown" | "--json" => {
+                args.next();
+            }
+            a if a.starts_with("--markdown=") || a.starts_with("--json=") => {}
+            _ => command.push(arg),
+        }
+    }
+    let command = command.join(" ");
+    say!("{}", snell::bench_header());
+    let runs = snell::bench::grin(&opts, |m| eprintln!("{m}"))?;
+    let doc = snell::bench::grin_table(&runs, &opts, &command);
+    // The document's own first line is the provenance printed above.
+    say!("{}", doc.split_once('\n').map_or(doc.as_str(), |(_, t)| t).trim());
+    if let Some(p) = &a.markdown {
+        snell::image_io::write_atomic(p, doc.as_bytes())?;
+    }
     if let Some(p) = &a.json {
         write_runs_json(p, &runs)?;
     }

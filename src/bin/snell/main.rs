@@ -63,5 +63,8 @@ fn run(cli: Cli) -> Result<()> {
         Cmd::Bench {
             which: BenchCmd::Render(a),
         } => bench::bench_render(a),
+        Cmd::Bench {
+            which: BenchCmd::Grin(a),
+        } => bench::bench_grin(a),
     }
 }

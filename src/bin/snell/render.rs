@@ -129,8 +129,8 @@ fn stop_on_signals(cancel: &CancelToken) {
 }
 
 /// The stats JSON of a render: the render's own, plus the run's CPU and load
-/// time, the part it covers, the scene's identity, how Embree built it and
-/// the overrides.
+/// time, the part it covers, the scene's identity, how Embree built it, the
+/// overrides and the medium's tracing method and field kind.
 fn render_stats(
     r: &Rendered,
     scene: &RenderScene,
@@ -158,5 +158,10 @@ fn render_stats(
         "analytic_set": scene.analytic_set.is_some(),
     });
     st["overrides"] = serde_json::json!(set);
+    // The method the medium is traced by, `auto` resolved (null without a
+    // medium), and its field: what a speed figure of the render depends on.
+    let medium = scene.medium.as_ref();
+    st["grin_method"] = serde_json::json!(medium.map(|m| m.method().name()));
+    st["grin_field"] = serde_json::json!(medium.map(|m| m.field().kind()));
     st
 }
