@@ -363,6 +363,19 @@ pub struct MapEnv {
     /// Factor applied to the map's values (default 1, > 0).
     #[serde(default = "one")]
     pub scale: f64,
+    /// Steps placing the map in the world, as an object's `transform`;
+    /// together a rotation (default: none).
+    #[serde(default)]
+    pub to_world: Vec<TransformDesc>,
+    /// Where the image's rows sit: `"centres"` (default; row j's centre
+    /// at polar angle (j + 0.5)/H · 180°) or `"poles"` (row 0 on the upper
+    /// pole, row H − 1 on the lower: Mitsuba 3's `envmap`).
+    #[serde(default = "default_rows")]
+    pub rows: String,
+}
+
+fn default_rows() -> String {
+    "centres".into()
 }
 
 fn one() -> f64 {
