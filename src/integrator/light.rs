@@ -95,8 +95,11 @@ pub(super) enum NextEvent {
 pub(super) fn next_event(scene: &RenderScene, p: V3, n: V3, ng: V3, rng: &mut Rng) -> Option<NextEvent> {
     let ls = scene.sample_light(p, rng)?;
     if meets_medium(scene, p, ls.wi, ls.dist) {
-        // The cosine is the launch's, known only once solved.
-        return ls.is_sun_disk().then_some(NextEvent::SunThroughMedium(ls));
+        // The cosine is the launch's, known only once solved. A map's
+        // connections through the medium are left to BSDF sampling (its
+        // escapes through the medium then weigh 1).
+        let sun = ls.is_environment() && scene.environment.sun_nee().is_some();
+        return sun.then_some(NextEvent::SunThroughMedium(ls));
     }
     let cos = n.dot(ls.wi);
     (cos > 0.0 && ng.dot(ls.wi) > 0.0).then_some(NextEvent::Straight(ls, cos))

@@ -174,8 +174,7 @@ impl ShadeLanes {
             }),
             _ => None,
         };
-        self.plain_env =
-            scene.environment.sun_nee().is_none() && !matches!(scene.environment, Environment::Sky(_));
+        self.plain_env = !scene.environment.is_sampled() && !matches!(scene.environment, Environment::Sky(_));
         self.lights_in_kernel =
             self.plain_env && matches!(scene.lights.as_slice(), [] | [Light::Rect { .. }]);
     }

@@ -6,6 +6,7 @@
 pub mod build;
 pub mod desc;
 pub mod emitter;
+pub mod envmap;
 pub mod import;
 pub mod model;
 pub mod shapes;

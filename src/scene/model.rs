@@ -13,7 +13,7 @@ use crate::bsdf::{Conductor, MicrofacetDistribution, Plastic, RoughConductor, Ro
 use crate::camera::Camera;
 use crate::error::{Error, Result};
 use crate::ray::{Hit, Ray};
-use crate::sampling::{uniform_sphere, Rng};
+use crate::sampling::{power_heuristic, uniform_sphere, Rng};
 use glam::{DVec3, Vec3A as V3};
 use std::sync::Arc;
 
@@ -254,6 +254,9 @@ pub enum Environment {
         to_local: Option<glam::Mat3A>,
         /// Where the image's rows sit between the poles.
         rows: super::texture::Rows,
+        /// Next-event estimation's distribution over the map (`None`: a
+        /// black map, which nothing samples).
+        sampler: Option<Arc<super::envmap::EnvSampler>>,
     },
     /// A sun of finite angular size in an analytic sky; the path tracer
     /// samples its disk by next-event estimation.
@@ -272,6 +275,7 @@ impl Environment {
                 scale,
                 to_local,
                 rows,
+                ..
             } => {
                 let d = match to_local {
                     Some(m) => *m * dir,
@@ -282,6 +286,27 @@ impl Environment {
                 image.lookup_rows(u, v, *rows) * *scale
             }
             Environment::Sky(sky) => sky.eval(dir),
+        }
+    }
+
+    /// Does next-event estimation sample this environment (a map's texels
+    /// or a sky's sun)? Constant and black environments are not sampled.
+    #[inline]
+    pub fn is_sampled(&self) -> bool {
+        self.sun_nee().is_some() || self.map_sampler().is_some()
+    }
+
+    /// A map's sampling distribution and world-to-map rotation, if next-event
+    /// estimation samples it.
+    #[inline]
+    pub fn map_sampler(&self) -> Option<(&super::envmap::EnvSampler, Option<&glam::Mat3A>)> {
+        match self {
+            Environment::Map {
+                sampler: Some(s),
+                to_local,
+                ..
+            } => Some((s, to_local.as_ref())),
+            _ => None,
         }
     }
 
@@ -584,10 +609,10 @@ pub struct LightSample {
 }
 
 impl LightSample {
-    /// Is it a sample of the sun's disk? (The one light at infinity that is
-    /// not a delta: `wi` is then a direction in the disk.)
+    /// Is it a sample of the environment (a light at infinity that is not a
+    /// delta: the sun's disk or a map)?
     #[inline]
-    pub fn is_sun_disk(&self) -> bool {
+    pub fn is_environment(&self) -> bool {
         self.dist == f32::INFINITY && !self.delta
     }
 }
@@ -696,10 +721,26 @@ impl RenderScene {
     }
 
     /// How many choices next-event estimation has: the lights, and the
-    /// sun's disk when the environment has one it samples.
+    /// environment when it is sampled (a sky's sun disk or a map).
     #[inline(always)]
     pub fn nee_count(&self) -> usize {
-        self.lights.len() + usize::from(self.environment.sun_nee().is_some())
+        self.lights.len() + usize::from(self.environment.is_sampled())
+    }
+
+    /// A next-event sample of the environment map, chosen among `n` (= `nf`).
+    #[inline(never)]
+    fn sample_map(&self, rng: &mut Rng, n: usize, nf: f32) -> Option<LightSample> {
+        let (sampler, to_local) = self.environment.map_sampler()?;
+        let (u1, u2) = (rng.uniform_f64(), rng.uniform_f64());
+        let (wi, pdf) = sampler.sample_world(to_local, u1, u2)?;
+        let li = self.environment.eval(wi);
+        (li.max_element() > 0.0).then(|| LightSample {
+            wi,
+            dist: f32::INFINITY,
+            li,
+            pdf: per_light(pdf, n, nf),
+            delta: false,
+        })
     }
 
     /// A next-event sample of the sun's disk, chosen among `n` (= `nf`).
@@ -724,9 +765,20 @@ impl RenderScene {
     /// specular path or one it cannot make, which counts with weight 1).
     #[inline]
     pub fn escaped_radiance(&self, dir: V3, mis: Option<(f32, f32)>) -> V3 {
+        let choice = || 1.0 / self.nee_count().max(1) as f32;
         match &self.environment {
-            Environment::Sky(sky) => sky.escaped(dir, mis, 1.0 / self.nee_count().max(1) as f32),
-            env => env.eval(dir),
+            Environment::Sky(sky) => sky.escaped(dir, mis, choice()),
+            env => {
+                let l = env.eval(dir);
+                // A sampled map: next-event estimation's density of `dir` is
+                // the map's × the choice × the Jacobian.
+                match (env.map_sampler(), mis) {
+                    (Some((sampler, to_local)), Some((p, jacobian))) => {
+                        l * power_heuristic(p, sampler.pdf_world(to_local, dir) * choice() * jacobian)
+                    }
+                    _ => l,
+                }
+            }
         }
     }
 
@@ -748,9 +800,13 @@ impl RenderScene {
             ((u0 * n as f32) as usize).min(n - 1)
         };
         let nf = n as f32;
-        // The sun's disk is the last choice (after every light).
+        // The environment (a sun's disk or a map) is the last choice
+        // (after every light).
         let Some(light) = scene.lights.get(idx) else {
-            return scene.sample_sun(rng, n, nf);
+            return match scene.environment {
+                Environment::Map { .. } => scene.sample_map(rng, n, nf),
+                _ => scene.sample_sun(rng, n, nf),
+            };
         };
         let (u1, u2) = (rng.uniform(), rng.uniform());
         match light {

@@ -401,7 +401,9 @@ impl Builder<'_> {
                 } else {
                     Some(self.env_rotation(&m.to_world)?.transpose().as_mat3().into())
                 };
+                let sampler = crate::scene::envmap::EnvSampler::new(&image, rows).map(Arc::new);
                 Environment::Map {
+                    sampler,
                     image: Arc::new(image),
                     scale: scale as f32,
                     to_local,
