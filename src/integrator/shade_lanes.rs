@@ -2,9 +2,10 @@
 //! registers, for the lanes whose hit is Lambertian (any texture) lit by at
 //! most one rectangular light, black, a smooth interface or the smooth
 //! boundary of a nested solid (its index pair from the nested rule), or a
-//! miss of a black, constant or mapped environment (not a sky, whose escapes
-//! are weighed against its sun's sampling); the wavefront gives the others
-//! to the single-ray step ([`ShadeLanes::prepare`] says which).
+//! miss of an environment next-event estimation does not sample (black or
+//! constant: a map's or a sky's escapes are weighed against their sampling);
+//! the wavefront gives the others to the single-ray step
+//! ([`ShadeLanes::prepare`] says which).
 //!
 //! The paths are the wavefront's columns ([`PathColumns`]): each lane goes
 //! through three phases, as `PathState::advance` does for one path in turn:
@@ -175,6 +176,7 @@ impl ShadeLanes {
             _ => None,
         };
         self.plain_env = !scene.environment.is_sampled() && !matches!(scene.environment, Environment::Sky(_));
+        self.lined = false;
         self.lights_in_kernel =
             self.plain_env && matches!(scene.lights.as_slice(), [] | [Light::Rect { .. }]);
     }
