@@ -474,6 +474,10 @@ fn set_gives_a_gltf_scene_its_environment() {
     )
     .unwrap();
     let glb = "scenes/glass_of_water.glb";
+    // The map is importance-sampled where the constant is not: the two
+    // agree in expectation, not path by path, so their image means are
+    // compared, at enough samples for a few percent of noise.
+    let film = ["--width", "16", "--height", "12", "--spp", "64"];
     let image = |extra: &[&str]| {
         let bits = rendered_bits(glb, &d.join("g.exr"), &film, extra);
         bits.into_iter().map(f32::from_bits).collect::<Vec<f32>>()
@@ -487,9 +491,11 @@ fn set_gives_a_gltf_scene_its_environment() {
     let plain = image(&[]);
     let same = image(&["--set", &map(1.0)]);
     let twice = image(&["--set", &map(2.0)]);
-    let diff = |a: &[f32], b: &[f32]| a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0f32, f32::max);
-    assert!(diff(&plain, &same) < 1e-4, "{}", diff(&plain, &same));
-    assert!(diff(&plain, &twice) > 0.05, "{}", diff(&plain, &twice));
+    let mean = |a: &[f32]| a.iter().map(|&x| x as f64).sum::<f64>() / a.len() as f64;
+    let (same, twice) = (mean(&same) / mean(&plain), mean(&twice) / mean(&plain));
+    eprintln!("image mean against the constant's: uniform map {same:.4}, twice the map {twice:.4}");
+    assert!((same - 1.0).abs() < 0.03, "{same}");
+    assert!(twice > 1.1, "{twice}");
     // A key the environment does not have is an error naming it.
     let out = snell()
         .args(["render"])

@@ -6,6 +6,7 @@
 //! the seed-to-seed noise of the two renders (`sun_tests::ratio`: about 1
 //! when both are unbiased). Environment maps as lights: irradiance by
 //! NEE+MIS against BSDF sampling alone, and the variance it saves.
+use super::material_tests::mean_and_error;
 use super::sun_tests::{blocks, ratio, rms};
 use crate::integrator::LightSampling;
 use crate::render::{render, RenderOptions, RenderSettings, Rendered};
@@ -360,20 +361,6 @@ fn map_sampler(s: &mut RenderScene) -> &mut Option<std::sync::Arc<crate::scene::
     }
 }
 
-/// The mean of the pixels' channel means and its standard error (pixels
-/// are independent estimates).
-fn pixel_mean(r: &Rendered) -> (f64, f64) {
-    let v: Vec<f64> = r
-        .pixels
-        .iter()
-        .map(|p| ((p.x + p.y + p.z) / 3.0) as f64)
-        .collect();
-    let n = v.len() as f64;
-    let mean = v.iter().sum::<f64>() / n;
-    let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
-    (mean, (var / n).sqrt())
-}
-
 #[test]
 fn irradiance_under_a_map_by_nee_and_mis_matches_bsdf_sampling_alone_and_a_pdf_without_sin_does_not() {
     // A white plane under the map, direct light only (two segments), every
@@ -405,12 +392,12 @@ material = { type = "diffuse", reflectance = [1.0, 1.0, 1.0] }
     for rows in ["centres", "poles"] {
         let mut s = load_in(&dir, &text.replace("ROWS", rows));
         assert_eq!(s.nee_count(), 1, "the map is next-event estimation's one choice");
-        let bsdf = pixel_mean(&render_at(&s, 1, LightSampling::Bsdf));
-        let mis = pixel_mean(&render_at(&s, 2, LightSampling::Mis));
+        let bsdf = mean_and_error(&render_at(&s, 1, LightSampling::Bsdf));
+        let mis = mean_and_error(&render_at(&s, 2, LightSampling::Mis));
         let sampler = map_sampler(&mut s).as_mut().expect("sampled");
         std::sync::Arc::get_mut(sampler).expect("one owner").sampling =
             crate::scene::envmap::EnvSampling::WrongNoSinJacobian;
-        let wrong = pixel_mean(&render_at(&s, 2, LightSampling::Mis));
+        let wrong = mean_and_error(&render_at(&s, 2, LightSampling::Mis));
         let z = |a: (f64, f64), b: (f64, f64)| (a.0 - b.0).abs() / (a.1 * a.1 + b.1 * b.1).sqrt();
         let (z_mis, z_wrong) = (z(mis, bsdf), z(wrong, bsdf));
         eprintln!(

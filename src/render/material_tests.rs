@@ -180,7 +180,7 @@ material = { type = "rough_dielectric", ior = 1.5, alpha = ALPHA }
 
 /// The image's mean (over pixels and channels) and its standard error from
 /// the per-pixel spread.
-fn mean_and_error(r: &Rendered) -> (f64, f64) {
+pub(super) fn mean_and_error(r: &Rendered) -> (f64, f64) {
     let v: Vec<f64> = r
         .pixels
         .iter()
