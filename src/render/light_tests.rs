@@ -6,7 +6,6 @@
 //! the seed-to-seed noise of the two renders (`sun_tests::ratio`: about 1
 //! when both are unbiased). Environment maps as lights: irradiance by
 //! NEE+MIS against BSDF sampling alone, and the variance it saves.
-use super::material_tests::mean_and_error;
 use super::sun_tests::{blocks, ratio, rms};
 use crate::integrator::LightSampling;
 use crate::render::{render, RenderOptions, RenderSettings, Rendered};
@@ -359,6 +358,20 @@ fn map_sampler(s: &mut RenderScene) -> &mut Option<std::sync::Arc<crate::scene::
         crate::scene::Environment::Map { sampler, .. } => sampler,
         _ => unreachable!("a map scene"),
     }
+}
+
+/// The image's mean (over pixels and channels) and its standard error from
+/// the per-pixel spread.
+pub(super) fn mean_and_error(r: &Rendered) -> (f64, f64) {
+    let v: Vec<f64> = r
+        .pixels
+        .iter()
+        .map(|p| ((p.x + p.y + p.z) / 3.0) as f64)
+        .collect();
+    let n = v.len() as f64;
+    let mean = v.iter().sum::<f64>() / n;
+    let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    (mean, (var / n).sqrt())
 }
 
 #[test]

@@ -4,10 +4,9 @@
 //! tests' power; and a white furnace of a rough glass sphere. Images are
 //! compared by 16×16 block means against the seed-to-seed noise
 //! (`sun_tests::ratio`: about 1 when both are unbiased).
-use super::light_tests::{pair, render_at, run, LIMIT};
+use super::light_tests::{mean_and_error, pair, render_at, run, LIMIT};
 use super::sun_tests::{ratio, rms};
 use crate::integrator::LightSampling;
-use crate::render::Rendered;
 use crate::scene::model::BsdfVariant;
 use crate::scene::{load_scene_str, BuildOptions, RenderScene};
 use std::path::Path;
@@ -177,20 +176,6 @@ name = "ball"
 shape = { type = "sphere", center = [0.0, 0.0, 0.0], radius = 1.0 }
 material = { type = "rough_dielectric", ior = 1.5, alpha = ALPHA }
 "#;
-
-/// The image's mean (over pixels and channels) and its standard error from
-/// the per-pixel spread.
-pub(super) fn mean_and_error(r: &Rendered) -> (f64, f64) {
-    let v: Vec<f64> = r
-        .pixels
-        .iter()
-        .map(|p| ((p.x + p.y + p.z) / 3.0) as f64)
-        .collect();
-    let n = v.len() as f64;
-    let mean = v.iter().sum::<f64>() / n;
-    let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
-    (mean, (var / n).sqrt())
-}
 
 #[test]
 fn a_rough_glass_sphere_in_a_white_furnace_stays_white_and_a_wrong_jacobian_does_not() {
