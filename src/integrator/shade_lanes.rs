@@ -1,11 +1,11 @@
 //! The path tracer's shading of a packet's lanes side by side in vector
-//! registers, for the lanes whose hit is Lambertian (any texture) lit by at
-//! most one rectangular light, black, a smooth interface or the smooth
-//! boundary of a nested solid (its index pair from the nested rule), or a
-//! miss of an environment next-event estimation does not sample (black or
-//! constant: a map's or a sky's escapes are weighed against their sampling);
-//! the wavefront gives the others to the single-ray step
-//! ([`ShadeLanes::prepare`] says which).
+//! registers, for the lanes whose hit is Lambertian (any texture, any
+//! light: the kernel samples a scene's single rectangle itself, and
+//! [`ShadeLanes::prepare`] draws any other light's sample per lane), black,
+//! a smooth interface or the smooth boundary of a nested solid (its index
+//! pair from the nested rule), or a miss (weighed against next-event
+//! estimation's sampling of a sun or a map); the wavefront gives the others
+//! to the single-ray step ([`ShadeLanes::prepare`] says which).
 //!
 //! The paths are the wavefront's columns ([`PathColumns`]): each lane goes
 //! through three phases, as `PathState::advance` does for one path in turn:
@@ -37,8 +37,7 @@ use crate::counters::Counters;
 use crate::dielectric::{self, Coincident, InteriorList};
 use crate::ray::{front_facing, spawn_transmitted, Hit, Ray, OFFSET_ULPS};
 use crate::sampling::power_heuristic;
-use crate::scene::texture::Texture;
-use crate::scene::{Environment, Light, Material, RenderScene, SurfacePoint};
+use crate::scene::{Light, Material, RenderScene, SurfacePoint};
 use crate::simd3::{add, dot, mul, scale, select, splat, sub, Vec3s};
 use glam::Vec3A as V3;
 use std::f32::consts::{FRAC_1_PI, PI};
@@ -95,6 +94,14 @@ pub(super) struct ShadeLanes {
     /// bounce's two (`u[2]`, `u[3]`) at a Lambertian lane, the lobe's
     /// (`u[0]`) at an interface.
     u: [[f32; MAX]; 4],
+    /// A light sample drawn in [`ShadeLanes::prepare`] (any light but the
+    /// kernel's rectangle): its direction, distance, radiance and density;
+    /// `ls_delta` 1 for a point or directional light (no MIS).
+    ls_wi: [[f32; MAX]; 3],
+    ls_dist: [f32; MAX],
+    ls_li: [[f32; MAX]; 3],
+    ls_pdf: [f32; MAX],
+    ls_delta: [f32; MAX],
     // The kernel's answers (besides the rays and throughputs of `PathIo`).
     prev_pdf: [f32; MAX],
     /// The bounce fell below the surface: the path ends.
@@ -118,15 +125,13 @@ pub(super) struct ShadeLanes {
     /// its own line continued, or spawned off the hit along its direction.
     matched: [Option<Ray>; MAX],
     arch: pulp::Arch,
+    /// The scene's only light when it is a rectangle (and the environment
+    /// is not sampled): the kernel samples it itself. Otherwise `prepare`
+    /// draws each lane's light sample with `RenderScene::sample_light`.
     light: Option<RectLight>,
-    /// Misses and emission need no MIS weight against a sampled sun or sky.
-    plain_env: bool,
     /// Some path continued its line through an index-matched boundary
     /// (`PathScalars::tnear`) since [`ShadeLanes::start`].
     pub(super) lined: bool,
-    /// Lambertian lanes can sample the scene's lights in the kernel: none,
-    /// or the one rectangle (a black surface samples nothing anywhere).
-    lights_in_kernel: bool,
     /// The render tests' known-wrong variant.
     #[cfg(test)]
     variant: crate::scene::model::BsdfVariant,
@@ -157,28 +162,25 @@ impl ShadeLanes {
         {
             self.variant = scene.bsdf_variant;
         }
-        self.light = match scene.lights.first() {
-            Some(&Light::Rect {
+        self.light = match scene.lights.as_slice() {
+            [Light::Rect {
                 corner,
                 edge_u,
                 edge_v,
                 normal,
                 area,
                 radiance,
-            }) => Some(RectLight {
-                corner,
-                edge_u,
-                edge_v,
-                normal,
-                area,
-                radiance,
+            }] if !scene.environment.is_sampled() => Some(RectLight {
+                corner: *corner,
+                edge_u: *edge_u,
+                edge_v: *edge_v,
+                normal: *normal,
+                area: *area,
+                radiance: *radiance,
             }),
             _ => None,
         };
-        self.plain_env = !scene.environment.is_sampled() && !matches!(scene.environment, Environment::Sky(_));
         self.lined = false;
-        self.lights_in_kernel =
-            self.plain_env && matches!(scene.lights.as_slice(), [] | [Light::Rect { .. }]);
     }
 
     /// Before a packet's lanes are prepared: none waits for the kernel.
@@ -210,14 +212,13 @@ impl ShadeLanes {
         let scene = tr.scene;
         let dir = columns::get3(&paths.dir, i);
         let Some((hit, sp)) = at else {
-            if !self.plain_env {
-                return Prepared::Alone;
-            }
-            // Next-event estimation samples no environment here: weight 1.
-            // (A path that escapes inside an absorbing solid brings nothing.)
+            // Weighed against next-event estimation's sampling of the sun or
+            // a map after a diffuse vertex, as `advance` weighs it. (A path
+            // that escapes inside an absorbing solid brings nothing.)
             if sigma.is_none() {
                 let beta = columns::get3(&paths.beta, i);
-                paths.s[i].l += beta * scene.escaped_radiance(dir, None);
+                let mis = (!paths.s[i].specular).then_some((paths.s[i].prev_pdf, 1.0));
+                paths.s[i].l += beta * scene.escaped_radiance(dir, mis);
             }
             st.ended_escaped += 1;
             return Prepared::Ended;
@@ -234,16 +235,7 @@ impl ShadeLanes {
             Material::Diffuse {
                 reflectance,
                 two_sided,
-            } if front || *two_sided => {
-                // The kernel's next-event estimation samples one rectangle
-                // (a black surface samples nothing): known without the
-                // texture's lookup, which the single-ray step would repeat.
-                let black = matches!(reflectance, Texture::Constant(c) if *c == V3::ZERO);
-                if !(self.lights_in_kernel || black) {
-                    return Prepared::Alone;
-                }
-                Some(reflectance.eval(sp.p, sp.uv))
-            }
+            } if front || *two_sided => Some(reflectance.eval(sp.p, sp.uv)),
             Material::Diffuse { .. } | Material::Black | Material::Interface { .. } | Material::Solid(_) => {
                 None
             }
@@ -277,13 +269,25 @@ impl ShadeLanes {
         match (&rec.material, albedo) {
             (Material::Diffuse { .. }, Some(albedo)) => {
                 st.nee_draws += (albedo != V3::ZERO) as u64;
-                let nee = albedo != V3::ZERO && self.light.is_some();
-                if nee {
-                    // The light's choice (one light: drawn, not read), then its point.
-                    rng.uniform();
-                    self.u[0][i] = rng.uniform();
-                    self.u[1][i] = rng.uniform();
-                }
+                // Next-event estimation draws as `next_event` draws (no
+                // medium here for a connection to meet).
+                let nee = albedo != V3::ZERO
+                    && if self.light.is_some() {
+                        // The light's choice (one light: drawn, not read), then its point.
+                        rng.uniform();
+                        self.u[0][i] = rng.uniform();
+                        self.u[1][i] = rng.uniform();
+                        true
+                    } else if let Some(ls) = scene.sample_light(sp.p, rng) {
+                        set3(&mut self.ls_wi, i, ls.wi);
+                        set3(&mut self.ls_li, i, ls.li);
+                        self.ls_dist[i] = ls.dist;
+                        self.ls_pdf[i] = ls.pdf;
+                        self.ls_delta[i] = if ls.delta { 1.0 } else { 0.0 };
+                        true
+                    } else {
+                        false
+                    };
                 // A black reflectance ends the path without a bounce (as `advance`).
                 if albedo == V3::ZERO && beta.is_finite() {
                     st.ended_absorbed += 1;
@@ -344,20 +348,22 @@ impl ShadeLanes {
     }
 
     /// The known-wrong variants the kernel can be (tests only): next-event
-    /// estimation weighed against twice the bounce's density, and an
-    /// interface reflecting with half its Fresnel reflectance.
+    /// estimation weighed against twice the bounce's density, an interface
+    /// reflecting with half its Fresnel reflectance, and next-event
+    /// estimation without the cosine at the point.
     #[inline(always)]
-    fn wrong(&self) -> (bool, bool) {
+    fn wrong(&self) -> (bool, bool, bool) {
         #[cfg(test)]
         {
             use crate::scene::model::BsdfVariant;
             (
                 self.variant == BsdfVariant::WrongMisPdf,
                 self.variant == BsdfVariant::WrongHalfFresnel,
+                self.variant == BsdfVariant::WrongNeeCosine,
             )
         }
         #[cfg(not(test))]
-        (false, false)
+        (false, false, false)
     }
 
     /// The render tests' known-wrong nested boundary: a solid's index pair
@@ -551,7 +557,7 @@ impl pulp::WithSimd for Kernel<'_> {
         let w = S::F32_LANES;
         let chunks = self.lanes.div_ceil(w);
         let light = s.light;
-        let (wrong_mis, wrong_fresnel) = s.wrong();
+        let (wrong_mis, wrong_fresnel, wrong_cosine) = s.wrong();
         for j in 0..chunks {
             let r = j * w..(j + 1) * w;
             macro_rules! ld {
@@ -612,7 +618,10 @@ impl pulp::WithSimd for Kernel<'_> {
             let mut next_beta = beta;
             if any!(diffuse) {
                 let albedo = ld3!(s.albedo);
-                if let Some(l) = light {
+                // The light's direction, distance, radiance and density, and
+                // where the sample holds anything (point and directional
+                // lights: no MIS).
+                let (wi, dist, li, pdf, delta, valid) = if let Some(l) = light {
                     let (u1, u2) = (ld!(s.u[0]), ld!(s.u[1]));
                     let q = add(
                         simd,
@@ -632,46 +641,63 @@ impl pulp::WithSimd for Kernel<'_> {
                         simd.mul_f32s(dist, dist),
                         simd.mul_f32s(simd.splat_f32s(l.area), cos_l),
                     );
-                    let cos = dot(simd, n, wi);
-                    let seen = simd.and_m32s(
-                        simd.and_m32s(
-                            simd.greater_than_f32s(cos_l, zero),
-                            simd.greater_than_f32s(dist, zero),
-                        ),
-                        simd.and_m32s(
-                            simd.greater_than_f32s(cos, zero),
-                            simd.greater_than_f32s(dot(simd, side, wi), zero),
-                        ),
+                    let valid = simd.and_m32s(
+                        simd.greater_than_f32s(cos_l, zero),
+                        simd.greater_than_f32s(dist, zero),
                     );
-                    let seen = simd.and_m32s(
-                        seen,
-                        simd.and_m32s(diffuse, simd.not_m32s(simd.equal_f32s(ld!(s.nee), zero))),
-                    );
-                    // The power heuristic against the bounce's density cos/π.
-                    let mut bsdf_pdf = simd.mul_f32s(cos, simd.splat_f32s(FRAC_1_PI));
-                    if wrong_mis {
-                        bsdf_pdf = simd.add_f32s(bsdf_pdf, bsdf_pdf);
-                    }
-                    let (a, b) = (simd.mul_f32s(pdf, pdf), simd.mul_f32s(bsdf_pdf, bsdf_pdf));
-                    let sum = simd.add_f32s(a, b);
-                    let mis = simd.select_f32s(simd.equal_f32s(sum, zero), zero, simd.div_f32s(a, sum));
-                    let k = simd.div_f32s(simd.mul_f32s(cos, mis), pdf);
-                    let f = scale(simd, albedo, simd.splat_f32s(FRAC_1_PI));
-                    let contrib = scale(simd, mul(simd, mul(simd, beta, f), splat(simd, l.radiance)), k);
-                    let tfar = simd.sub_f32s(
-                        simd.mul_f32s(dist, simd.splat_f32s(1.0 - 1e-4)),
-                        simd.mul_f32s(simd.splat_f32s(2.0), off),
-                    );
-                    let short = simd.less_than_or_equal_f32s(tfar, zero);
-                    let kind = simd.select_f32s(short, simd.splat_f32s(2.0), one);
-                    st!(s.shadow, simd.select_f32s(seen, kind, zero));
-                    st3!(s.shadow_org, above);
-                    st3!(s.shadow_dir, wi);
-                    st!(s.shadow_tfar, tfar);
-                    st3!(s.contrib, contrib);
+                    let delta = simd.less_than_f32s(one, zero);
+                    (wi, dist, splat(simd, l.radiance), pdf, delta, valid)
                 } else {
-                    st!(s.shadow, zero);
+                    let delta = simd.not_m32s(simd.equal_f32s(ld!(s.ls_delta), zero));
+                    let valid = simd.equal_f32s(one, one);
+                    (
+                        ld3!(s.ls_wi),
+                        ld!(s.ls_dist),
+                        ld3!(s.ls_li),
+                        ld!(s.ls_pdf),
+                        delta,
+                        valid,
+                    )
+                };
+                let cos = dot(simd, n, wi);
+                let seen = simd.and_m32s(
+                    valid,
+                    simd.and_m32s(
+                        simd.greater_than_f32s(cos, zero),
+                        simd.greater_than_f32s(dot(simd, side, wi), zero),
+                    ),
+                );
+                let seen = simd.and_m32s(
+                    seen,
+                    simd.and_m32s(diffuse, simd.not_m32s(simd.equal_f32s(ld!(s.nee), zero))),
+                );
+                // The power heuristic against the bounce's density cos/π.
+                let mut bsdf_pdf = simd.mul_f32s(cos, simd.splat_f32s(FRAC_1_PI));
+                if wrong_mis {
+                    bsdf_pdf = simd.add_f32s(bsdf_pdf, bsdf_pdf);
                 }
+                let (a, b) = (simd.mul_f32s(pdf, pdf), simd.mul_f32s(bsdf_pdf, bsdf_pdf));
+                let sum = simd.add_f32s(a, b);
+                let mis = simd.select_f32s(simd.equal_f32s(sum, zero), zero, simd.div_f32s(a, sum));
+                let mis = simd.select_f32s(delta, one, mis);
+                let k = if wrong_cosine {
+                    simd.div_f32s(mis, pdf)
+                } else {
+                    simd.div_f32s(simd.mul_f32s(cos, mis), pdf)
+                };
+                let f = scale(simd, albedo, simd.splat_f32s(FRAC_1_PI));
+                let contrib = scale(simd, mul(simd, mul(simd, beta, f), li), k);
+                let tfar = simd.sub_f32s(
+                    simd.mul_f32s(dist, simd.splat_f32s(1.0 - 1e-4)),
+                    simd.mul_f32s(simd.splat_f32s(2.0), off),
+                );
+                let short = simd.less_than_or_equal_f32s(tfar, zero);
+                let kind = simd.select_f32s(short, simd.splat_f32s(2.0), one);
+                st!(s.shadow, simd.select_f32s(seen, kind, zero));
+                st3!(s.shadow_org, above);
+                st3!(s.shadow_dir, wi);
+                st!(s.shadow_tfar, tfar);
+                st3!(s.contrib, contrib);
                 let (r2, phi) = (ld!(s.u[2]), ld!(s.u[3]));
                 let r = simd.sqrt_f32s(r2);
                 let (sin, cos) = sincos_turns(simd, phi);

@@ -62,7 +62,7 @@ radiance = [6.0, 5.0, 4.0]
 /// tilted 30° about x, emitting a checker from both sides: its front
 /// lights the floor before it and the camera, its back the floor behind it
 /// and the wall.
-const SCALED_QUAD: &str = r#"
+pub(super) const SCALED_QUAD: &str = r#"
 [[objects]]
 name = "lamp"
 shape = { type = "rect", center = [0.0, 0.0, 0.0], normal = [0.0, 0.0, 1.0], u_axis = [1.0, 0.0, 0.0], size = [1.0, 1.0] }
@@ -73,7 +73,7 @@ transform = [{ scale = [1.2, 0.4, 1.0] }, { rotate = { axis = [1.0, 0.0, 0.0], d
 
 /// Analytic emitters sampled by area: a capped cylinder (wall and caps)
 /// lying on the floor, and a tilted disk that also reflects.
-const ANALYTIC: &str = r#"
+pub(super) const ANALYTIC: &str = r#"
 [[objects]]
 name = "tube_lamp"
 shape = { type = "cylinder", p0 = [-0.8, 0.3, 0.4], p1 = [-0.8, 0.3, -0.6], radius = 0.15, caps = true }
@@ -118,7 +118,7 @@ radius = 0.25
 radiance = [8.0, 7.0, 6.0]
 "#;
 
-fn room(emitters: &str) -> RenderScene {
+pub(super) fn room(emitters: &str) -> RenderScene {
     let text = ROOM.replace("EMITTERS", emitters);
     load_scene_str("lights.toml", &text, Path::new("."), &BuildOptions::default()).expect("scene loads")
 }

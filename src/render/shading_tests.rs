@@ -129,3 +129,62 @@ fn vector_shading_of_nested_solids_gives_the_scalar_paths() {
         }
     }
 }
+
+/// Every kind of light next-event estimation samples, drawn per lane before
+/// the kernel weighs it: a spot light, emitting spheres, cylinders and a
+/// rectangle (lamps), a sky's sun and a constant sky (the mirage twins
+/// without their field), and point, directional, disk, cylinder and quad
+/// lights together in one room.
+#[test]
+fn vector_shading_under_every_light_kind_gives_the_scalar_paths() {
+    // A room lit by a point light, a directional light, an emitting
+    // cylinder, a disk and a tilted two-sided textured quad: five lights to
+    // choose among.
+    let lights = format!(
+        "{}{}{}",
+        super::light_tests::ANALYTIC,
+        super::light_tests::SCALED_QUAD,
+        r#"
+[[lights]]
+type = "point"
+position = [0.5, 1.5, 0.8]
+intensity = [2.0, 2.0, 2.0]
+[[lights]]
+type = "directional"
+direction = [-0.3, -1.0, -0.4]
+irradiance = [0.5, 0.5, 0.4]
+"#
+    );
+    let room = || super::light_tests::room(&lights);
+    for name in [
+        "lamps",
+        "desert_sun_nofield",
+        "superior_mirage_nofield",
+        "heat_shimmer_nofield",
+        "room",
+    ] {
+        let mut s = if name == "room" { room() } else { scene(name) };
+        let scalar = pixels(&s, Shading::Scalar);
+        let right = differing(&scalar, &pixels(&s, Shading::Vector));
+        let eight = differing(&scalar, &pixels_in(&s, Shading::Vector, PacketWidth::Eight));
+        s.bsdf_variant = BsdfVariant::WrongNeeCosine;
+        let cosine = differing(&scalar, &pixels(&s, Shading::Vector));
+        assert_eq!(differing(&scalar, &pixels(&s, Shading::Scalar)), 0.0, "{name}");
+        s.bsdf_variant = BsdfVariant::WrongMisPdf;
+        let mis = differing(&scalar, &pixels(&s, Shading::Vector));
+        eprintln!(
+            "{name}: pixels differing from scalar shading: vector {right:.4} (packets of 8 {eight:.4}), \
+             no cosine at the point {cosine:.4}, doubled bounce density in MIS {mis:.4}"
+        );
+        assert!(right <= LIMIT && eight <= LIMIT, "{name}: {right}, {eight}");
+        assert!(
+            cosine > LIMIT,
+            "{name}: next-event estimation without its cosine passes: {cosine}"
+        );
+        // The sun's disk is so small that the bounce's density hardly
+        // weighs against it; the area lights' MIS is tested.
+        if name == "lamps" || name == "room" {
+            assert!(mis > LIMIT, "{name}: the wrong MIS passes: {mis}");
+        }
+    }
+}

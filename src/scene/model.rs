@@ -45,6 +45,9 @@ pub(crate) enum BsdfVariant {
     /// A path transmitted through a nested solid's boundary in vector
     /// shading keeps the interior list it had.
     WrongNestedList,
+    /// Next-event estimation in vector shading leaves out the cosine at the
+    /// shaded point.
+    WrongNeeCosine,
 }
 
 /// Surface response.
