@@ -555,9 +555,8 @@ pub fn packet_query(
         return None;
     }
     let (mask, below) = ray_mask(scene, p0);
-    // The analytic set answers packets without masks: a lane that must not
-    // see some of its solids would often be traced again alone.
-    (below == 0 || scene.analytic_set.is_none()).then_some(PacketQuery {
+    // (The analytic set reads the ray masks as Embree does: `AnalyticSet::hide_ranks`.)
+    Some(PacketQuery {
         check: true,
         mask,
         below,
@@ -566,8 +565,9 @@ pub fn packet_query(
 
 /// Does the hit `hit` of a masked packet query (`q` from [`packet_query`])
 /// of `ray`, inside the non-empty `list`, stand for [`trace`]'s? Not when it
-/// is a solid ranked below the list's P0 (the analytic set answers packets
-/// without masks), a touch at a mesh edge (the filter decides there), or
+/// is a solid ranked below the list's P0 (which neither Embree nor the
+/// analytic set gives a masked lane), a touch at a mesh edge (the filter
+/// decides there), or
 /// another solid's surface passes near it (`trace` looks ahead there).
 #[inline]
 pub fn masked_hit_is_true(scene: &RenderScene, ray: &Ray, hit: Option<&Hit>, list: &InteriorList) -> bool {

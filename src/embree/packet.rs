@@ -64,6 +64,8 @@ pub struct PacketRays<'a, const N: usize> {
     pub tnear: &'a [f32; N],
     /// Ends of the intervals (a hit's t after a nearest-hit query).
     pub tfar: &'a [f32; N],
+    /// The lanes' ray masks ([`RayPacket::set_mask`]).
+    pub mask: &'a [u32; N],
     /// Embree's lane mask: −1 active, 0 not.
     pub valid: &'a [i32; N],
     /// The hits' geometry ids after a nearest-hit query (`INVALID_ID`:
@@ -278,6 +280,7 @@ macro_rules! ray_packet {
                     dir: [&r.dir_x, &r.dir_y, &r.dir_z],
                     tnear: &r.tnear,
                     tfar: &r.tfar,
+                    mask: &r.mask,
                     valid: &self.valid,
                     geom_id: &self.rh.hit.geomID,
                     prim_id: &self.rh.hit.primID,

@@ -96,9 +96,10 @@ impl Builder<'_> {
         // by point-in-solid instead (`dielectric::trace`).
         let use_masks = has_overlap && device.ray_masks();
         let mut masked_solids = Vec::new();
+        let mut masked_geoms = Vec::new();
         let mut eb = SceneBuilder::new(&device, flags, self.opts.quality)?;
         // Geometry ids follow `pending`'s order (asserted below).
-        let analytic_set = set_wanted
+        let mut analytic_set = set_wanted
             .then(|| {
                 AnalyticSet::try_new(pending.iter().enumerate().filter_map(|(i, p)| match &p.shape {
                     Shape::Analytic(a) => Some((i as u32, *a)),
@@ -125,6 +126,7 @@ impl Builder<'_> {
                             .is_some_and(|s| matches!(&s.containment, Containment::Analytic(c) if c.contains(glam::DVec3::ZERO).is_some()));
                     if maskable {
                         masked_solids.push((rank_of[i], solids.len() as u32));
+                        masked_geoms.push((i as u32, rank_of[i]));
                         eb.add_user_masked(Box::new(*a), 1 << rank_of[i])?
                     } else {
                         eb.add_user(Box::new(*a))?
@@ -166,6 +168,10 @@ impl Builder<'_> {
                 emission_two_sided: p.emission_two_sided,
                 light: p.light,
             });
+        }
+        // The set sees what Embree sees of the masked solids.
+        if let Some(set) = &mut analytic_set {
+            set.hide_ranks(&masked_geoms);
         }
         let embree = eb.commit()?;
         Ok(Uploaded {

@@ -30,7 +30,7 @@
 //! surface starts `OFFSET_ULPS` ulps of its position away from it, several
 //! times the bound of the root at that surface, so that root is decided
 //! for sure: a render's unsure lanes are a few in a million.
-use super::lanes::Resolved;
+use super::lanes::{lowest_ranks_seen, Resolved};
 use super::primitive::QuadricF32;
 use crate::embree::PacketRays;
 use crate::simd3::select;
@@ -47,6 +47,8 @@ pub(in crate::scene) struct PrimF32 {
     /// None: a primitive without a vector form (a lane meeting its box is
     /// unsure).
     pub(super) quadric: Option<QuadricF32>,
+    /// `Primitive::rank`.
+    pub(super) rank: f32,
 }
 
 /// The set's query for the first `m` lanes at one vector level (see the
@@ -156,6 +158,7 @@ impl<const N: usize> pulp::WithSimd for SetKernelF32<'_, N> {
                 m = k + 1;
             }
         }
+        let p0 = lowest_ranks_seen(&rays);
         if m == 0 {
             return 0;
         }
@@ -173,6 +176,7 @@ impl<const N: usize> pulp::WithSimd for SetKernelF32<'_, N> {
         let o = [lanes!(rays.org[0]), lanes!(rays.org[1]), lanes!(rays.org[2])];
         let d = [lanes!(rays.dir[0]), lanes!(rays.dir[1]), lanes!(rays.dir[2])];
         let (tn, tf, act) = (lanes!(rays.tnear), lanes!(rays.tfar), lanes!(act));
+        let p0 = lanes!(p0);
         let (zero, one) = (simd.splat_f32s(0.0), simd.splat_f32s(1.0));
         // Per lane, for every primitive: the directions' reciprocals, the
         // box test's interval (widened past the f64 kernel's; empty for an
@@ -299,6 +303,17 @@ impl<const N: usize> pulp::WithSimd for SetKernelF32<'_, N> {
                         v!(simd, mul_f32s, v!(simd, abs_f32s, far), w)
                     )
                 );
+                // A masked solid below the lane's P0 is not there for it.
+                let meets = if p.rank.is_finite() {
+                    v!(
+                        simd,
+                        and_m32s,
+                        meets,
+                        v!(simd, greater_than_or_equal_f32s, simd.splat_f32s(p.rank), p0[k])
+                    )
+                } else {
+                    meets
+                };
                 if simd.first_true_m32s(meets) == S::F32_LANES {
                     continue;
                 }

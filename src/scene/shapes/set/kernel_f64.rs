@@ -60,6 +60,7 @@ impl<const N: usize> pulp::WithSimd for SetKernel<'_, N> {
             S::as_simd_f64s(&l.inv_d[2][..n]).0,
         ];
         let t_lo = S::as_simd_f64s(&l.t_lo[..n]).0;
+        let p0 = S::as_simd_f64s(&l.p0[..n]).0;
         let t_hi = S::as_simd_f64s(&l.t_hi[..n]).0;
         let tn = S::as_simd_f64s(&l.tn[..n]).0;
         let mut lim_lanes = l.tf;
@@ -107,6 +108,22 @@ impl<const N: usize> pulp::WithSimd for SetKernel<'_, N> {
                     far = v!(simd, min_f64s, far, v!(simd, max_f64s, ta, tb));
                 }
                 let meets = v!(simd, less_than_or_equal_f64s, near, far);
+                // A masked solid below the lane's P0 is not there for it.
+                let meets = if p.rank.is_finite() {
+                    v!(
+                        simd,
+                        and_m64s,
+                        meets,
+                        v!(
+                            simd,
+                            greater_than_or_equal_f64s,
+                            simd.splat_f64s(p.rank as f64),
+                            p0[k]
+                        )
+                    )
+                } else {
+                    meets
+                };
                 if simd.first_true_m64s(meets) == S::F64_LANES {
                     continue;
                 }

@@ -17,6 +17,16 @@ pub(super) struct LaneArrays<const N: usize> {
     /// The interval as the packet holds it (f32 values).
     pub(super) tn: [f64; N],
     pub(super) tf: [f64; N],
+    /// [`lowest_ranks_seen`].
+    pub(super) p0: [f64; N],
+}
+
+/// Per lane, the lowest rank of a masked solid its ray mask lets it see:
+/// 0 for the full mask, P0 for `dielectric::trace`'s `ray_mask` (bit 31
+/// and every bit from P0 up), 32 when it sees none.
+#[inline(always)]
+pub(super) fn lowest_ranks_seen<const N: usize>(rays: &PacketRays<'_, N>) -> [f32; N] {
+    rays.mask.map(|m| (m & !(1 << 31)).trailing_zeros() as f32)
 }
 
 impl<const N: usize> LaneArrays<N> {
@@ -28,6 +38,7 @@ impl<const N: usize> LaneArrays<N> {
         t_hi: [0.0; N],
         tn: [0.0; N],
         tf: [0.0; N],
+        p0: [0.0; N],
     };
 
     /// The lanes of `rays` up to the last active one (how many: the
@@ -39,6 +50,7 @@ impl<const N: usize> LaneArrays<N> {
     #[inline(always)]
     pub(super) fn fill(&mut self, rays: &PacketRays<'_, N>) -> usize {
         let l = self;
+        l.p0 = lowest_ranks_seen(rays).map(f64::from);
         for a in 0..3 {
             for k in 0..N {
                 l.o[a][k] = rays.org[a][k] as f64;

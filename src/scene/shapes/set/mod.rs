@@ -238,6 +238,7 @@ impl AnalyticSet {
                     shape,
                     bounds: (b.lower.map(f64::from), b.upper.map(f64::from)),
                     quadric,
+                    rank: f32::INFINITY,
                 });
                 if prims.len() > MAX_SET_PRIMITIVES {
                     return None;
@@ -252,6 +253,7 @@ impl AnalyticSet {
                 // f32 values widened to f64: exact back in f32.
                 bounds: (p.bounds.0.map(|x| x as f32), p.bounds.1.map(|x| x as f32)),
                 quadric: p.quadric.as_ref().map(QuadricF32::of),
+                rank: p.rank,
             })
             .collect();
         (!prims.is_empty()).then(|| AnalyticSet {
@@ -263,6 +265,20 @@ impl AnalyticSet {
             #[cfg(test)]
             safety: ERROR_SAFETY,
         })
+    }
+
+    /// Give the primitives of each geometry `geom` in `masked` (geometry
+    /// id, rank) the geometry's Embree mask as Embree reads it: a ray whose
+    /// mask leaves out the ranks below its P0 (`dielectric::trace`'s
+    /// `ray_mask`: bit 31 and every bit from P0 up) does not see a solid
+    /// ranked below P0, in the set's answers as in Embree's.
+    pub fn hide_ranks(&mut self, masked: &[(u32, u32)]) {
+        for (p, f) in self.prims.iter_mut().zip(&mut self.fast) {
+            if let Some(&(_, rank)) = masked.iter().find(|(g, _)| *g == p.geom) {
+                p.rank = rank as f32;
+                f.rank = rank as f32;
+            }
+        }
     }
 
     /// This set with its lane loops compiled for `arch` (a lower level

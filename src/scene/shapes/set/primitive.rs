@@ -136,6 +136,12 @@ pub(in crate::scene) struct Primitive {
     /// Embree's padded box, as (low, high) corners.
     pub(in crate::scene) bounds: ([f64; 3], [f64; 3]),
     pub(in crate::scene) quadric: Option<Quadric>,
+    /// The rank of the masked solid it bounds ([`AnalyticSet::hide_ranks`]):
+    /// a lane whose ray mask leaves out ranks below P0 > `rank` does not see
+    /// it. +∞ for a primitive every lane sees.
+    ///
+    /// [`AnalyticSet::hide_ranks`]: super::AnalyticSet::hide_ranks
+    pub(in crate::scene) rank: f32,
 }
 
 /// `x` as an f32 pair: `hi + lo` is `x` to about 2⁻⁴⁸ of it.
