@@ -3,16 +3,11 @@
 pub use crate::accum::{mean_of, to_fixed, Accum, PartSpec, Region, FIXED_BITS};
 use crate::camera::Camera;
 use crate::counters::Counters;
-use crate::dielectric::{InteriorList, NestedStrategy};
+use crate::dielectric::NestedStrategy;
 use crate::error::{Error, Result};
-use crate::integrator::{
-    path_lanes_apply, path_stream, radiance_after, LanePackets, LightSampling, PathStart, RayObserver, Tracer,
-};
-use crate::media::CurvedRay;
-use crate::ray::Ray;
-use crate::sampling::{PixelKey, Rng};
+use crate::integrator::{path_lanes_apply, CameraRays, LightSampling, RayObserver, Tracer};
 use crate::scene::RenderScene;
-use glam::{DVec3, Vec3A as V3};
+use glam::Vec3A as V3;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Arc;
@@ -481,14 +476,6 @@ impl Rendered {
     }
 }
 
-/// The most paths traced side by side: [`PacketWidth::lanes`] (8 or 16).
-const MAX_PATHS_PER_PACKET: usize = 16;
-
-/// Samples a tile streams through its packets at a time ([`path_stream`]):
-/// their radiance waits in a buffer of this many until all have ended, then
-/// goes to the pixels in sample order, as a pixel-by-pixel render adds them.
-const STREAM_WINDOW: usize = 1024;
-
 /// Where a tile's samples go: each pixel's sums, the diagnostic layers
 /// (if asked for) and the counters.
 struct TileSums<'a> {
@@ -524,46 +511,6 @@ impl PixelSum {
     }
 }
 
-/// A thread's packets and wavefront storage for [`path_stream`], of the
-/// render's width.
-enum Lanes {
-    Eight(Box<LanePackets<crate::embree::Packet8>>),
-    Sixteen(Box<LanePackets<crate::embree::Packet16>>),
-}
-
-impl Lanes {
-    fn of_width(lanes: usize, shading: Shading) -> Lanes {
-        let vector = shading == Shading::Vector;
-        match lanes {
-            16 => Lanes::Sixteen(Box::new(LanePackets::with_vector_shading(vector))),
-            _ => Lanes::Eight(Box::new(LanePackets::with_vector_shading(vector))),
-        }
-    }
-
-    /// [`path_stream`] at this width.
-    fn stream(
-        &mut self,
-        tr: Tracer<'_>,
-        list: &InteriorList,
-        starts: &[PathStart],
-        done: impl FnMut(u32, V3, &Counters),
-        per_path: bool,
-        stats: &mut Counters,
-    ) -> Result<()> {
-        match self {
-            Lanes::Eight(p) => path_stream::<8, _>(tr, list, starts, done, per_path, stats, p),
-            Lanes::Sixteen(p) => path_stream::<16, _>(tr, list, starts, done, per_path, stats, p),
-        }
-    }
-
-    fn take_occupancy(&mut self) -> Counters {
-        match self {
-            Lanes::Eight(p) => p.take_occupancy(),
-            Lanes::Sixteen(p) => p.take_occupancy(),
-        }
-    }
-}
-
 struct TileOut {
     x0: u32,
     y0: u32,
@@ -582,7 +529,8 @@ struct TileOut {
 struct TileJob<'a> {
     scene: &'a RenderScene,
     settings: &'a RenderSettings,
-    camera: Camera,
+    /// The render's camera rays.
+    rays: CameraRays,
     region: Region,
     start: u32,
     count: u32,
@@ -594,8 +542,6 @@ struct TileJob<'a> {
     /// Fly each tile row's camera rays side by side (the path tracer through
     /// a medium with flights).
     fly_rows: bool,
-    /// The vector level of the camera's directions.
-    arch: pulp::Arch,
 }
 
 impl TileJob<'_> {
@@ -610,93 +556,9 @@ impl TileJob<'_> {
         }
     }
 
-    /// The camera ray of sample `s` of pixel (x, y) and its generator, as it
-    /// is after drawing the ray (the path goes on with it).
-    fn camera_ray(&self, x: u32, y: u32, pixel: u64, s: u32) -> (Rng, (V3, V3)) {
-        let mut rng = Rng::for_sample(self.settings.seed, pixel, s as u64);
-        let ray = self.camera_ray_from(x, y, &mut rng);
-        (rng, ray)
-    }
-
-    /// The paths of up to 16 samples `(k, s)` (pixel `k` of the w-wide tile
-    /// at (x0, y0), sample `s`) onto `out`: each one's camera ray and its
-    /// generator after drawing it, as [`Self::camera_ray`] gives them (a
-    /// pinhole's directions computed sixteen at once, the same bits).
-    fn camera_rays(&self, group: &[(usize, u32)], (x0, y0): (u32, u32), w: u32, out: &mut Vec<PathStart>) {
-        let first = out.len();
-        let pinhole = self.camera.is_pinhole();
-        let (mut xs, mut ys) = ([0.0f32; 16], [0.0f32; 16]);
-        // A pixel's samples come in turn: its place and key are computed once.
-        let mut at: Option<(usize, u32, u32, PixelKey)> = None;
-        for (i, &(k, s)) in group.iter().enumerate() {
-            let (x, y, key) = match at {
-                Some((j, x, y, key)) if j == k => (x, y, key),
-                _ => {
-                    let (x, y) = (x0 + k as u32 % w, y0 + k as u32 / w);
-                    let pixel = y as u64 * self.settings.width as u64 + x as u64;
-                    let key = PixelKey::new(self.settings.seed, pixel);
-                    at = Some((k, x, y, key));
-                    (x, y, key)
-                }
-            };
-            let mut rng = Rng::for_pixel_sample(key, s as u64);
-            let ray = if pinhole {
-                // The same draws as `camera_ray_from`; the lens's two are unused.
-                xs[i] = x as f32 + rng.uniform();
-                ys[i] = y as f32 + rng.uniform();
-                rng.uniform();
-                rng.uniform();
-                (self.camera.position, V3::ZERO)
-            } else {
-                self.camera_ray_from(x, y, &mut rng)
-            };
-            out.push(PathStart { ray, rng });
-        }
-        if pinhole {
-            let dirs = self.camera.pinhole_dirs(self.arch, &xs, &ys);
-            for (p, d) in out[first..].iter_mut().zip(dirs) {
-                p.ray.1 = d;
-            }
-        }
-    }
-
-    /// A camera ray through pixel (x, y) from the next four numbers of `rng`.
-    fn camera_ray_from(&self, x: u32, y: u32, rng: &mut Rng) -> (V3, V3) {
-        let fx = x as f32 + rng.uniform();
-        let fy = y as f32 + rng.uniform();
-        let lens = (rng.uniform(), rng.uniform());
-        self.camera.ray(fx, fy, lens)
-    }
-
-    /// The curved rays of the camera rays of w × h pixels from (x0, y0) (the
-    /// samples not yet held, in the order the tile traces them),
-    /// flown side by side through the medium
-    /// ([`crate::media::fly_camera_rays`]).
-    fn flown_rays(
-        &self,
-        med: &crate::media::Medium,
-        (x0, y0): (u32, u32),
-        (w, h): (u32, u32),
-    ) -> Vec<CurvedRay> {
-        let mut rays = Vec::new();
-        for y in y0..y0 + h {
-            for x in x0..x0 + w {
-                let held = self.base_at(x, y).1;
-                let pixel = y as u64 * self.settings.width as u64 + x as u64;
-                for s in self.start + held..self.start + self.count {
-                    let (o, d) = self.camera_ray(x, y, pixel, s).1;
-                    let ray = Ray::new(o, d);
-                    rays.push(med.start_ray(ray.org.as_dvec3(), ray.dir.as_dvec3()));
-                }
-            }
-        }
-        crate::media::fly_camera_rays(med, &mut rays);
-        rays
-    }
-
     /// Render the tile at (x0, y0) with the thread's `lanes`, or (`skip`)
     /// only carry over the samples already held.
-    fn tile(&self, lanes: &mut Lanes, x0: u32, y0: u32, skip: bool) -> Result<TileOut> {
+    fn tile(&self, lanes: &mut trace::Lanes, x0: u32, y0: u32, skip: bool) -> Result<TileOut> {
         let scene = self.scene;
         let w = TILE.min(self.region.x1 - x0);
         let h = TILE.min(self.region.y1 - y0);
@@ -770,166 +632,6 @@ impl TileJob<'_> {
             done: !skip,
         })
     }
-
-    /// The samples of a w × h tile at (x0, y0) (`taken[k]` of pixel `k`, row
-    /// by row) traced as wavefronts of up to [`STREAM_WINDOW`] paths
-    /// ([`path_stream`]), the tile's samples in order, a pixel's side by side.
-    /// Each sample's radiance is added to its pixel in sample order.
-    fn stream_tile(
-        &self,
-        tracer: Tracer<'_>,
-        lanes: &mut Lanes,
-        (x0, y0): (u32, u32),
-        (w, h): (u32, u32),
-        taken: &[u32],
-        TileSums { pix, aov, stats }: TileSums<'_>,
-    ) -> Result<()> {
-        let list = InteriorList::from_solids(&tracer.scene.solids, &tracer.scene.camera_interior);
-        // Each sample's own counts only where a layer reads them.
-        let per_path = aov.is_some();
-        // The tile's samples in order: (pixel index in the tile, sample index).
-        let mut samples = (0..(w * h) as usize)
-            .flat_map(|k| (self.start + self.count - taken[k]..self.start + self.count).map(move |s| (k, s)));
-        let mut window = Vec::with_capacity(STREAM_WINDOW);
-        let mut starts = Vec::with_capacity(STREAM_WINDOW);
-        let mut ls = vec![V3::ZERO; STREAM_WINDOW];
-        let mut own = vec![Counters::default(); if per_path { STREAM_WINDOW } else { 0 }];
-        loop {
-            window.clear();
-            window.extend(samples.by_ref().take(STREAM_WINDOW));
-            if window.is_empty() {
-                break;
-            }
-            starts.clear();
-            for group in window.chunks(16) {
-                self.camera_rays(group, (x0, y0), w, &mut starts);
-            }
-            // A path's index in `starts` is its sample's in `window`.
-            let done = |t: u32, l: V3, st: &Counters| {
-                ls[t as usize] = l;
-                if per_path {
-                    own[t as usize] = *st;
-                }
-            };
-            lanes.stream(tracer, &list, &starts, done, per_path, stats)?;
-            for (t, &(k, _)) in window.iter().enumerate() {
-                pix[k].add(ls[t]);
-                if let Some(a) = aov.as_mut() {
-                    let inv = 1.0 / taken[k] as f32;
-                    for (layer, kind) in a.layers.iter_mut().zip(Aov::ALL) {
-                        kind.add_sample(&mut layer[k], &own[t], inv);
-                    }
-                }
-            }
-        }
-        *stats += lanes.take_occupancy();
-        Ok(())
-    }
-
-    /// The samples of a w × h tile at (x0, y0) traced path by path (through
-    /// a gradient-index medium, or by the Whitted tracer), as
-    /// [`Self::stream_tile`] takes and adds them.
-    fn trace_tile(
-        &self,
-        tracer: Tracer<'_>,
-        (x0, y0): (u32, u32),
-        (w, h): (u32, u32),
-        taken: &[u32],
-        TileSums { pix, aov, stats }: TileSums<'_>,
-    ) -> Result<()> {
-        let scene = tracer.scene;
-        let start_list = InteriorList::from_solids(&scene.solids, &scene.camera_interior);
-        // A group's counters (reset per group, as far as it uses them).
-        let mut sts = [Counters::default(); MAX_PATHS_PER_PACKET];
-        let width = if self.packet_lanes == 16 { 16 } else { 8 };
-        // Without flights, the camera rays' curved rays are started in
-        // these, one per sample of a group (see `Medium::restart_ray`).
-        let mut camera_curved: Vec<CurvedRay> = match (&scene.medium, self.fly_rows) {
-            (Some(med), false) => (0..width).map(|_| med.start_ray(DVec3::ZERO, DVec3::X)).collect(),
-            _ => Vec::new(),
-        };
-        for j in 0..h {
-            // A row at a time: a whole tile's flights at once stay in flight
-            // longer than the caches hold them.
-            let mut flown = match (&scene.medium, self.fly_rows) {
-                (Some(med), true) => self.flown_rays(med, (x0, y0 + j), (w, 1)),
-                _ => Vec::new(),
-            };
-            let mut next_flown = flown.iter_mut();
-            for i in 0..w {
-                let (x, y) = (x0 + i, y0 + j);
-                let k = (j * w + i) as usize;
-                let pixel = y as u64 * self.settings.width as u64 + x as u64;
-                let inv = 1.0 / taken[k].max(1) as f32;
-                // The pixel's samples in groups of up to `width`, whose curved
-                // camera rays are begun together.
-                let mut s = self.start + self.count - taken[k];
-                while s < self.start + self.count {
-                    let lanes = (self.start + self.count - s).min(width as u32) as usize;
-                    // Lanes past `lanes` are never read: they hold a copy of the
-                    // first generator instead of seeding one each.
-                    let first = Rng::for_sample(self.settings.seed, pixel, s as u64);
-                    let mut rngs: [Rng; MAX_PATHS_PER_PACKET] = std::array::from_fn(|i| {
-                        if i == 0 || i >= lanes {
-                            first.clone()
-                        } else {
-                            Rng::for_sample(self.settings.seed, pixel, s as u64 + i as u64)
-                        }
-                    });
-                    let mut rays = [(V3::ZERO, V3::ZERO); MAX_PATHS_PER_PACKET];
-                    for (rng, ray) in rngs.iter_mut().zip(&mut rays).take(lanes) {
-                        *ray = self.camera_ray_from(x, y, rng);
-                    }
-                    let per_sample = if aov.is_some() { lanes } else { 1 };
-                    sts[..per_sample].fill(Counters::default());
-                    // The group's curved rays begun together (`CurvedRay::begin`).
-                    if let (Some(med), false) = (&scene.medium, camera_curved.is_empty()) {
-                        for (c, &(o, d)) in camera_curved.iter_mut().zip(&rays[..lanes]) {
-                            let ray = Ray::new(o, d);
-                            med.restart_ray(c, ray.org.as_dvec3(), ray.dir.as_dvec3());
-                        }
-                        let mut quads = camera_curved[..lanes].chunks_exact_mut(4);
-                        for quad in &mut quads {
-                            if let Ok(quad) = <&mut [CurvedRay; 4]>::try_from(quad) {
-                                CurvedRay::begin_lanes(quad, med);
-                            }
-                        }
-                        for c in quads.into_remainder() {
-                            c.begin(med);
-                        }
-                    }
-                    let mut group_curved = camera_curved.iter_mut();
-                    for i in 0..lanes {
-                        let (o, d) = rays[i];
-                        let first = match next_flown.next() {
-                            Some(f) => Some(f),
-                            None => group_curved.next(),
-                        };
-                        let l = radiance_after(
-                            tracer,
-                            o,
-                            d,
-                            start_list.clone(),
-                            &mut rngs[i],
-                            &mut sts[i.min(per_sample - 1)],
-                            first,
-                        )?;
-                        pix[k].add(l);
-                        if let Some(a) = aov.as_mut() {
-                            for (layer, kind) in a.layers.iter_mut().zip(Aov::ALL) {
-                                kind.add_sample(&mut layer[k], &sts[i], inv);
-                            }
-                        }
-                    }
-                    for st in &sts[..per_sample] {
-                        *stats += *st;
-                    }
-                    s += lanes as u32;
-                }
-            }
-        }
-        Ok(())
-    }
 }
 
 /// Render `scene` with `settings`.
@@ -986,10 +688,14 @@ pub fn render_part(
         .build()
         .map_err(|e| Error::Invalid(format!("cannot start render threads: {e}")))?;
     let job = TileJob {
-        arch: pulp::Arch::new(),
         scene,
         settings,
-        camera: settings.camera(scene),
+        rays: CameraRays::new(
+            settings.camera(scene),
+            settings.seed,
+            settings.width,
+            pulp::Arch::new(),
+        ),
         region,
         start,
         count,
@@ -1024,7 +730,7 @@ pub fn render_part(
             .par_iter()
             // Each thread's packets and wavefront storage, kept from tile to tile.
             .map_init(
-                || Lanes::of_width(job.packet_lanes, opts.shading),
+                || trace::Lanes::of_width(job.packet_lanes, opts.shading),
                 |lanes, &(x, y)| {
                     let t = job.tile(lanes, x, y, opts.cancel.is_cancelled())?;
                     let s = samples_done.fetch_add(t.stats.samples, Ordering::Relaxed) + t.stats.samples;
@@ -1148,6 +854,11 @@ impl NoProgressBar {
     fn finish_and_clear(&self) {}
 }
 
+mod trace;
+
+#[cfg(test)]
+mod cancel_tests;
+
 #[cfg(test)]
 mod sun_tests;
 
@@ -1159,104 +870,3 @@ mod material_tests;
 
 #[cfg(test)]
 mod shading_tests;
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::scene::{load_scene_str, BuildOptions};
-    use std::sync::Mutex;
-
-    /// A glass ball in a white furnace, 64x48 (twelve tiles), 1 spp.
-    fn ball() -> (RenderScene, RenderSettings) {
-        let text = r#"
-[camera]
-position = [0.0, 0.0, 4.0]
-target = [0.0, 0.0, 0.0]
-fov = 40.0
-[film]
-width = 64
-height = 48
-spp = 1
-[environment]
-type = "constant"
-radiance = [1.0, 1.0, 1.0]
-[[objects]]
-name = "ball"
-shape = { type = "sphere", center = [0.0, 0.0, 0.0], radius = 1.0 }
-material = { type = "dielectric", ior = 1.5 }
-"#;
-        let s = load_scene_str(
-            "ball.toml",
-            text,
-            std::path::Path::new("."),
-            &BuildOptions::default(),
-        )
-        .unwrap();
-        let set = RenderSettings::from_scene(&s);
-        (s, set)
-    }
-
-    /// On one thread, a token cancelled by the progress callback after the
-    /// first tile leaves every later tile unstarted, and the render says so;
-    /// every tile is still reported. A render with its own token, in the
-    /// same process, is not affected.
-    #[test]
-    fn a_cancelled_render_stops_at_the_next_tile_and_reports_it() {
-        let (s, set) = ball();
-        let cancel = CancelToken::new();
-        let reports = Arc::new(Mutex::new(Vec::new()));
-        let (token, log) = (cancel.clone(), reports.clone());
-        let opts = RenderOptions {
-            threads: Some(1),
-            progress: ProgressSink::Callback(Arc::new(move |p: &RenderProgress| {
-                log.lock().unwrap().push(*p);
-                token.cancel();
-            })),
-            cancel,
-            ..RenderOptions::default()
-        };
-        let r = render(&s, &set, &opts).unwrap();
-        let tile_pixels = (TILE * TILE) as u64;
-        assert_eq!(r.tiles_total, 12);
-        assert_eq!(r.tiles_done, 1, "one tile before the cancel");
-        assert!(!r.complete);
-        assert_eq!(r.stats.counters.samples, tile_pixels);
-        assert_eq!(
-            r.pixel_spp.iter().filter(|&&n| n == 1.0).count() as u64,
-            tile_pixels
-        );
-        let reports = reports.lock().unwrap();
-        assert_eq!(reports.len(), 12, "skipped tiles are reported too");
-        assert!(reports
-            .iter()
-            .all(|p| p.samples_done == tile_pixels && p.tiles_total == 12));
-        assert_eq!(reports.last().map(|p| p.tiles_done), Some(12));
-
-        let whole = render(
-            &s,
-            &set,
-            &RenderOptions {
-                threads: Some(1),
-                ..RenderOptions::default()
-            },
-        )
-        .unwrap();
-        assert!(whole.complete && whole.tiles_done == 12);
-        assert_eq!(whole.stats.counters.samples, 64 * 48);
-    }
-
-    /// A token cancelled before the render starts no tile at all.
-    #[test]
-    fn a_render_cancelled_before_it_starts_renders_nothing() {
-        let (s, set) = ball();
-        let opts = RenderOptions {
-            threads: Some(2),
-            ..RenderOptions::default()
-        };
-        opts.cancel.cancel();
-        let r = render(&s, &set, &opts).unwrap();
-        assert!(!r.complete);
-        assert_eq!((r.tiles_done, r.stats.counters.samples), (0, 0));
-        assert!(r.pixels.iter().all(|p| *p == V3::ZERO));
-    }
-}

@@ -23,6 +23,7 @@ use crate::scene::IntegratorKind;
 use crate::scene::{Material, RenderScene};
 use glam::Vec3A as V3;
 
+mod camera_rays;
 mod cast;
 mod columns;
 mod lanes;
@@ -35,6 +36,7 @@ mod shade_lanes;
 mod wavefront;
 mod whitted;
 
+pub use camera_rays::{CameraRays, CurvedStarts, Group, MAX_GROUP};
 pub use cast::MAX_CHORDS_PER_SEGMENT;
 pub use lanes::{path_lanes, path_lanes_apply, path_stream, LanePackets};
 pub use observer::{RayObserver, RayQuery, RayRecorder};

@@ -8,6 +8,7 @@ pub mod desc;
 pub mod emitter;
 pub mod envmap;
 pub mod import;
+mod light_sampling;
 pub mod model;
 pub mod shapes;
 pub mod source;
