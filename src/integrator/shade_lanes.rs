@@ -801,5 +801,7 @@ impl pulp::WithSimd for Kernel<'_> {
     }
 }
 
+mod rough;
+
 #[cfg(test)]
 mod tests;
