@@ -209,7 +209,7 @@ impl Interface {
 
 impl<'a> Micro<'a> {
     /// `model` about the oriented shading normal `n`, met along `dir`.
-    fn new(
+    pub(super) fn new(
         model: MicroModel<'a>,
         n: V3,
         dir: V3,

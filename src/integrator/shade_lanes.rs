@@ -827,5 +827,7 @@ impl pulp::WithSimd for Kernel<'_> {
     }
 }
 
+mod rough;
+
 #[cfg(test)]
 mod tests;
