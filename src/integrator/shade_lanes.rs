@@ -3,7 +3,8 @@
 //! light: the kernel samples a scene's single rectangle itself, and
 //! [`ShadeLanes::prepare`] draws any other light's sample per lane), black,
 //! a smooth interface or the smooth boundary of a nested solid (its index
-//! pair from the nested rule), or a miss (weighed against next-event
+//! pair from the nested rule), rough glass of a GGX distribution
+//! ([`rough`]), or a miss (weighed against next-event
 //! estimation's sampling of a sun or a map); the wavefront gives the others
 //! to the single-ray step ([`ShadeLanes::prepare`] says which).
 //!
@@ -33,13 +34,15 @@ use super::columns::{self, PacketPaths, PathIo, MAX};
 use super::light::PendingShadow;
 use super::path::survives;
 use super::Tracer;
+use crate::bsdf::RoughDielectric;
 use crate::counters::Counters;
 use crate::dielectric::{self, Coincident, InteriorList};
 use crate::ray::{front_facing, spawn_transmitted, Hit, Ray, OFFSET_ULPS};
-use crate::sampling::power_heuristic;
+use crate::sampling::{power_heuristic, Rng};
 use crate::scene::{Light, Material, RenderScene, SurfacePoint};
 use crate::simd3::{add, dot, mul, scale, select, splat, sub, Vec3s};
 use glam::Vec3A as V3;
+use rough::RoughLanes;
 use std::f32::consts::{FRAC_1_PI, PI};
 
 /// What [`ShadeLanes::prepare`] left for a lane.
@@ -75,10 +78,11 @@ struct RectLight {
 /// A packet's lanes between the phases, component by component.
 #[derive(Default)]
 pub(super) struct ShadeLanes {
-    /// Per lane: 1 for a Lambertian hit, 0 for an interface, −1 for a lane
-    /// `prepare` did not send to the kernel ([`ShadeLanes::begin`]).
+    /// Per lane: 1 for a Lambertian hit, 0 for a smooth interface, 2 for
+    /// rough glass, −1 for a lane `prepare` did not send to the kernel
+    /// ([`ShadeLanes::begin`]).
     diffuse: [f32; MAX],
-    /// Lambertian lanes that drew a light sample.
+    /// Lambertian and rough lanes that drew a light sample.
     nee: [f32; MAX],
     /// Interface lanes past the critical angle (no random number drawn).
     tir: [f32; MAX],
@@ -92,8 +96,11 @@ pub(super) struct ShadeLanes {
     n2: [f32; MAX],
     /// The step's random numbers: the light's two (`u[0]`, `u[1]`) and the
     /// bounce's two (`u[2]`, `u[3]`) at a Lambertian lane, the lobe's
-    /// (`u[0]`) at an interface.
-    u: [[f32; MAX]; 4],
+    /// (`u[0]`) at a smooth interface, the light's two and the lobe's and
+    /// facet's three (`u[2..5]`) at rough glass.
+    u: [[f32; MAX]; 5],
+    /// Rough glass lanes' roughnesses along the frame's two tangents.
+    alpha: [[f32; MAX]; 2],
     /// A light sample drawn in [`ShadeLanes::prepare`] (any light but the
     /// kernel's rectangle): its direction, distance, radiance and density;
     /// `ls_delta` 1 for a point or directional light (no MIS).
@@ -239,6 +246,12 @@ impl ShadeLanes {
             Material::Diffuse { .. } | Material::Black | Material::Interface { .. } | Material::Solid(_) => {
                 None
             }
+            // Rough glass of a distribution the kernel models (GGX).
+            Material::RoughInterface { distribution, .. } | Material::RoughSolid { distribution, .. }
+                if rough::supports(distribution) =>
+            {
+                None
+            }
             _ => return Prepared::Alone,
         };
         let mut beta = columns::get3(&paths.beta, i);
@@ -269,25 +282,7 @@ impl ShadeLanes {
         match (&rec.material, albedo) {
             (Material::Diffuse { .. }, Some(albedo)) => {
                 st.nee_draws += (albedo != V3::ZERO) as u64;
-                // Next-event estimation draws as `next_event` draws (no
-                // medium here for a connection to meet).
-                let nee = albedo != V3::ZERO
-                    && if self.light.is_some() {
-                        // The light's choice (one light: drawn, not read), then its point.
-                        rng.uniform();
-                        self.u[0][i] = rng.uniform();
-                        self.u[1][i] = rng.uniform();
-                        true
-                    } else if let Some(ls) = scene.sample_light(sp.p, rng) {
-                        set3(&mut self.ls_wi, i, ls.wi);
-                        set3(&mut self.ls_li, i, ls.li);
-                        self.ls_dist[i] = ls.dist;
-                        self.ls_pdf[i] = ls.pdf;
-                        self.ls_delta[i] = if ls.delta { 1.0 } else { 0.0 };
-                        true
-                    } else {
-                        false
-                    };
+                let nee = albedo != V3::ZERO && self.draw_light(i, scene, sp.p, rng);
                 // A black reflectance ends the path without a bounce (as `advance`).
                 if albedo == V3::ZERO && beta.is_finite() {
                     st.ended_absorbed += 1;
@@ -299,7 +294,13 @@ impl ShadeLanes {
                 self.nee[i] = if nee { 1.0 } else { 0.0 };
                 set3(&mut self.albedo, i, albedo);
             }
-            (m @ (Material::Interface { .. } | Material::Solid(_)), _) => {
+            (
+                m @ (Material::Interface { .. }
+                | Material::Solid(_)
+                | Material::RoughInterface { .. }
+                | Material::RoughSolid { .. }),
+                _,
+            ) => {
                 let Some(boundary) = tr.boundary(m, front, coincident, &mut paths.lists[i]) else {
                     st.ended_absorbed += 1;
                     return Prepared::Ended;
@@ -307,6 +308,40 @@ impl ShadeLanes {
                 let (n1, n2) = (boundary.n1, boundary.n2);
                 #[cfg(test)]
                 let (n1, n2) = self.wrong_pair(scene, m, boundary.entering, (n1, n2));
+                self.n1[i] = n1;
+                self.n2[i] = n2;
+                // Rough glass as `Bsdf::at` makes it: the smooth boundary
+                // where the indices match (the model degenerates there).
+                let rough = match m {
+                    Material::RoughInterface { distribution, .. }
+                    | Material::RoughSolid { distribution, .. } => Some(*distribution)
+                        .filter(|d| n1 != n2 && RoughDielectric::try_new(*d, n1, n2).is_ok()),
+                    _ => None,
+                };
+                if let Some(distribution) = rough {
+                    // `Micro`'s order: the light's numbers, then the lobe's
+                    // and the facet's.
+                    st.nee_draws += 1;
+                    let nee = self.draw_light(i, scene, sp.p, rng);
+                    self.nee[i] = if nee { 1.0 } else { 0.0 };
+                    for k in 2..5 {
+                        self.u[k][i] = rng.uniform();
+                    }
+                    self.alpha[0][i] = distribution.alpha_u();
+                    self.alpha[1][i] = distribution.alpha_v();
+                    self.moves[i] = match boundary.into_transmitted() {
+                        Some(list) => {
+                            self.after[i] = Some(list);
+                            NEW_LIST
+                        }
+                        None => 0,
+                    };
+                    self.diffuse[i] = 2.0;
+                    set3(&mut self.p, i, sp.p);
+                    set3(&mut self.side, i, side);
+                    set3(&mut self.n, i, n);
+                    return Prepared::Kernel;
+                }
                 // Past the critical angle no number is drawn (`Interface::sample`).
                 let cos_i = dir.dot(n).abs().min(1.0);
                 let eta = n1 / n2;
@@ -332,8 +367,6 @@ impl ShadeLanes {
                 self.moves[i] = moves;
                 self.diffuse[i] = 0.0;
                 self.tir[i] = if tir { 1.0 } else { 0.0 };
-                self.n1[i] = n1;
-                self.n2[i] = n2;
             }
             _ => {
                 // Black, or a one-sided diffuse surface seen from behind.
@@ -345,6 +378,29 @@ impl ShadeLanes {
         set3(&mut self.side, i, side);
         set3(&mut self.n, i, n);
         Prepared::Kernel
+    }
+
+    /// Next-event estimation's draw for lane `i` at `p`, as `next_event`
+    /// draws (no medium here for a connection to meet): the kernel's
+    /// rectangle's numbers, or any other light's sample. `false`: no sample.
+    #[inline(always)]
+    fn draw_light(&mut self, i: usize, scene: &RenderScene, p: V3, rng: &mut Rng) -> bool {
+        if self.light.is_some() {
+            // The light's choice (one light: drawn, not read), then its point.
+            rng.uniform();
+            self.u[0][i] = rng.uniform();
+            self.u[1][i] = rng.uniform();
+            return true;
+        }
+        let Some(ls) = scene.sample_light(p, rng) else {
+            return false;
+        };
+        set3(&mut self.ls_wi, i, ls.wi);
+        set3(&mut self.ls_li, i, ls.li);
+        self.ls_dist[i] = ls.dist;
+        self.ls_pdf[i] = ls.pdf;
+        self.ls_delta[i] = if ls.delta { 1.0 } else { 0.0 };
+        true
     }
 
     /// The known-wrong variants the kernel can be (tests only): next-event
@@ -364,6 +420,17 @@ impl ShadeLanes {
         }
         #[cfg(not(test))]
         (false, false, false)
+    }
+
+    /// Rough glass's model in the kernel: the right one, or the render
+    /// tests' known-wrong one.
+    #[inline(always)]
+    fn rough_variant(&self) -> rough::Variant {
+        #[cfg(test)]
+        if self.variant == crate::scene::model::BsdfVariant::WrongRoughFresnel {
+            return rough::Variant::HalfFresnel;
+        }
+        rough::Variant::Right
     }
 
     /// The render tests' known-wrong nested boundary: a solid's index pair
@@ -404,7 +471,8 @@ impl ShadeLanes {
         st: &mut Counters,
     ) -> (Option<PendingShadow>, bool) {
         let mut shadow = None;
-        if self.diffuse[i] == 1.0 {
+        let kind = self.diffuse[i];
+        if kind != 0.0 {
             if self.shadow[i] != 0.0 {
                 st.shadow_rays += 1;
                 let contrib = get3(&self.contrib, i);
@@ -427,20 +495,21 @@ impl ShadeLanes {
         } else {
             paths.s[i].specular = true;
             paths.s[i].tnear = 0.0;
-            if self.transmit[i] != 0.0 && self.moves[i] != 0 {
-                if let Some(list) = self.after[i].take().filter(|_| self.moves[i] & NEW_LIST != 0) {
-                    #[cfg(test)]
-                    let list = if self.variant == crate::scene::model::BsdfVariant::WrongNestedList {
-                        paths.lists[i].clone()
-                    } else {
-                        list
-                    };
-                    paths.lists[i] = list;
-                }
-                if let Some(ray) = self.matched[i].filter(|_| self.moves[i] & MATCHED != 0) {
-                    paths.set_ray(i, &ray);
-                    self.lined |= ray.tnear != 0.0;
-                }
+        }
+        // A transmission through a boundary (smooth or rough).
+        if kind != 1.0 && self.transmit[i] != 0.0 && self.moves[i] != 0 {
+            if let Some(list) = self.after[i].take().filter(|_| self.moves[i] & NEW_LIST != 0) {
+                #[cfg(test)]
+                let list = if self.variant == crate::scene::model::BsdfVariant::WrongNestedList {
+                    paths.lists[i].clone()
+                } else {
+                    list
+                };
+                paths.lists[i] = list;
+            }
+            if let Some(ray) = self.matched[i].filter(|_| self.moves[i] & MATCHED != 0) {
+                paths.set_ray(i, &ray);
+                self.lined |= ray.tnear != 0.0;
             }
         }
         paths.s[i].prev_p = get3(&self.p, i);
@@ -558,6 +627,7 @@ impl pulp::WithSimd for Kernel<'_> {
         let chunks = self.lanes.div_ceil(w);
         let light = s.light;
         let (wrong_mis, wrong_fresnel, wrong_cosine) = s.wrong();
+        let rough_variant = s.rough_variant();
         for j in 0..chunks {
             let r = j * w..(j + 1) * w;
             macro_rules! ld {
@@ -588,6 +658,9 @@ impl pulp::WithSimd for Kernel<'_> {
             let kind = ld!(s.diffuse);
             let diffuse = simd.equal_f32s(kind, one);
             let iface = simd.equal_f32s(kind, zero);
+            let rough = simd.equal_f32s(kind, simd.splat_f32s(2.0));
+            // Lanes that sample a light.
+            let scatter = simd.or_m32s(diffuse, rough);
             // A chunk of one kind (a pixel's camera rays on one surface)
             // skips the other's arithmetic.
             macro_rules! any {
@@ -616,8 +689,26 @@ impl pulp::WithSimd for Kernel<'_> {
             let mut next_dir = d;
             let mut next_org = above;
             let mut next_beta = beta;
-            if any!(diffuse) {
-                let albedo = ld3!(s.albedo);
+            // The step's answers besides the next ray, merged across kinds.
+            let mut below_v = zero;
+            let mut prev_pdf_v = zero;
+            let mut transmit_v = zero;
+            let mut eta_scale = ld!(io.eta_scale);
+            // Rough glass lanes' model (its frame and the index pair).
+            let rough_model = any!(rough).then(|| {
+                RoughLanes::new(
+                    simd,
+                    d,
+                    n,
+                    side,
+                    ld!(s.n1),
+                    ld!(s.n2),
+                    ld!(s.alpha[0]),
+                    ld!(s.alpha[1]),
+                )
+            });
+            let albedo = ld3!(s.albedo);
+            if any!(scatter) {
                 // The light's direction, distance, radiance and density, and
                 // where the sample holds anything (point and directional
                 // lights: no MIS).
@@ -659,20 +750,31 @@ impl pulp::WithSimd for Kernel<'_> {
                         valid,
                     )
                 };
+                // Per kind: f·cos at the light's direction, the BSDF's
+                // density there, and whether the connection counts. A
+                // Lambertian lane's: above both normals, cos/π.
                 let cos = dot(simd, n, wi);
-                let seen = simd.and_m32s(
-                    valid,
-                    simd.and_m32s(
-                        simd.greater_than_f32s(cos, zero),
-                        simd.greater_than_f32s(dot(simd, side, wi), zero),
-                    ),
-                );
+                let toward = simd.greater_than_f32s(dot(simd, side, wi), zero);
+                let mut ok = simd.and_m32s(simd.greater_than_f32s(cos, zero), toward);
+                let f = scale(simd, albedo, simd.splat_f32s(FRAC_1_PI));
+                let mut fc = if wrong_cosine { f } else { scale(simd, f, cos) };
+                let mut bsdf_pdf = simd.mul_f32s(cos, simd.splat_f32s(FRAC_1_PI));
+                if let Some(m) = &rough_model {
+                    // Rough glass: its f·|cos| (grey) and density, where nonzero.
+                    let (fr, pr) = m.eval_variant(simd, wi, rough_variant);
+                    ok = simd.or_m32s(
+                        simd.and_m32s(rough, simd.greater_than_f32s(fr, zero)),
+                        simd.and_m32s(simd.not_m32s(rough), ok),
+                    );
+                    fc = select(simd, rough, [fr, fr, fr], fc);
+                    bsdf_pdf = simd.select_f32s(rough, pr, bsdf_pdf);
+                }
+                let seen = simd.and_m32s(valid, ok);
                 let seen = simd.and_m32s(
                     seen,
-                    simd.and_m32s(diffuse, simd.not_m32s(simd.equal_f32s(ld!(s.nee), zero))),
+                    simd.and_m32s(scatter, simd.not_m32s(simd.equal_f32s(ld!(s.nee), zero))),
                 );
-                // The power heuristic against the bounce's density cos/π.
-                let mut bsdf_pdf = simd.mul_f32s(cos, simd.splat_f32s(FRAC_1_PI));
+                // The power heuristic against the BSDF's density.
                 if wrong_mis {
                     bsdf_pdf = simd.add_f32s(bsdf_pdf, bsdf_pdf);
                 }
@@ -680,13 +782,8 @@ impl pulp::WithSimd for Kernel<'_> {
                 let sum = simd.add_f32s(a, b);
                 let mis = simd.select_f32s(simd.equal_f32s(sum, zero), zero, simd.div_f32s(a, sum));
                 let mis = simd.select_f32s(delta, one, mis);
-                let k = if wrong_cosine {
-                    simd.div_f32s(mis, pdf)
-                } else {
-                    simd.div_f32s(simd.mul_f32s(cos, mis), pdf)
-                };
-                let f = scale(simd, albedo, simd.splat_f32s(FRAC_1_PI));
-                let contrib = scale(simd, mul(simd, mul(simd, beta, f), li), k);
+                let k = simd.div_f32s(mis, pdf);
+                let contrib = scale(simd, mul(simd, mul(simd, beta, fc), li), k);
                 let tfar = simd.sub_f32s(
                     simd.mul_f32s(dist, simd.splat_f32s(1.0 - 1e-4)),
                     simd.mul_f32s(simd.splat_f32s(2.0), off),
@@ -694,10 +791,14 @@ impl pulp::WithSimd for Kernel<'_> {
                 let short = simd.less_than_or_equal_f32s(tfar, zero);
                 let kind = simd.select_f32s(short, simd.splat_f32s(2.0), one);
                 st!(s.shadow, simd.select_f32s(seen, kind, zero));
-                st3!(s.shadow_org, above);
+                // A rough lane's transmitted connection leaves from the far side.
+                let far_side = simd.and_m32s(rough, simd.not_m32s(toward));
+                st3!(s.shadow_org, select(simd, far_side, beneath, above));
                 st3!(s.shadow_dir, wi);
                 st!(s.shadow_tfar, tfar);
                 st3!(s.contrib, contrib);
+            }
+            if any!(diffuse) {
                 let (r2, phi) = (ld!(s.u[2]), ld!(s.u[3]));
                 let r = simd.sqrt_f32s(r2);
                 let (sin, cos) = sincos_turns(simd, phi);
@@ -733,13 +834,33 @@ impl pulp::WithSimd for Kernel<'_> {
                     ),
                 );
                 let below = simd.less_than_or_equal_f32s(dot(simd, side, bounce), zero);
-                st!(s.below, simd.select_f32s(below, one, zero));
-                st!(
-                    s.prev_pdf,
-                    simd.mul_f32s(dot(simd, n, bounce), simd.splat_f32s(FRAC_1_PI))
+                below_v = simd.select_f32s(simd.and_m32s(diffuse, below), one, below_v);
+                prev_pdf_v = simd.select_f32s(
+                    diffuse,
+                    simd.mul_f32s(dot(simd, n, bounce), simd.splat_f32s(FRAC_1_PI)),
+                    prev_pdf_v,
                 );
                 next_dir = select(simd, diffuse, bounce, next_dir);
                 next_beta = select(simd, diffuse, mul(simd, beta, albedo), next_beta);
+            }
+            if let Some(m) = &rough_model {
+                // Rough glass lanes: the lobe and the facet; no sample ends the path.
+                let smp = m.sample_variant(simd, ld!(s.u[2]), ld!(s.u[3]), ld!(s.u[4]), rough_variant);
+                below_v = simd.select_f32s(simd.and_m32s(rough, simd.not_m32s(smp.valid)), one, below_v);
+                prev_pdf_v = simd.select_f32s(rough, smp.pdf, prev_pdf_v);
+                let through = simd.and_m32s(rough, smp.transmission);
+                transmit_v = simd.select_f32s(through, one, transmit_v);
+                // The weight carries (n1/n2)² already; Russian roulette looks
+                // through it as for the smooth boundary.
+                let eta = simd.div_f32s(ld!(s.n1), ld!(s.n2));
+                eta_scale = simd.select_f32s(
+                    through,
+                    simd.div_f32s(eta_scale, simd.mul_f32s(eta, eta)),
+                    eta_scale,
+                );
+                next_dir = select(simd, rough, smp.wi, next_dir);
+                next_org = select(simd, rough, select(simd, through, beneath, above), next_org);
+                next_beta = select(simd, rough, scale(simd, beta, smp.weight), next_beta);
             }
             if any!(iface) {
                 // Interface lanes: Fresnel's choice between the mirror and the
@@ -802,16 +923,9 @@ impl pulp::WithSimd for Kernel<'_> {
                 let transmit = simd.not_m32s(mirror);
                 let beta_i = select(simd, transmit, scale(simd, beta, k2), beta);
                 // (Only at interface lanes: `transmit` means nothing at the others.)
-                let eta_scale = ld!(io.eta_scale);
-                st!(
-                    io.eta_scale,
-                    simd.select_f32s(
-                        simd.and_m32s(iface, transmit),
-                        simd.div_f32s(eta_scale, k2),
-                        eta_scale
-                    )
-                );
-                st!(s.transmit, simd.select_f32s(transmit, one, zero));
+                let through = simd.and_m32s(iface, transmit);
+                eta_scale = simd.select_f32s(through, simd.div_f32s(eta_scale, k2), eta_scale);
+                transmit_v = simd.select_f32s(through, one, transmit_v);
                 next_dir = select(simd, iface, select(simd, mirror, wr, wt), next_dir);
                 next_org = select(simd, iface, select(simd, mirror, above, beneath), next_org);
                 next_beta = select(simd, iface, beta_i, next_beta);
@@ -819,7 +933,11 @@ impl pulp::WithSimd for Kernel<'_> {
             // Lanes outside the kernel (ended, or the next packet's paths
             // past a packet of eight at sixteen lanes) keep their columns:
             // their direction and throughput were not selected above.
-            let next_org = select(simd, simd.or_m32s(diffuse, iface), next_org, ld3!(io.org));
+            let next_org = select(simd, simd.or_m32s(scatter, iface), next_org, ld3!(io.org));
+            st!(s.below, below_v);
+            st!(s.prev_pdf, prev_pdf_v);
+            st!(s.transmit, transmit_v);
+            st!(io.eta_scale, eta_scale);
             st3!(io.dir, next_dir);
             st3!(io.org, next_org);
             st3!(io.beta, next_beta);

@@ -188,3 +188,46 @@ irradiance = [0.5, 0.5, 0.4]
         }
     }
 }
+
+/// Rough glass (GGX) in the kernel: frosted_glass_of_water's rough glass
+/// holds water (a nested solid in a rough solid), and a rough-glass ball
+/// under a rectangle (its light's connections pass through the surface).
+#[test]
+fn vector_shading_of_rough_glass_gives_the_scalar_paths() {
+    for name in ["frosted_glass_of_water", "rough_ball"] {
+        let mut s = if name == "rough_ball" {
+            let mut s = scene("three_spheres");
+            let glass = s
+                .geoms
+                .iter()
+                .position(|g| g.material.is_dielectric())
+                .expect("a glass sphere");
+            let distribution =
+                crate::bsdf::MicrofacetDistribution::try_new(crate::bsdf::MicrofacetKind::Ggx, 0.3, 0.1)
+                    .expect("roughness");
+            s.geoms[glass].material = crate::scene::Material::RoughInterface {
+                int_ior: 1.5,
+                ext_ior: 1.0,
+                distribution,
+            };
+            s
+        } else {
+            scene(name)
+        };
+        let scalar = pixels(&s, Shading::Scalar);
+        let right = differing(&scalar, &pixels(&s, Shading::Vector));
+        let eight = differing(&scalar, &pixels_in(&s, Shading::Vector, PacketWidth::Eight));
+        s.bsdf_variant = BsdfVariant::WrongRoughFresnel;
+        let half = differing(&scalar, &pixels(&s, Shading::Vector));
+        assert_eq!(differing(&scalar, &pixels(&s, Shading::Scalar)), 0.0, "{name}");
+        eprintln!(
+            "{name}: pixels differing from scalar shading: vector {right:.4} (packets of 8 {eight:.4}), \
+             half the Fresnel reflectance at rough facets {half:.4}"
+        );
+        assert!(right <= LIMIT && eight <= LIMIT, "{name}: {right}, {eight}");
+        assert!(
+            half > LIMIT,
+            "{name}: half the Fresnel reflectance passes: {half}"
+        );
+    }
+}

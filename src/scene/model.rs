@@ -48,6 +48,9 @@ pub(crate) enum BsdfVariant {
     /// Next-event estimation in vector shading leaves out the cosine at the
     /// shaded point.
     WrongNeeCosine,
+    /// Rough glass in vector shading reflects with half the Fresnel
+    /// reflectance at the sampled facet (and evaluates so).
+    WrongRoughFresnel,
 }
 
 /// Surface response.

@@ -22,9 +22,6 @@
 //! such (not subtracted from F), so that it keeps its relative precision
 //! as F approaches 1 near the critical angle.
 //!
-//! Nothing calls this yet outside the tests: the vector kernel is to send
-//! its rough-glass lanes here.
-#![cfg_attr(not(test), allow(dead_code))]
 
 use super::{normalize, sincos_turns};
 use crate::bsdf::{MicrofacetDistribution, MicrofacetKind};
@@ -75,7 +72,8 @@ pub(super) struct RoughSample<S: pulp::Simd> {
 /// The model, or one of the known-wrong variants that show the tests'
 /// power.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
-enum Variant {
+#[cfg_attr(not(test), allow(dead_code))]
+pub(super) enum Variant {
     Right,
     /// The Fresnel reflectance halved (the transmittance 1 − F/2).
     HalfFresnel,
@@ -367,13 +365,14 @@ impl<S: pulp::Simd> RoughLanes<S> {
     /// `Micro::sample` with the uniform numbers it draws, in its order:
     /// `u_lobe` picks reflection where it is ≤ F at the sampled facet, `u1`
     /// and `u2` draw the facet.
+    #[cfg(test)]
     #[inline(always)]
     pub fn sample(&self, simd: S, u_lobe: S::f32s, u1: S::f32s, u2: S::f32s) -> RoughSample<S> {
         self.sample_variant(simd, u_lobe, u1, u2, Variant::Right)
     }
 
     #[inline(always)]
-    fn sample_variant(
+    pub(super) fn sample_variant(
         &self,
         simd: S,
         u_lobe: S::f32s,
@@ -461,13 +460,14 @@ impl<S: pulp::Simd> RoughLanes<S> {
     /// [`RoughLanes::sample`] at the unit world direction `wi`; both 0
     /// where the geometric normal puts `wi` on the other side from the
     /// shading frame's, or where no facet joins the two directions.
+    #[cfg(test)]
     #[inline(always)]
     pub fn eval(&self, simd: S, wi: Vec3s<S>) -> (S::f32s, S::f32s) {
         self.eval_variant(simd, wi, Variant::Right)
     }
 
     #[inline(always)]
-    fn eval_variant(&self, simd: S, wi: Vec3s<S>, variant: Variant) -> (S::f32s, S::f32s) {
+    pub(super) fn eval_variant(&self, simd: S, wi: Vec3s<S>, variant: Variant) -> (S::f32s, S::f32s) {
         let zero = simd.splat_f32s(0.0);
         let one = simd.splat_f32s(1.0);
         let four = simd.splat_f32s(4.0);
