@@ -41,7 +41,7 @@ pub use cast::MAX_CHORDS_PER_SEGMENT;
 pub use lanes::{path_lanes, path_lanes_apply, path_stream, LanePackets};
 pub use observer::{RayObserver, RayQuery, RayRecorder};
 pub use path::PathStart;
-pub use refraction_path::{refraction_path, PathEvent, RefractionPath};
+pub use refraction_path::{refraction_path, refraction_path_with, PathEvent, Queries, RefractionPath};
 
 /// How paths find the light sources (a render setting, not part of the scene).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]

@@ -1,11 +1,16 @@
 //! A deterministic refraction-only path through dielectrics, for tests and
-//! audits that compare strategies and check interior lists.
+//! audits that compare strategies and check interior lists, its true hits
+//! found ray by ray or as the path tracer's wavefront finds them
+//! ([`Queries`]).
+use super::cast::intersect_packet;
 use super::Tracer;
 use crate::counters::Counters;
-use crate::dielectric::{self, InteriorList};
+use crate::dielectric::{self, Coincident, InteriorList, TrueHit};
+use crate::embree::{Packet16, RayPacket};
 use crate::error::Result;
 use crate::optics;
 use crate::ray::{front_facing, offset_origin, spawn_transmitted, Ray};
+use crate::scene::shapes::SetScratch;
 use glam::Vec3A as V3;
 
 /// One surface event along a deterministic refraction-only path.
@@ -36,6 +41,22 @@ pub struct PathEvent {
     pub next_tnear: f32,
 }
 
+/// How a refraction path finds each true hit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Queries {
+    /// `dielectric::trace`, ray by ray.
+    Single,
+    /// As the path tracer's wavefront: a (perhaps masked) packet query
+    /// where `dielectric::packet_query` allows one, its hit checked and the
+    /// masked solids settled, Embree's meshes completed by the analytic
+    /// set; `trace` where not, or where the check refuses the packet's hit.
+    Packets,
+    /// The tests' known-wrong packet route: a masked query's hit stands
+    /// without settling the solids its mask left out.
+    #[cfg(test)]
+    UnsettledPackets,
+}
+
 /// Follow a ray through dielectrics, always refracting (reflecting only under
 /// total internal reflection), stopping at the first non-dielectric surface,
 /// at a miss, or after `max_events`. Deterministic: used by tests and audits to
@@ -48,14 +69,78 @@ pub fn refraction_path(
     max_events: usize,
     counters: &mut Counters,
 ) -> Result<RefractionPath> {
+    refraction_path_with(tr, org, dir, start, max_events, counters, Queries::Single)
+}
+
+/// The true hit of `ray` inside `list` by the wavefront's packet query, as
+/// `wavefront::stream` makes and checks it (in lane 0 of `packet`); `None`
+/// when the wavefront would trace the ray alone (`list` may then hold
+/// what the check settled, as in the wavefront).
+fn packet_true_hit(
+    tr: Tracer<'_>,
+    ray: &Ray,
+    list: &mut InteriorList,
+    packet: &mut Packet16,
+    scratch: &mut SetScratch<16>,
+    c: &mut Counters,
+    queries: Queries,
+) -> Option<Option<TrueHit>> {
+    let scene = tr.scene;
+    let q = dielectric::packet_query(scene, tr.strategy, list)?;
+    packet.clear();
+    packet.set_ray(0, ray);
+    packet.set_mask(0, q.mask);
+    intersect_packet(scene, packet, false, scratch);
+    packet.set_mask(0, u32::MAX);
+    let hit = packet.hit(0);
+    c.queries += 1;
+    let known = !q.check
+        || if list.is_empty() {
+            dielectric::plain_hit_is_true(scene, tr.strategy, ray, hit.as_ref(), list)
+        } else {
+            let true_hit = dielectric::masked_hit_is_true(scene, ray, hit.as_ref(), list);
+            // (The tests' wrong route leaves the masked solids as they were.)
+            if true_hit && queries == Queries::Packets {
+                dielectric::settle_masked_after(scene, q, ray, hit.as_ref().map(|h| h.t), list, c);
+            }
+            true_hit
+        };
+    known.then(|| {
+        hit.map(|hit| TrueHit {
+            hit,
+            coincident: Coincident::NONE,
+        })
+    })
+}
+
+/// [`refraction_path`] with its true hits found by `queries`.
+pub fn refraction_path_with(
+    tr: Tracer<'_>,
+    org: V3,
+    dir: V3,
+    start: &[u32],
+    max_events: usize,
+    counters: &mut Counters,
+    queries: Queries,
+) -> Result<RefractionPath> {
     let scene = tr.scene;
     let mut list = InteriorList::from_solids(&scene.solids, start);
     let mut ray = Ray::new(org, dir.normalize());
     let mut events = Vec::new();
+    let mut packets =
+        (queries != Queries::Single).then(|| (Box::new(Packet16::new()), SetScratch::<16>::f32()));
     for _ in 0..max_events {
-        let Some(dielectric::TrueHit { hit, coincident }) =
-            dielectric::trace(scene, tr.strategy, &ray, &mut list, counters)?
-        else {
+        let packed = match &mut packets {
+            Some((packet, scratch)) => {
+                packet_true_hit(tr, &ray, &mut list, packet, scratch, counters, queries)
+            }
+            None => None,
+        };
+        let found = match packed {
+            Some(found) => found,
+            None => dielectric::trace(scene, tr.strategy, &ray, &mut list, counters)?,
+        };
+        let Some(TrueHit { hit, coincident }) = found else {
             return Ok(RefractionPath {
                 events,
                 final_list: list.sorted(),

@@ -287,6 +287,11 @@ pub struct AuditNestedArgs {
     /// Strategies to audit.
     #[arg(long, value_delimiter = ',', default_value = "filter,recast,toggle")]
     pub nested: Vec<NestedStrategy>,
+    /// Also audit each strategy with its true hits found as the path
+    /// tracer's wavefront finds them: packet queries (masked inside
+    /// overlapping solids) where it makes them, checked and settled.
+    #[arg(long)]
+    pub packets: bool,
     #[arg(long)]
     pub threads: Option<usize>,
     #[arg(long)]
