@@ -68,19 +68,6 @@ pub(super) struct PathScalars {
     pub(super) rng: Rng,
 }
 
-/// The columns of a packet's paths that the kernel reads and writes, from
-/// the packet's first path on (at least [`MAX`] entries each).
-pub(super) struct PathIo<'a> {
-    /// In: the segment's direction; out: the next one's.
-    pub(super) dir: [&'a mut [f32; MAX]; 3],
-    /// Out: the next segment's origin.
-    pub(super) org: [&'a mut [f32; MAX]; 3],
-    /// The throughput, updated.
-    pub(super) beta: [&'a mut [f32; MAX]; 3],
-    /// Russian roulette's index correction, updated at interfaces.
-    pub(super) eta_scale: &'a mut [f32; MAX],
-}
-
 /// The columns of the `N` paths of one packet, as arrays: lane `i` is
 /// path `base + i` (lanes past the live paths hold padding).
 pub(super) struct PacketPaths<'a, const N: usize> {
@@ -209,17 +196,6 @@ impl PathColumns {
             s: lanes(&mut self.scalars, base),
             lists: lanes(&mut self.lists, base),
             ended: lanes(&mut self.ended, base),
-        }
-    }
-
-    /// The kernel's view of paths `base..base + PAD`.
-    #[inline(always)]
-    pub(super) fn io(&mut self, base: usize) -> PathIo<'_> {
-        PathIo {
-            org: lanes3(&mut self.org, base),
-            dir: lanes3(&mut self.dir, base),
-            beta: lanes3(&mut self.beta, base),
-            eta_scale: lanes(&mut self.eta_scale, base),
         }
     }
 

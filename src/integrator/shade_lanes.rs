@@ -30,7 +30,7 @@
 //! of a Fresnel reflectance, or a direction within rounding of the critical
 //! angle, the two pick different lobes (the tests bound how often).
 use super::cast::NO_COINCIDENT;
-use super::columns::{self, PacketPaths, PathIo, MAX};
+use super::columns::{self, PacketPaths, MAX};
 use super::light::PendingShadow;
 use super::path::survives;
 use super::Tracer;
@@ -58,6 +58,12 @@ pub(super) enum Prepared {
     Alone,
 }
 
+/// Lanes the kernel's stage holds: eight packets' worth (it is shaded
+/// once another packet might not fit: [`ShadeLanes::full`]), so that its
+/// vectors are nearly all full whatever share of each packet's lanes ended
+/// or went alone.
+pub(super) const STAGE: usize = 8 * MAX;
+
 /// [`ShadeLanes::moves`]: the boundary changes the path's interior list.
 const NEW_LIST: u8 = 1;
 /// [`ShadeLanes::moves`]: the boundary is index-matched.
@@ -76,61 +82,72 @@ struct RectLight {
 }
 
 /// A packet's lanes between the phases, component by component.
-#[derive(Default)]
 pub(super) struct ShadeLanes {
+    /// Lanes staged for the kernel (prepared, not yet shaded): entries
+    /// `0..count` of the arrays below, from any packets of the step.
+    pub(super) count: usize,
+    /// Each staged lane's path: its place in the wavefront's columns.
+    pub(super) at: [u32; STAGE],
+    /// The staged lanes' rays' directions and throughputs, and Russian
+    /// roulette's index correction; the kernel writes the next ray's
+    /// direction, origin and throughput in their place.
+    dir: [[f32; STAGE]; 3],
+    org: [[f32; STAGE]; 3],
+    beta: [[f32; STAGE]; 3],
+    eta_scale: [f32; STAGE],
     /// Per lane: 1 for a Lambertian hit, 0 for a smooth interface, 2 for
     /// rough glass, −1 for a lane `prepare` did not send to the kernel
     /// ([`ShadeLanes::begin`]).
-    diffuse: [f32; MAX],
+    diffuse: [f32; STAGE],
     /// Lambertian and rough lanes that drew a light sample.
-    nee: [f32; MAX],
+    nee: [f32; STAGE],
     /// Interface lanes past the critical angle (no random number drawn).
-    tir: [f32; MAX],
-    p: [[f32; MAX]; 3],
+    tir: [f32; STAGE],
+    p: [[f32; STAGE]; 3],
     /// The geometric normal on the incident side.
-    side: [[f32; MAX]; 3],
+    side: [[f32; STAGE]; 3],
     /// The shading normal on the incident side.
-    n: [[f32; MAX]; 3],
-    albedo: [[f32; MAX]; 3],
-    n1: [f32; MAX],
-    n2: [f32; MAX],
+    n: [[f32; STAGE]; 3],
+    albedo: [[f32; STAGE]; 3],
+    n1: [f32; STAGE],
+    n2: [f32; STAGE],
     /// The step's random numbers: the light's two (`u[0]`, `u[1]`) and the
     /// bounce's two (`u[2]`, `u[3]`) at a Lambertian lane, the lobe's
     /// (`u[0]`) at a smooth interface, the light's two and the lobe's and
     /// facet's three (`u[2..5]`) at rough glass.
-    u: [[f32; MAX]; 5],
+    u: [[f32; STAGE]; 5],
     /// Rough glass lanes' roughnesses along the frame's two tangents.
-    alpha: [[f32; MAX]; 2],
+    alpha: [[f32; STAGE]; 2],
     /// A light sample drawn in [`ShadeLanes::prepare`] (any light but the
     /// kernel's rectangle): its direction, distance, radiance and density;
     /// `ls_delta` 1 for a point or directional light (no MIS).
-    ls_wi: [[f32; MAX]; 3],
-    ls_dist: [f32; MAX],
-    ls_li: [[f32; MAX]; 3],
-    ls_pdf: [f32; MAX],
-    ls_delta: [f32; MAX],
-    // The kernel's answers (besides the rays and throughputs of `PathIo`).
-    prev_pdf: [f32; MAX],
+    ls_wi: [[f32; STAGE]; 3],
+    ls_dist: [f32; STAGE],
+    ls_li: [[f32; STAGE]; 3],
+    ls_pdf: [f32; STAGE],
+    ls_delta: [f32; STAGE],
+    // The kernel's answers (besides the next rays and throughputs above).
+    prev_pdf: [f32; STAGE],
     /// The bounce fell below the surface: the path ends.
-    below: [f32; MAX],
+    below: [f32; STAGE],
     /// 1: the connection needs its shadow ray; 2: too short to hold
     /// anything, its contribution counts as it is; 0: none.
-    shadow: [f32; MAX],
-    shadow_org: [[f32; MAX]; 3],
-    shadow_dir: [[f32; MAX]; 3],
-    shadow_tfar: [f32; MAX],
-    contrib: [[f32; MAX]; 3],
+    shadow: [f32; STAGE],
+    shadow_org: [[f32; STAGE]; 3],
+    shadow_dir: [[f32; STAGE]; 3],
+    shadow_tfar: [f32; STAGE],
+    contrib: [[f32; STAGE]; 3],
     /// Interface lanes the kernel transmitted (1) or reflected (0).
-    transmit: [f32; MAX],
+    transmit: [f32; STAGE],
     /// What a transmission does at an interface lane besides the kernel's
     /// ray: [`NEW_LIST`], [`MATCHED`] (0 for most, whose other entries below
     /// are then stale).
-    moves: [u8; MAX],
+    moves: [u8; STAGE],
     /// The interior list a transmission carries ([`NEW_LIST`]).
-    after: [Option<InteriorList>; MAX],
+    after: [Option<InteriorList>; STAGE],
     /// The transmitted ray through an index-matched boundary ([`MATCHED`]):
     /// its own line continued, or spawned off the hit along its direction.
-    matched: [Option<Ray>; MAX],
+    matched: [Option<Ray>; STAGE],
     arch: pulp::Arch,
     /// The scene's only light when it is a rectangle (and the environment
     /// is not sampled): the kernel samples it itself. Otherwise `prepare`
@@ -144,13 +161,60 @@ pub(super) struct ShadeLanes {
     variant: crate::scene::model::BsdfVariant,
 }
 
-fn set3(a: &mut [[f32; MAX]; 3], i: usize, v: V3) {
+impl Default for ShadeLanes {
+    fn default() -> Self {
+        let one = [0.0; STAGE];
+        let three = [one; 3];
+        ShadeLanes {
+            count: 0,
+            at: [0; STAGE],
+            dir: three,
+            org: three,
+            beta: three,
+            eta_scale: one,
+            diffuse: one,
+            nee: one,
+            tir: one,
+            p: three,
+            side: three,
+            n: three,
+            albedo: three,
+            n1: one,
+            n2: one,
+            u: [one; 5],
+            alpha: [one; 2],
+            ls_wi: three,
+            ls_dist: one,
+            ls_li: three,
+            ls_pdf: one,
+            ls_delta: one,
+            prev_pdf: one,
+            below: one,
+            shadow: one,
+            shadow_org: three,
+            shadow_dir: three,
+            shadow_tfar: one,
+            contrib: three,
+            transmit: one,
+            moves: [0; STAGE],
+            after: std::array::from_fn(|_| None),
+            matched: [None; STAGE],
+            arch: pulp::Arch::default(),
+            light: None,
+            lined: false,
+            #[cfg(test)]
+            variant: Default::default(),
+        }
+    }
+}
+
+fn set3(a: &mut [[f32; STAGE]; 3], i: usize, v: V3) {
     a[0][i] = v.x;
     a[1][i] = v.y;
     a[2][i] = v.z;
 }
 
-fn get3(a: &[[f32; MAX]; 3], i: usize) -> V3 {
+fn get3(a: &[[f32; STAGE]; 3], i: usize) -> V3 {
     V3::new(a[0][i], a[1][i], a[2][i])
 }
 
@@ -190,12 +254,6 @@ impl ShadeLanes {
         self.lined = false;
     }
 
-    /// Before a packet's lanes are prepared: none waits for the kernel.
-    #[inline(always)]
-    pub(super) fn begin(&mut self) {
-        self.diffuse = [-1.0; MAX];
-    }
-
     /// Phase 1 for lane `i` of `paths`, whose segment along its ray was
     /// just cast (`sigma`: the absorption of the medium it crossed; `at`: its
     /// hit and surface point, `None` for a miss; `coincident`: the solid
@@ -209,6 +267,7 @@ impl ShadeLanes {
     pub(super) fn prepare<const N: usize>(
         &mut self,
         i: usize,
+        place: usize,
         tr: Tracer<'_>,
         paths: &mut PacketPaths<'_, N>,
         sigma: Option<V3>,
@@ -217,6 +276,8 @@ impl ShadeLanes {
         st: &mut Counters,
     ) -> Prepared {
         let scene = tr.scene;
+        // The lane's place in the kernel's stage, if it goes there.
+        let j = self.count;
         let dir = columns::get3(&paths.dir, i);
         let Some((hit, sp)) = at else {
             // Weighed against next-event estimation's sampling of the sun or
@@ -282,17 +343,17 @@ impl ShadeLanes {
         match (&rec.material, albedo) {
             (Material::Diffuse { .. }, Some(albedo)) => {
                 st.nee_draws += (albedo != V3::ZERO) as u64;
-                let nee = albedo != V3::ZERO && self.draw_light(i, scene, sp.p, rng);
+                let nee = albedo != V3::ZERO && self.draw_light(j, scene, sp.p, rng);
                 // A black reflectance ends the path without a bounce (as `advance`).
                 if albedo == V3::ZERO && beta.is_finite() {
                     st.ended_absorbed += 1;
                     return Prepared::Ended;
                 }
-                self.u[2][i] = rng.uniform();
-                self.u[3][i] = rng.uniform();
-                self.diffuse[i] = 1.0;
-                self.nee[i] = if nee { 1.0 } else { 0.0 };
-                set3(&mut self.albedo, i, albedo);
+                self.u[2][j] = rng.uniform();
+                self.u[3][j] = rng.uniform();
+                self.diffuse[j] = 1.0;
+                self.nee[j] = if nee { 1.0 } else { 0.0 };
+                set3(&mut self.albedo, j, albedo);
             }
             (
                 m @ (Material::Interface { .. }
@@ -308,8 +369,8 @@ impl ShadeLanes {
                 let (n1, n2) = (boundary.n1, boundary.n2);
                 #[cfg(test)]
                 let (n1, n2) = self.wrong_pair(scene, m, boundary.entering, (n1, n2));
-                self.n1[i] = n1;
-                self.n2[i] = n2;
+                self.n1[j] = n1;
+                self.n2[j] = n2;
                 // Rough glass as `Bsdf::at` makes it: the smooth boundary
                 // where the indices match (the model degenerates there).
                 let rough = match m {
@@ -322,24 +383,25 @@ impl ShadeLanes {
                     // `Micro`'s order: the light's numbers, then the lobe's
                     // and the facet's.
                     st.nee_draws += 1;
-                    let nee = self.draw_light(i, scene, sp.p, rng);
-                    self.nee[i] = if nee { 1.0 } else { 0.0 };
+                    let nee = self.draw_light(j, scene, sp.p, rng);
+                    self.nee[j] = if nee { 1.0 } else { 0.0 };
                     for k in 2..5 {
-                        self.u[k][i] = rng.uniform();
+                        self.u[k][j] = rng.uniform();
                     }
-                    self.alpha[0][i] = distribution.alpha_u();
-                    self.alpha[1][i] = distribution.alpha_v();
-                    self.moves[i] = match boundary.into_transmitted() {
+                    self.alpha[0][j] = distribution.alpha_u();
+                    self.alpha[1][j] = distribution.alpha_v();
+                    self.moves[j] = match boundary.into_transmitted() {
                         Some(list) => {
-                            self.after[i] = Some(list);
+                            self.after[j] = Some(list);
                             NEW_LIST
                         }
                         None => 0,
                     };
-                    self.diffuse[i] = 2.0;
-                    set3(&mut self.p, i, sp.p);
-                    set3(&mut self.side, i, side);
-                    set3(&mut self.n, i, n);
+                    self.diffuse[j] = 2.0;
+                    set3(&mut self.p, j, sp.p);
+                    set3(&mut self.side, j, side);
+                    set3(&mut self.n, j, n);
+                    self.stage(place, dir, beta, paths.eta_scale[i]);
                     return Prepared::Kernel;
                 }
                 // Past the critical angle no number is drawn (`Interface::sample`).
@@ -349,7 +411,7 @@ impl ShadeLanes {
                 if tir {
                     st.tir += 1;
                 } else {
-                    self.u[0][i] = rng.uniform();
+                    self.u[0][j] = rng.uniform();
                 }
                 // Through an index-matched boundary the path goes on along
                 // its own line (`ray::spawn_transmitted`), not from an offset.
@@ -357,16 +419,16 @@ impl ShadeLanes {
                 if n1 == n2 {
                     let ray = paths.ray(i);
                     let line = dielectric::keeps_line(scene).then_some((&ray, hit.t));
-                    self.matched[i] = Some(spawn_transmitted(sp.p, -side, dir, dir, (n1, n2), line));
+                    self.matched[j] = Some(spawn_transmitted(sp.p, -side, dir, dir, (n1, n2), line));
                     moves |= MATCHED;
                 }
                 if let Some(list) = boundary.into_transmitted() {
-                    self.after[i] = Some(list);
+                    self.after[j] = Some(list);
                     moves |= NEW_LIST;
                 }
-                self.moves[i] = moves;
-                self.diffuse[i] = 0.0;
-                self.tir[i] = if tir { 1.0 } else { 0.0 };
+                self.moves[j] = moves;
+                self.diffuse[j] = 0.0;
+                self.tir[j] = if tir { 1.0 } else { 0.0 };
             }
             _ => {
                 // Black, or a one-sided diffuse surface seen from behind.
@@ -374,10 +436,23 @@ impl ShadeLanes {
                 return Prepared::Ended;
             }
         }
-        set3(&mut self.p, i, sp.p);
-        set3(&mut self.side, i, side);
-        set3(&mut self.n, i, n);
+        set3(&mut self.p, j, sp.p);
+        set3(&mut self.side, j, side);
+        set3(&mut self.n, j, n);
+        self.stage(place, dir, beta, paths.eta_scale[i]);
         Prepared::Kernel
+    }
+
+    /// The lane just prepared joins the stage (`place`: its path's place
+    /// in the wavefront), with its ray's direction and its throughput.
+    #[inline(always)]
+    fn stage(&mut self, place: usize, dir: V3, beta: V3, eta_scale: f32) {
+        let j = self.count;
+        self.at[j] = place as u32;
+        set3(&mut self.dir, j, dir);
+        set3(&mut self.beta, j, beta);
+        self.eta_scale[j] = eta_scale;
+        self.count += 1;
     }
 
     /// Next-event estimation's draw for lane `i` at `p`, as `next_event`
@@ -451,11 +526,28 @@ impl ShadeLanes {
         }
     }
 
-    /// Phase 2: the kernel over the first `lanes` lanes, whose paths'
-    /// columns are `io`.
-    pub(super) fn shade(&mut self, lanes: usize, io: PathIo<'_>) {
+    /// Should the stage be shaded before another packet's lanes are
+    /// prepared (no room for a whole packet of `n` more)?
+    #[inline(always)]
+    pub(super) fn full(&self, n: usize) -> bool {
+        self.count > STAGE - n
+    }
+
+    /// Phase 2: the kernel over the staged lanes; returns the vector lanes
+    /// it computed (whole vectors). The stage is emptied by the caller's
+    /// [`ShadeLanes::finish`] of each lane and [`ShadeLanes::clear`].
+    pub(super) fn shade(&mut self) -> usize {
+        // Lanes past the staged ones, in the last vector, are of no kind.
+        self.diffuse[self.count..].fill(-1.0);
         let arch = self.arch;
-        arch.dispatch(Kernel { s: self, io, lanes });
+        let lanes = self.count;
+        arch.dispatch(Kernel { s: self, lanes })
+    }
+
+    /// After the staged lanes' [`ShadeLanes::finish`]: an empty stage.
+    #[inline(always)]
+    pub(super) fn clear(&mut self) {
+        self.count = 0;
     }
 
     /// Phase 3 for lane `i` of `paths`, which `prepare` sent to the kernel: the
@@ -465,30 +557,37 @@ impl ShadeLanes {
     #[inline(always)]
     pub(super) fn finish<const N: usize>(
         &mut self,
+        j: usize,
         i: usize,
         scene: &RenderScene,
         paths: &mut PacketPaths<'_, N>,
         st: &mut Counters,
     ) -> (Option<PendingShadow>, bool) {
         let mut shadow = None;
-        let kind = self.diffuse[i];
+        // The kernel's next ray and throughput (a ray through an
+        // index-matched boundary is set again below).
+        columns::set3(&mut paths.dir, i, get3(&self.dir, j));
+        columns::set3(&mut paths.org, i, get3(&self.org, j));
+        columns::set3(&mut paths.beta, i, get3(&self.beta, j));
+        paths.eta_scale[i] = self.eta_scale[j];
+        let kind = self.diffuse[j];
         if kind != 0.0 {
-            if self.shadow[i] != 0.0 {
+            if self.shadow[j] != 0.0 {
                 st.shadow_rays += 1;
-                let contrib = get3(&self.contrib, i);
-                if self.shadow[i] == 2.0 {
+                let contrib = get3(&self.contrib, j);
+                if self.shadow[j] == 2.0 {
                     paths.s[i].l += contrib;
                 } else {
-                    let mut ray = Ray::new(get3(&self.shadow_org, i), get3(&self.shadow_dir, i));
-                    ray.tfar = self.shadow_tfar[i];
+                    let mut ray = Ray::new(get3(&self.shadow_org, j), get3(&self.shadow_dir, j));
+                    ray.tfar = self.shadow_tfar[j];
                     shadow = Some(PendingShadow { ray, contrib });
                 }
             }
-            if self.below[i] != 0.0 {
+            if self.below[j] != 0.0 {
                 st.ended_absorbed += 1;
                 return (shadow, false);
             }
-            paths.s[i].prev_pdf = self.prev_pdf[i];
+            paths.s[i].prev_pdf = self.prev_pdf[j];
             paths.s[i].specular = false;
             paths.s[i].only_specular = false;
             paths.s[i].tnear = 0.0;
@@ -497,8 +596,8 @@ impl ShadeLanes {
             paths.s[i].tnear = 0.0;
         }
         // A transmission through a boundary (smooth or rough).
-        if kind != 1.0 && self.transmit[i] != 0.0 && self.moves[i] != 0 {
-            if let Some(list) = self.after[i].take().filter(|_| self.moves[i] & NEW_LIST != 0) {
+        if kind != 1.0 && self.transmit[j] != 0.0 && self.moves[j] != 0 {
+            if let Some(list) = self.after[j].take().filter(|_| self.moves[j] & NEW_LIST != 0) {
                 #[cfg(test)]
                 let list = if self.variant == crate::scene::model::BsdfVariant::WrongNestedList {
                     paths.lists[i].clone()
@@ -507,12 +606,12 @@ impl ShadeLanes {
                 };
                 paths.lists[i] = list;
             }
-            if let Some(ray) = self.matched[i].filter(|_| self.moves[i] & MATCHED != 0) {
+            if let Some(ray) = self.matched[j].filter(|_| self.moves[j] & MATCHED != 0) {
                 paths.set_ray(i, &ray);
                 self.lined |= ray.tnear != 0.0;
             }
         }
-        paths.s[i].prev_p = get3(&self.p, i);
+        paths.s[i].prev_p = get3(&self.p, j);
         let mut beta = columns::get3(&paths.beta, i);
         let go = survives(
             &mut beta,
@@ -530,7 +629,6 @@ impl ShadeLanes {
 /// Phase 2's vector code.
 struct Kernel<'a> {
     s: &'a mut ShadeLanes,
-    io: PathIo<'a>,
     lanes: usize,
 }
 
@@ -617,12 +715,11 @@ fn sincos_turns<S: pulp::Simd>(simd: S, u: S::f32s) -> (S::f32s, S::f32s) {
 }
 
 impl pulp::WithSimd for Kernel<'_> {
-    type Output = ();
+    type Output = usize;
 
     #[inline(always)]
-    fn with_simd<S: pulp::Simd>(self, simd: S) {
+    fn with_simd<S: pulp::Simd>(self, simd: S) -> usize {
         let s = self.s;
-        let io = self.io;
         let w = S::F32_LANES;
         let chunks = self.lanes.div_ceil(w);
         let light = s.light;
@@ -668,11 +765,11 @@ impl pulp::WithSimd for Kernel<'_> {
                     simd.first_true_m32s($m) < w
                 };
             }
-            let d = ld3!(io.dir);
+            let d = ld3!(s.dir);
             let p = ld3!(s.p);
             let side = ld3!(s.side);
             let n = ld3!(s.n);
-            let beta = ld3!(io.beta);
+            let beta = ld3!(s.beta);
             // `offset_size(p)`: the spawn offset.
             let big = simd.max_f32s(
                 simd.max_f32s(simd.abs_f32s(p[0]), simd.abs_f32s(p[1])),
@@ -693,7 +790,7 @@ impl pulp::WithSimd for Kernel<'_> {
             let mut below_v = zero;
             let mut prev_pdf_v = zero;
             let mut transmit_v = zero;
-            let mut eta_scale = ld!(io.eta_scale);
+            let mut eta_scale = ld!(s.eta_scale);
             // Rough glass lanes' model (its frame and the index pair).
             let rough_model = any!(rough).then(|| {
                 RoughLanes::new(
@@ -930,18 +1027,16 @@ impl pulp::WithSimd for Kernel<'_> {
                 next_org = select(simd, iface, select(simd, mirror, above, beneath), next_org);
                 next_beta = select(simd, iface, beta_i, next_beta);
             }
-            // Lanes outside the kernel (ended, or the next packet's paths
-            // past a packet of eight at sixteen lanes) keep their columns:
-            // their direction and throughput were not selected above.
-            let next_org = select(simd, simd.or_m32s(scatter, iface), next_org, ld3!(io.org));
+            // (Lanes past the staged ones compute nothing anyone reads.)
             st!(s.below, below_v);
             st!(s.prev_pdf, prev_pdf_v);
             st!(s.transmit, transmit_v);
-            st!(io.eta_scale, eta_scale);
-            st3!(io.dir, next_dir);
-            st3!(io.org, next_org);
-            st3!(io.beta, next_beta);
+            st!(s.eta_scale, eta_scale);
+            st3!(s.dir, next_dir);
+            st3!(s.org, next_org);
+            st3!(s.beta, next_beta);
         }
+        chunks * w
     }
 }
 

@@ -3,22 +3,25 @@
 //! `N` consecutive paths' rays into a packet straight from the columns, and
 //! shades each lane in one of two ways:
 //!
-//! - in vector registers ([`ShadeLanes`]): Lambertian surfaces lit by the
-//!   scene's one rectangular light, smooth interfaces and the boundaries of
+//! - in vector registers ([`ShadeLanes`]): Lambertian surfaces under any
+//!   light, smooth interfaces, rough (GGX) glass and the boundaries of
 //!   nested solids, black surfaces, emission and misses. A scalar phase per
 //!   lane reads the material, resolves a boundary's index pair (the nested
-//!   rule) and draws the step's random numbers; the kernel makes every lane's
-//!   light sample, bounce, Fresnel choice and next ray at once, reading and
-//!   writing the same columns; a scalar phase hands back the shadow ray,
-//!   moves a transmitted path's interior list and plays roulette;
+//!   rule), draws the step's random numbers (a light's sample among them,
+//!   but for a lone rectangle's) and stages the lane; once the stage holds
+//!   several packets' lanes the kernel makes every staged lane's light
+//!   weight, bounce or lobe and next ray at once, in full vectors; a scalar
+//!   phase then hands back each shadow ray, writes the next ray into the
+//!   columns, moves a transmitted path's interior list and plays roulette;
 //! - one at a time by the single-ray step ([`PathState::advance`]) for every
-//!   other lane (other materials and lights, a hit with coincident solid
-//!   surfaces, an observed or BSDF-sampled render), and for every lane with
+//!   other lane (other materials, a hit with coincident solid surfaces, an
+//!   observed or BSDF-sampled render), and for every lane with
 //!   `--shading scalar`, which is the single-ray path tracer bit for bit.
 //!
 //! Segments that a plain query answers go to Embree (or the analytic set)
-//! in the packet; the others (rays inside overlapping solids) are traced one
-//! by one through [`dielectric::trace`]. Shadow rays follow in packets of
+//! in the packet, masked inside overlapping solids where one masked query
+//! answers them (`dielectric::packet_query`); the others are traced one by
+//! one through [`dielectric::trace`]. Shadow rays follow in packets of
 //! their own, then the paths that ended leave by compaction.
 //!
 //! Each path's radiance is the one the single-ray path tracer gives with its
@@ -99,6 +102,27 @@ pub(super) fn stream<const N: usize, P: RayPacket<N>>(
             }
         };
     }
+    // The kernel over the staged lanes (prepared from any packets of the
+    // step), then each one's last phase.
+    macro_rules! flush {
+        () => {
+            occupancy.shade_slots += shade.shade() as u64;
+            occupancy.shade_lanes += shade.count as u64;
+            for j in 0..shade.count {
+                let k = shade.at[j] as usize;
+                let base = k - k % N;
+                let lanes = &mut cols.packet::<N>(base);
+                let i = k - base;
+                let st = counts!(lanes.s[i].slot);
+                let (sh, go) = shade.finish(j, i, scene, lanes, st);
+                if let Some(sh) = sh {
+                    waiting.push((k as u32, sh));
+                }
+                lanes.ended[i] = !go;
+            }
+            shade.clear();
+        };
+    }
     // Some path has continued its line (`PathScalars::tnear`): the packets'
     // rays then need their starts.
     let mut lined = false;
@@ -173,8 +197,6 @@ pub(super) fn stream<const N: usize, P: RayPacket<N>>(
                     near.set_mask(i, u32::MAX);
                 }
             }
-            shade.begin();
-            let mut kernel = [false; N];
             for i in 0..n {
                 let st = counts!(lanes.s[i].slot);
                 st.segments += 1;
@@ -227,16 +249,14 @@ pub(super) fn stream<const N: usize, P: RayPacket<N>>(
                         st.queries += 1;
                     }
                     let at = hit.as_ref().zip(sp.as_ref());
-                    shade.prepare(i, tr, lanes, sigma, at, coincident, st)
+                    shade.prepare(i, base + i, tr, lanes, sigma, at, coincident, st)
                 } else {
                     Prepared::Alone
                 };
                 let go = match prepared {
                     Prepared::Ended => false,
-                    Prepared::Kernel => {
-                        kernel[i] = true;
-                        true
-                    }
+                    // (Ended or not once the stage is shaded.)
+                    Prepared::Kernel => true,
                     Prepared::Alone => {
                         let ray = lanes.ray(i);
                         let known_seg;
@@ -262,28 +282,16 @@ pub(super) fn stream<const N: usize, P: RayPacket<N>>(
                 };
                 lanes.ended[i] = !go;
             }
-            if kernel.contains(&true) {
-                shade.shade(n, cols.io(base));
-                occupancy.shade_slots += N as u64;
-                occupancy.shade_lanes += kernel.iter().filter(|&&k| k).count() as u64;
-                let lanes = &mut cols.packet::<N>(base);
-                for i in 0..n {
-                    if !kernel[i] {
-                        continue;
-                    }
-                    let st = counts!(lanes.s[i].slot);
-                    let (sh, go) = shade.finish(i, scene, lanes, st);
-                    if let Some(sh) = sh {
-                        waiting.push(((base + i) as u32, sh));
-                    }
-                    lanes.ended[i] = !go;
-                }
+            if shade.full(N) {
+                flush!();
             }
+        }
+        if shade.count > 0 {
+            flush!();
         }
         lined |= shade.lined;
         // The step's shadow rays, packed: each path's before its next
-        // segment. (`waiting` is in path order per packet, kernel lanes
-        // after the packet's others: each path has at most one.)
+        // segment. (Each path has at most one.)
         resolve_shadows(scene, shadow, waiting, occupancy, scratch, |at, contrib| {
             cols.scalars[at].l += contrib;
         });

@@ -7,34 +7,10 @@ use crate::sampling::{cosine_hemisphere, uniform_sphere};
 use crate::sampling::Rng;
 use crate::vector_levels as levels;
 
-/// A packet's path columns, as the wavefront holds them.
-#[derive(Clone, Copy, Default)]
-struct Columns {
-    dir: [[f32; MAX]; 3],
-    org: [[f32; MAX]; 3],
-    beta: [[f32; MAX]; 3],
-    eta_scale: [f32; MAX],
-}
-
-impl Columns {
-    fn io(&mut self) -> PathIo<'_> {
-        let [dx, dy, dz] = &mut self.dir;
-        let [ox, oy, oz] = &mut self.org;
-        let [bx, by, bz] = &mut self.beta;
-        PathIo {
-            dir: [dx, dy, dz],
-            org: [ox, oy, oz],
-            beta: [bx, by, bz],
-            eta_scale: &mut self.eta_scale,
-        }
-    }
-}
-
-/// Sixteen random lanes, even ones Lambertian, odd ones interfaces, as
-/// `prepare` leaves them (the shading normal tilted from the geometric
-/// one at some), lit by a rect light above.
-fn random_lanes(rng: &mut Rng, arch: pulp::Arch) -> (ShadeLanes, Columns) {
-    let mut c = Columns::default();
+/// A full stage of random lanes, even ones Lambertian, odd ones
+/// interfaces, as `prepare` leaves them (the shading normal tilted from the
+/// geometric one at some), lit by a rect light above.
+fn random_lanes(rng: &mut Rng, arch: pulp::Arch) -> ShadeLanes {
     let mut s = ShadeLanes {
         arch,
         light: Some(RectLight {
@@ -45,10 +21,11 @@ fn random_lanes(rng: &mut Rng, arch: pulp::Arch) -> (ShadeLanes, Columns) {
             area: 4.0,
             radiance: V3::new(5.0, 4.0, 3.0),
         }),
+        count: STAGE,
         ..ShadeLanes::default()
     };
     let pairs = [(1.0, 1.5), (1.5, 1.0), (1.33, 1.5), (1.5, 1.33)];
-    for i in 0..MAX {
+    for i in 0..STAGE {
         let side = uniform_sphere(rng.uniform(), rng.uniform());
         let tilt = if i % 4 < 2 { 0.0 } else { 0.2 };
         let n = (side + uniform_sphere(rng.uniform(), rng.uniform()) * tilt).normalize();
@@ -57,12 +34,12 @@ fn random_lanes(rng: &mut Rng, arch: pulp::Arch) -> (ShadeLanes, Columns) {
             d = -d;
         }
         let p = V3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 4.0 - 2.0;
-        set3(&mut c.dir, i, d);
+        set3(&mut s.dir, i, d);
         set3(&mut s.p, i, p);
         set3(&mut s.side, i, side);
         set3(&mut s.n, i, n);
-        set3(&mut c.beta, i, V3::new(0.9, 0.5, 0.7));
-        c.eta_scale[i] = 1.0;
+        set3(&mut s.beta, i, V3::new(0.9, 0.5, 0.7));
+        s.eta_scale[i] = 1.0;
         set3(&mut s.albedo, i, V3::new(0.8, 0.6, 0.4));
         for u in &mut s.u {
             u[i] = rng.uniform();
@@ -75,7 +52,7 @@ fn random_lanes(rng: &mut Rng, arch: pulp::Arch) -> (ShadeLanes, Columns) {
         s.diffuse[i] = (i % 2 == 0) as u8 as f32;
         s.nee[i] = s.diffuse[i];
     }
-    (s, c)
+    s
 }
 
 fn close(a: V3, b: V3) -> bool {
@@ -93,18 +70,19 @@ fn the_kernel_is_the_scalar_model_at_every_level() {
         let mut rng = Rng::new(7);
         let (mut checked, mut swapped_caught, mut diffuse) = (0, 0, 0);
         for _ in 0..500 {
-            let (mut s, mut c) = random_lanes(&mut rng, arch);
-            let before = c;
-            s.shade(MAX, c.io());
-            for i in 0..MAX {
+            let mut s = random_lanes(&mut rng, arch);
+            let (before_dir, before_beta) = (s.dir, s.beta);
+            assert_eq!(s.shade() % STAGE, 0, "{arch:?}: whole vectors");
+            let c = &s;
+            for i in 0..STAGE {
                 let (d, n, side, p) = (
-                    get3(&before.dir, i),
+                    get3(&before_dir, i),
                     get3(&s.n, i),
                     get3(&s.side, i),
                     get3(&s.p, i),
                 );
                 let dir = get3(&c.dir, i);
-                let beta0 = get3(&before.beta, i);
+                let beta0 = get3(&before_beta, i);
                 if s.diffuse[i] != 0.0 {
                     let wi = cosine_hemisphere(n, s.u[2][i], s.u[3][i]);
                     assert_eq!(s.below[i] != 0.0, side.dot(wi) <= 0.0, "{arch:?} lane {i}");
@@ -126,8 +104,11 @@ fn the_kernel_is_the_scalar_model_at_every_level() {
                         let w = power_heuristic(pdf, cos * FRAC_1_PI);
                         let c = beta0 * get3(&s.albedo, i) * FRAC_1_PI * l.radiance * (cos * w / pdf);
                         let got = get3(&s.contrib, i);
+                        // Both in f32, in other orders: the light's cosine
+                        // and distance near grazing carry their rounding
+                        // into the density (seen up to 1.0e-4 relative).
                         assert!(
-                            (got - c).abs().max_element() <= 1e-4 * c.max_element(),
+                            (got - c).abs().max_element() <= 3e-4 * c.max_element(),
                             "{got} vs {c}"
                         );
                         assert!(close(get3(&s.shadow_dir, i), lw));
@@ -163,7 +144,7 @@ fn the_kernel_is_the_scalar_model_at_every_level() {
                 checked += 1;
             }
         }
-        assert!(checked > 7000, "{arch:?}: {checked}");
+        assert!(checked > 14000, "{arch:?}: {checked}");
         // Swapping the bounce's numbers moves nearly every direction.
         assert!(
             swapped_caught * 10 > diffuse * 9,
