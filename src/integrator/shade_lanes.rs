@@ -945,6 +945,8 @@ impl pulp::WithSimd for Kernel<'_> {
     }
 }
 
+mod conductor;
+mod ggx;
 mod rough;
 
 #[cfg(test)]
