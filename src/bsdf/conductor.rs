@@ -71,6 +71,21 @@ impl Conductor {
         Conductor::try_new(m.eta, m.k, specular_reflectance)
     }
 
+    /// The real part η of the complex index, per RGB channel.
+    pub fn eta(&self) -> Vec3 {
+        self.eta
+    }
+
+    /// The extinction coefficient κ, per RGB channel.
+    pub fn k(&self) -> Vec3 {
+        self.k
+    }
+
+    /// The RGB factor on the reflection.
+    pub fn specular_reflectance(&self) -> Vec3 {
+        self.specular_reflectance
+    }
+
     /// The reflectance at cosine of incidence `cos_theta` (> 0).
     pub fn reflectance(&self, cos_theta: f32) -> Vec3 {
         self.specular_reflectance * fresnel::conductor(cos_theta, self.eta, self.k)
@@ -141,6 +156,21 @@ impl RoughConductor {
     /// The microfacet distribution.
     pub fn distribution(&self) -> &MicrofacetDistribution {
         &self.distribution
+    }
+
+    /// The real part η of the complex index, per RGB channel.
+    pub fn eta(&self) -> Vec3 {
+        self.eta
+    }
+
+    /// The extinction coefficient κ, per RGB channel.
+    pub fn k(&self) -> Vec3 {
+        self.k
+    }
+
+    /// The RGB factor on the reflection.
+    pub fn specular_reflectance(&self) -> Vec3 {
+        self.specular_reflectance
     }
 
     /// The half vector of two directions above the surface that both see

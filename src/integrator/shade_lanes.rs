@@ -1040,6 +1040,8 @@ impl pulp::WithSimd for Kernel<'_> {
     }
 }
 
+mod conductor;
+mod ggx;
 mod rough;
 
 #[cfg(test)]

@@ -23,25 +23,18 @@
 //! as F approaches 1 near the critical angle.
 //!
 
-use super::{normalize, sincos_turns};
-use crate::bsdf::{MicrofacetDistribution, MicrofacetKind};
+use super::ggx::{finite, neg, Frame, Ggx};
+use super::normalize;
 use crate::simd3::{add, dot, scale, select, sub, Vec3s};
-use std::f32::consts::PI;
 
-/// Whether [`RoughLanes`] models `distribution` (in radiance transport,
-/// as `Bsdf::at` builds it): GGX (either roughness pair) yes; Beckmann
-/// no, its lanes go to the scalar step.
-pub(super) fn supports(distribution: &MicrofacetDistribution) -> bool {
-    distribution.kind() == MicrofacetKind::Ggx
-}
+/// Whether [`RoughLanes`] models a distribution: GGX yes, Beckmann no (its
+/// lanes go to the scalar step).
+pub(super) use super::ggx::supports;
 
 /// Rough glass at one hit per lane (`scatter::Micro` of a
 /// `RoughDielectric`), in the shading frame `Frame::from_normal` builds.
 pub(super) struct RoughLanes<S: pulp::Simd> {
-    /// The frame's tangents (local x and y) and normal (local z).
-    s: Vec3s<S>,
-    t: Vec3s<S>,
-    n: Vec3s<S>,
+    frame: Frame<S>,
     /// The direction back along the incident ray, local.
     wo: Vec3s<S>,
     /// The geometric normal on the incident side.
@@ -49,8 +42,7 @@ pub(super) struct RoughLanes<S: pulp::Simd> {
     /// n2 / n1: the index of the −z side over the +z side's
     /// (`RoughDielectric::eta` with ext_ior = n1 and int_ior = n2).
     eta: S::f32s,
-    alpha_u: S::f32s,
-    alpha_v: S::f32s,
+    ggx: Ggx<S>,
 }
 
 /// A direction drawn by [`RoughLanes::sample`], per lane. Only the lanes
@@ -163,41 +155,6 @@ fn fresnel<S: pulp::Simd>(
     }
 }
 
-/// `sampling::basis(n)`: the tangents of `Frame::from_normal`.
-#[inline(always)]
-fn basis<S: pulp::Simd>(simd: S, n: Vec3s<S>) -> (Vec3s<S>, Vec3s<S>) {
-    let one = simd.splat_f32s(1.0);
-    // `1.0f32.copysign(n.z)`: the sign bit of n.z on 1.
-    let sign = simd.or_f32s(one, simd.and_f32s(n[2], simd.splat_f32s(-0.0)));
-    let a = simd.div_f32s(simd.splat_f32s(-1.0), simd.add_f32s(sign, n[2]));
-    let b = simd.mul_f32s(simd.mul_f32s(n[0], n[1]), a);
-    let s = [
-        simd.add_f32s(
-            one,
-            simd.mul_f32s(simd.mul_f32s(simd.mul_f32s(sign, n[0]), n[0]), a),
-        ),
-        simd.mul_f32s(sign, b),
-        simd.neg_f32s(simd.mul_f32s(sign, n[0])),
-    ];
-    let t = [
-        b,
-        simd.add_f32s(sign, simd.mul_f32s(simd.mul_f32s(n[1], n[1]), a)),
-        simd.neg_f32s(n[1]),
-    ];
-    (s, t)
-}
-
-#[inline(always)]
-fn neg<S: pulp::Simd>(simd: S, a: Vec3s<S>) -> Vec3s<S> {
-    [simd.neg_f32s(a[0]), simd.neg_f32s(a[1]), simd.neg_f32s(a[2])]
-}
-
-/// `x` is neither infinite nor NaN.
-#[inline(always)]
-fn finite<S: pulp::Simd>(simd: S, x: S::f32s) -> S::m32s {
-    simd.less_than_f32s(simd.abs_f32s(x), simd.splat_f32s(f32::INFINITY))
-}
-
 impl<S: pulp::Simd> RoughLanes<S> {
     /// The boundary met along unit `d` (world) with unit shading normal
     /// `n` oriented towards the incident side (against `d`, but where it
@@ -218,148 +175,14 @@ impl<S: pulp::Simd> RoughLanes<S> {
         alpha_u: S::f32s,
         alpha_v: S::f32s,
     ) -> Self {
-        let (s, t) = basis(simd, n);
-        let back = neg(simd, d);
+        let frame = Frame::new(simd, n);
         RoughLanes {
-            wo: [dot(simd, back, s), dot(simd, back, t), dot(simd, back, n)],
-            s,
-            t,
-            n,
+            wo: frame.to_local(simd, neg(simd, d)),
+            frame,
             side,
             eta: simd.div_f32s(n2, n1),
-            alpha_u,
-            alpha_v,
+            ggx: Ggx { alpha_u, alpha_v },
         }
-    }
-
-    /// Local `v` in world coordinates.
-    #[inline(always)]
-    fn to_world(&self, simd: S, v: Vec3s<S>) -> Vec3s<S> {
-        add(
-            simd,
-            add(simd, scale(simd, self.s, v[0]), scale(simd, self.t, v[1])),
-            scale(simd, self.n, v[2]),
-        )
-    }
-
-    /// D(m) of `MicrofacetDistribution::d` (0 for m.z ≤ 0 and where
-    /// D cos θm ≤ 1e-20).
-    #[inline(always)]
-    fn d(&self, simd: S, m: Vec3s<S>) -> S::f32s {
-        let zero = simd.splat_f32s(0.0);
-        let z = m[2];
-        let x = simd.div_f32s(m[0], self.alpha_u);
-        let y = simd.div_f32s(m[1], self.alpha_v);
-        let z2 = simd.mul_f32s(z, z);
-        let t = simd.add_f32s(simd.add_f32s(simd.mul_f32s(x, x), simd.mul_f32s(y, y)), z2);
-        let k = simd.mul_f32s(simd.mul_f32s(simd.splat_f32s(PI), self.alpha_u), self.alpha_v);
-        let d = simd.div_f32s(simd.splat_f32s(1.0), simd.mul_f32s(simd.mul_f32s(k, t), t));
-        let keep = simd.and_m32s(
-            simd.and_m32s(simd.greater_than_f32s(z, zero), finite(simd, d)),
-            simd.greater_than_f32s(simd.mul_f32s(d, z), simd.splat_f32s(1e-20)),
-        );
-        simd.select_f32s(keep, d, zero)
-    }
-
-    /// G1(w, m) = 1 / (1 + Λ(w)), 0 where w sees the facet from the wrong
-    /// side, and 0 at grazing w (Λ infinite).
-    #[inline(always)]
-    fn g1(&self, simd: S, w: Vec3s<S>, m: Vec3s<S>) -> S::f32s {
-        let zero = simd.splat_f32s(0.0);
-        let one = simd.splat_f32s(1.0);
-        let (ax, ay) = (
-            simd.mul_f32s(self.alpha_u, w[0]),
-            simd.mul_f32s(self.alpha_v, w[1]),
-        );
-        let xy = simd.add_f32s(simd.mul_f32s(ax, ax), simd.mul_f32s(ay, ay));
-        let t = simd.div_f32s(xy, simd.mul_f32s(w[2], w[2]));
-        // (√(1 + t) − 1) / 2 without the cancellation at small t.
-        let lambda = simd.div_f32s(
-            simd.mul_f32s(simd.splat_f32s(0.5), t),
-            simd.add_f32s(one, simd.sqrt_f32s(simd.add_f32s(one, t))),
-        );
-        let lambda = simd.select_f32s(finite(simd, t), lambda, simd.splat_f32s(f32::INFINITY));
-        let lambda = simd.select_f32s(simd.equal_f32s(xy, zero), zero, lambda);
-        let g = simd.div_f32s(one, simd.add_f32s(one, lambda));
-        let seen = simd.greater_than_f32s(simd.mul_f32s(dot(simd, w, m), w[2]), zero);
-        simd.select_f32s(seen, g, zero)
-    }
-
-    /// The density of visible normals seen from `wo` at `m`
-    /// (`MicrofacetDistribution::pdf`, `wo` below the surface turned over).
-    #[inline(always)]
-    fn pdf_m(&self, simd: S, m: Vec3s<S>) -> S::f32s {
-        let zero = simd.splat_f32s(0.0);
-        let below = simd.less_than_f32s(self.wo[2], zero);
-        let w = select(simd, below, neg(simd, self.wo), self.wo);
-        let p = simd.div_f32s(
-            simd.mul_f32s(
-                simd.mul_f32s(self.g1(simd, w, m), simd.max_f32s(dot(simd, w, m), zero)),
-                self.d(simd, m),
-            ),
-            w[2],
-        );
-        simd.select_f32s(simd.equal_f32s(w[2], zero), zero, p)
-    }
-
-    /// A normal visible from `wo` (`wo` below the surface turned over)
-    /// from two uniform numbers: Heitz 2018, as `sample_ggx`.
-    #[inline(always)]
-    fn sample_visible(&self, simd: S, u1: S::f32s, u2: S::f32s) -> Vec3s<S> {
-        let zero = simd.splat_f32s(0.0);
-        let one = simd.splat_f32s(1.0);
-        let below = simd.less_than_f32s(self.wo[2], zero);
-        let w = select(simd, below, neg(simd, self.wo), self.wo);
-        let vh = normalize(
-            simd,
-            [
-                simd.mul_f32s(self.alpha_u, w[0]),
-                simd.mul_f32s(self.alpha_v, w[1]),
-                w[2],
-            ],
-        );
-        let lensq = simd.add_f32s(simd.mul_f32s(vh[0], vh[0]), simd.mul_f32s(vh[1], vh[1]));
-        let len = simd.sqrt_f32s(lensq);
-        let t1 = select(
-            simd,
-            simd.greater_than_f32s(lensq, zero),
-            [
-                simd.div_f32s(simd.neg_f32s(vh[1]), len),
-                simd.div_f32s(vh[0], len),
-                zero,
-            ],
-            [one, zero, zero],
-        );
-        // vh × t1, as glam's `cross`.
-        let t2 = [
-            simd.sub_f32s(simd.mul_f32s(vh[1], t1[2]), simd.mul_f32s(t1[1], vh[2])),
-            simd.sub_f32s(simd.mul_f32s(vh[2], t1[0]), simd.mul_f32s(t1[2], vh[0])),
-            simd.sub_f32s(simd.mul_f32s(vh[0], t1[1]), simd.mul_f32s(t1[0], vh[1])),
-        ];
-        let r = simd.sqrt_f32s(u1);
-        let (sin, cos) = sincos_turns(simd, u2);
-        let p1 = simd.mul_f32s(r, cos);
-        let p2 = simd.mul_f32s(r, sin);
-        let s = simd.mul_f32s(simd.splat_f32s(0.5), simd.add_f32s(one, vh[2]));
-        let rest1 = simd.sub_f32s(one, simd.mul_f32s(p1, p1));
-        let p2 = simd.add_f32s(
-            simd.mul_f32s(simd.sub_f32s(one, s), simd.sqrt_f32s(simd.max_f32s(rest1, zero))),
-            simd.mul_f32s(s, p2),
-        );
-        let h = simd.sqrt_f32s(simd.max_f32s(simd.sub_f32s(rest1, simd.mul_f32s(p2, p2)), zero));
-        let nh = add(
-            simd,
-            add(simd, scale(simd, t1, p1), scale(simd, t2, p2)),
-            scale(simd, vh, h),
-        );
-        normalize(
-            simd,
-            [
-                simd.mul_f32s(self.alpha_u, nh[0]),
-                simd.mul_f32s(self.alpha_v, nh[1]),
-                simd.max_f32s(nh[2], zero),
-            ],
-        )
     }
 
     /// `Micro::sample` with the uniform numbers it draws, in its order:
@@ -383,8 +206,8 @@ impl<S: pulp::Simd> RoughLanes<S> {
         let zero = simd.splat_f32s(0.0);
         let one = simd.splat_f32s(1.0);
         let wo = self.wo;
-        let m = self.sample_visible(simd, u1, u2);
-        let pdf_m = self.pdf_m(simd, m);
+        let m = self.ggx.sample_visible(simd, wo, u1, u2);
+        let pdf_m = self.ggx.pdf_visible(simd, self.wo, m);
         let mut valid = simd.and_m32s(
             simd.not_m32s(simd.equal_f32s(wo[2], zero)),
             simd.and_m32s(simd.greater_than_f32s(pdf_m, zero), finite(simd, pdf_m)),
@@ -426,7 +249,7 @@ impl<S: pulp::Simd> RoughLanes<S> {
 
         let wi = select(simd, reflect, wr, wt);
         let pdf = simd.select_f32s(reflect, pdf_r, pdf_t);
-        let weight = simd.mul_f32s(simd.select_f32s(reflect, one, scale_t), self.g1(simd, wi, m));
+        let weight = simd.mul_f32s(simd.select_f32s(reflect, one, scale_t), self.ggx.g1(simd, wi, m));
         let crosses = simd.less_than_f32s(simd.mul_f32s(wi[2], wo[2]), zero);
         valid = simd.and_m32s(
             valid,
@@ -440,7 +263,7 @@ impl<S: pulp::Simd> RoughLanes<S> {
 
         // …and of the geometric surface (`Micro::sample`), the direction
         // normalised as `normalize_or_zero`.
-        let v = self.to_world(simd, wi);
+        let v = self.frame.to_world(simd, wi);
         let rcp = simd.div_f32s(one, simd.sqrt_f32s(dot(simd, v, v)));
         let ok = simd.and_m32s(finite(simd, rcp), simd.greater_than_f32s(rcp, zero));
         let wi = select(simd, ok, scale(simd, v, rcp), [zero, zero, zero]);
@@ -472,11 +295,7 @@ impl<S: pulp::Simd> RoughLanes<S> {
         let one = simd.splat_f32s(1.0);
         let four = simd.splat_f32s(4.0);
         let wo = self.wo;
-        let local = [
-            dot(simd, wi, self.s),
-            dot(simd, wi, self.t),
-            dot(simd, wi, self.n),
-        ];
+        let local = self.frame.to_local(simd, wi);
         let geometric_reflection = simd.greater_than_f32s(dot(simd, wi, self.side), zero);
         let shading_reflection = simd.greater_than_f32s(simd.mul_f32s(local[2], wo[2]), zero);
         let mut ok = simd.not_m32s(simd.xor_m32s(geometric_reflection, shading_reflection));
@@ -517,8 +336,8 @@ impl<S: pulp::Simd> RoughLanes<S> {
         let fr = fresnel(simd, om, self.eta, Some((transmission, im)), variant);
 
         let dg = simd.mul_f32s(
-            self.d(simd, m),
-            simd.mul_f32s(self.g1(simd, local, m), self.g1(simd, wo, m)),
+            self.ggx.d(simd, m),
+            simd.mul_f32s(self.ggx.g1(simd, local, m), self.ggx.g1(simd, wo, m)),
         );
         let cos = simd.abs_f32s(simd.mul_f32s(wo[2], local[2]));
         let denom = simd.add_f32s(om, simd.mul_f32s(eta, im));
@@ -538,7 +357,7 @@ impl<S: pulp::Simd> RoughLanes<S> {
         let f_r = simd.div_f32s(simd.mul_f32s(fr.r, dg), simd.mul_f32s(four, cos));
         let f = simd.select_f32s(transmission, f_t, f_r);
 
-        let pdf_m = self.pdf_m(simd, m);
+        let pdf_m = self.ggx.pdf_visible(simd, self.wo, m);
         let pdf_t = simd.div_f32s(
             simd.mul_f32s(
                 simd.mul_f32s(simd.mul_f32s(pdf_m, fr.t), jacobian),

@@ -2,7 +2,7 @@
 //! lane at every vector level, and a known-wrong variant failing the same
 //! thresholds.
 use super::*;
-use crate::bsdf::RoughDielectric;
+use crate::bsdf::{MicrofacetDistribution, MicrofacetKind, RoughDielectric};
 use crate::integrator::scatter::{Micro, MicroModel, MicroSample};
 use crate::ray::front_facing;
 use crate::sampling::{uniform_sphere, Rng};
