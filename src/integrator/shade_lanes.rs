@@ -41,6 +41,7 @@ use crate::ray::{front_facing, spawn_transmitted, Hit, Ray, OFFSET_ULPS};
 use crate::sampling::{power_heuristic, Rng};
 use crate::scene::{Light, Material, RenderScene, SurfacePoint};
 use crate::simd3::{add, dot, mul, scale, select, splat, sub, Vec3s};
+use conductor::{ConductorLanes, ConductorParams};
 use glam::Vec3A as V3;
 use rough::RoughLanes;
 use std::f32::consts::{FRAC_1_PI, PI};
@@ -96,8 +97,8 @@ pub(super) struct ShadeLanes {
     beta: [[f32; STAGE]; 3],
     eta_scale: [f32; STAGE],
     /// Per lane: 1 for a Lambertian hit, 0 for a smooth interface, 2 for
-    /// rough glass, −1 for a lane `prepare` did not send to the kernel
-    /// ([`ShadeLanes::begin`]).
+    /// rough glass, 3 for a rough metal, 4 for a smooth metal; −1 past the
+    /// staged lanes.
     diffuse: [f32; STAGE],
     /// Lambertian and rough lanes that drew a light sample.
     nee: [f32; STAGE],
@@ -116,8 +117,13 @@ pub(super) struct ShadeLanes {
     /// (`u[0]`) at a smooth interface, the light's two and the lobe's and
     /// facet's three (`u[2..5]`) at rough glass.
     u: [[f32; STAGE]; 5],
-    /// Rough glass lanes' roughnesses along the frame's two tangents.
+    /// Rough glass and metal lanes' roughnesses along the frame's two
+    /// tangents.
     alpha: [[f32; STAGE]; 2],
+    /// Metal lanes' complex index η + iκ and reflectance factor.
+    eta: [[f32; STAGE]; 3],
+    kappa: [[f32; STAGE]; 3],
+    spec: [[f32; STAGE]; 3],
     /// A light sample drawn in [`ShadeLanes::prepare`] (any light but the
     /// kernel's rectangle): its direction, distance, radiance and density;
     /// `ls_delta` 1 for a point or directional light (no MIS).
@@ -183,6 +189,9 @@ impl Default for ShadeLanes {
             n2: one,
             u: [one; 5],
             alpha: [one; 2],
+            eta: three,
+            kappa: three,
+            spec: three,
             ls_wi: three,
             ls_dist: one,
             ls_li: three,
@@ -313,6 +322,12 @@ impl ShadeLanes {
             {
                 None
             }
+            // Smooth metals and GGX ones.
+            m @ (Material::Conductor { .. } | Material::RoughConductor { .. })
+                if ConductorParams::of(m).is_some() =>
+            {
+                None
+            }
             _ => return Prepared::Alone,
         };
         let mut beta = columns::get3(&paths.beta, i);
@@ -430,6 +445,29 @@ impl ShadeLanes {
                 self.diffuse[j] = 0.0;
                 self.tir[j] = if tir { 1.0 } else { 0.0 };
             }
+            (m @ (Material::Conductor { .. } | Material::RoughConductor { .. }), _) => {
+                let Some(c) = ConductorParams::of(m).filter(|c| front || c.two_sided) else {
+                    // Black from behind (one-sided).
+                    st.ended_absorbed += 1;
+                    return Prepared::Ended;
+                };
+                // `Micro`'s order: a rough metal's light numbers, then the
+                // lobe's (drawn, unused) and the facet's.
+                let nee = !c.smooth && {
+                    st.nee_draws += 1;
+                    self.draw_light(j, scene, sp.p, rng)
+                };
+                self.nee[j] = if nee { 1.0 } else { 0.0 };
+                for k in 2..5 {
+                    self.u[k][j] = rng.uniform();
+                }
+                set3(&mut self.eta, j, c.eta);
+                set3(&mut self.kappa, j, c.k);
+                set3(&mut self.spec, j, c.specular_reflectance);
+                self.alpha[0][j] = c.alpha_u;
+                self.alpha[1][j] = c.alpha_v;
+                self.diffuse[j] = if c.smooth { 4.0 } else { 3.0 };
+            }
             _ => {
                 // Black, or a one-sided diffuse surface seen from behind.
                 st.ended_absorbed += 1;
@@ -508,6 +546,17 @@ impl ShadeLanes {
         rough::Variant::Right
     }
 
+    /// Metals' model in the kernel: the right one, or the render tests'
+    /// known-wrong one.
+    #[inline(always)]
+    fn metal_variant(&self) -> conductor::Variant {
+        #[cfg(test)]
+        if self.variant == crate::scene::model::BsdfVariant::WrongMetalFresnel {
+            return conductor::Variant::NoAbsorption;
+        }
+        conductor::Variant::Right
+    }
+
     /// The render tests' known-wrong nested boundary: a solid's index pair
     /// against the ambient medium, as if no other solid held the path
     /// (air → water at a glass-water boundary).
@@ -571,32 +620,35 @@ impl ShadeLanes {
         columns::set3(&mut paths.beta, i, get3(&self.beta, j));
         paths.eta_scale[i] = self.eta_scale[j];
         let kind = self.diffuse[j];
-        if kind != 0.0 {
-            if self.shadow[j] != 0.0 {
-                st.shadow_rays += 1;
-                let contrib = get3(&self.contrib, j);
-                if self.shadow[j] == 2.0 {
-                    paths.s[i].l += contrib;
-                } else {
-                    let mut ray = Ray::new(get3(&self.shadow_org, j), get3(&self.shadow_dir, j));
-                    ray.tfar = self.shadow_tfar[j];
-                    shadow = Some(PendingShadow { ray, contrib });
-                }
+        // Lambertian, rough glass and rough metal lanes: a light sample
+        // each, and a bounce drawn from a density.
+        let scatter = kind == 1.0 || kind == 2.0 || kind == 3.0;
+        if scatter && self.shadow[j] != 0.0 {
+            st.shadow_rays += 1;
+            let contrib = get3(&self.contrib, j);
+            if self.shadow[j] == 2.0 {
+                paths.s[i].l += contrib;
+            } else {
+                let mut ray = Ray::new(get3(&self.shadow_org, j), get3(&self.shadow_dir, j));
+                ray.tfar = self.shadow_tfar[j];
+                shadow = Some(PendingShadow { ray, contrib });
             }
-            if self.below[j] != 0.0 {
-                st.ended_absorbed += 1;
-                return (shadow, false);
-            }
+        }
+        // No direction drawn (a sample below the surface): the path ends.
+        if self.below[j] != 0.0 {
+            st.ended_absorbed += 1;
+            return (shadow, false);
+        }
+        paths.s[i].tnear = 0.0;
+        if scatter {
             paths.s[i].prev_pdf = self.prev_pdf[j];
             paths.s[i].specular = false;
             paths.s[i].only_specular = false;
-            paths.s[i].tnear = 0.0;
         } else {
             paths.s[i].specular = true;
-            paths.s[i].tnear = 0.0;
         }
         // A transmission through a boundary (smooth or rough).
-        if kind != 1.0 && self.transmit[j] != 0.0 && self.moves[j] != 0 {
+        if (kind == 0.0 || kind == 2.0) && self.transmit[j] != 0.0 && self.moves[j] != 0 {
             if let Some(list) = self.after[j].take().filter(|_| self.moves[j] & NEW_LIST != 0) {
                 #[cfg(test)]
                 let list = if self.variant == crate::scene::model::BsdfVariant::WrongNestedList {
@@ -725,6 +777,7 @@ impl pulp::WithSimd for Kernel<'_> {
         let light = s.light;
         let (wrong_mis, wrong_fresnel, wrong_cosine) = s.wrong();
         let rough_variant = s.rough_variant();
+        let metal_variant = s.metal_variant();
         for j in 0..chunks {
             let r = j * w..(j + 1) * w;
             macro_rules! ld {
@@ -756,8 +809,11 @@ impl pulp::WithSimd for Kernel<'_> {
             let diffuse = simd.equal_f32s(kind, one);
             let iface = simd.equal_f32s(kind, zero);
             let rough = simd.equal_f32s(kind, simd.splat_f32s(2.0));
+            let rough_metal = simd.equal_f32s(kind, simd.splat_f32s(3.0));
+            let smooth_metal = simd.equal_f32s(kind, simd.splat_f32s(4.0));
+            let metal = simd.or_m32s(rough_metal, smooth_metal);
             // Lanes that sample a light.
-            let scatter = simd.or_m32s(diffuse, rough);
+            let scatter = simd.or_m32s(simd.or_m32s(diffuse, rough), rough_metal);
             // A chunk of one kind (a pixel's camera rays on one surface)
             // skips the other's arithmetic.
             macro_rules! any {
@@ -802,6 +858,21 @@ impl pulp::WithSimd for Kernel<'_> {
                     ld!(s.n2),
                     ld!(s.alpha[0]),
                     ld!(s.alpha[1]),
+                )
+            });
+            // Metal lanes' model (their frame, index and roughness).
+            let metal_model = any!(metal).then(|| {
+                ConductorLanes::new(
+                    simd,
+                    d,
+                    n,
+                    side,
+                    ld3!(s.eta),
+                    ld3!(s.kappa),
+                    ld3!(s.spec),
+                    ld!(s.alpha[0]),
+                    ld!(s.alpha[1]),
+                    smooth_metal,
                 )
             });
             let albedo = ld3!(s.albedo);
@@ -865,6 +936,23 @@ impl pulp::WithSimd for Kernel<'_> {
                     );
                     fc = select(simd, rough, [fr, fr, fr], fc);
                     bsdf_pdf = simd.select_f32s(rough, pr, bsdf_pdf);
+                }
+                if let Some(m) = &metal_model {
+                    // A rough metal: its f·|cos| per channel and density.
+                    let (fm, pm) = m.eval_variant(simd, wi, metal_variant);
+                    let lit = simd.or_m32s(
+                        simd.or_m32s(
+                            simd.greater_than_f32s(fm[0], zero),
+                            simd.greater_than_f32s(fm[1], zero),
+                        ),
+                        simd.greater_than_f32s(fm[2], zero),
+                    );
+                    ok = simd.or_m32s(
+                        simd.and_m32s(rough_metal, lit),
+                        simd.and_m32s(simd.not_m32s(rough_metal), ok),
+                    );
+                    fc = select(simd, rough_metal, fm, fc);
+                    bsdf_pdf = simd.select_f32s(rough_metal, pm, bsdf_pdf);
                 }
                 let seen = simd.and_m32s(valid, ok);
                 let seen = simd.and_m32s(
@@ -958,6 +1046,16 @@ impl pulp::WithSimd for Kernel<'_> {
                 next_dir = select(simd, rough, smp.wi, next_dir);
                 next_org = select(simd, rough, select(simd, through, beneath, above), next_org);
                 next_beta = select(simd, rough, scale(simd, beta, smp.weight), next_beta);
+            }
+            if let Some(m) = &metal_model {
+                // Metal lanes: the mirror or a facet's reflection; no
+                // sample ends the path.
+                let smp = m.sample_variant(simd, ld!(s.u[3]), ld!(s.u[4]), metal_variant);
+                below_v = simd.select_f32s(simd.and_m32s(metal, simd.not_m32s(smp.valid)), one, below_v);
+                prev_pdf_v = simd.select_f32s(metal, smp.pdf, prev_pdf_v);
+                next_dir = select(simd, metal, smp.wi, next_dir);
+                next_org = select(simd, metal, above, next_org);
+                next_beta = select(simd, metal, mul(simd, beta, smp.weight), next_beta);
             }
             if any!(iface) {
                 // Interface lanes: Fresnel's choice between the mirror and the

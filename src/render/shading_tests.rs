@@ -231,3 +231,39 @@ fn vector_shading_of_rough_glass_gives_the_scalar_paths() {
         );
     }
 }
+
+/// Metals in the kernel: three_spheres with a smooth gold sphere and a
+/// rough (GGX, anisotropic) copper one, one-sided.
+#[test]
+fn vector_shading_of_metals_gives_the_scalar_paths() {
+    use crate::bsdf::{Conductor, MicrofacetDistribution, MicrofacetKind, RoughConductor};
+    let mut s = scene("three_spheres");
+    let glass: Vec<usize> = (0..s.geoms.len())
+        .filter(|&g| s.geoms[g].material.is_dielectric())
+        .collect();
+    assert!(glass.len() >= 2);
+    s.geoms[glass[0]].material = crate::scene::Material::Conductor {
+        bsdf: Conductor::from_metal("Au", glam::Vec3::ONE).expect("gold"),
+        two_sided: false,
+    };
+    let distribution = MicrofacetDistribution::try_new(MicrofacetKind::Ggx, 0.2, 0.4).expect("roughness");
+    s.geoms[glass[1]].material = crate::scene::Material::RoughConductor {
+        bsdf: RoughConductor::from_metal(distribution, "Cu", glam::Vec3::ONE).expect("copper"),
+        two_sided: false,
+    };
+    let scalar = pixels(&s, Shading::Scalar);
+    let right = differing(&scalar, &pixels(&s, Shading::Vector));
+    let eight = differing(&scalar, &pixels_in(&s, Shading::Vector, PacketWidth::Eight));
+    s.bsdf_variant = BsdfVariant::WrongMetalFresnel;
+    let dielectric = differing(&scalar, &pixels(&s, Shading::Vector));
+    assert_eq!(differing(&scalar, &pixels(&s, Shading::Scalar)), 0.0);
+    eprintln!(
+        "metals: pixels differing from scalar shading: vector {right:.4} (packets of 8 {eight:.4}), \
+         Fresnel without absorption {dielectric:.4}"
+    );
+    assert!(right <= LIMIT && eight <= LIMIT, "{right}, {eight}");
+    assert!(
+        dielectric > LIMIT,
+        "Fresnel without absorption passes: {dielectric}"
+    );
+}

@@ -51,6 +51,9 @@ pub(crate) enum BsdfVariant {
     /// Rough glass in vector shading reflects with half the Fresnel
     /// reflectance at the sampled facet (and evaluates so).
     WrongRoughFresnel,
+    /// Metals in vector shading take the Fresnel reflectance of a
+    /// dielectric of their index (κ = 0).
+    WrongMetalFresnel,
 }
 
 /// Surface response.

@@ -23,9 +23,6 @@
 //! n̂² − sin²θ's root, squared) each from whichever of their two forms
 //! adds, and the numerators a² + b² + cos²θ − 2a cosθ as sums of squares.
 
-// The kernel does not call these yet; the tests do.
-#![cfg_attr(not(test), allow(dead_code))]
-
 use super::ggx::{self, finite, neg, Frame, Ggx};
 use crate::bsdf::{Conductor, RoughConductor};
 use crate::scene::Material;
@@ -112,6 +109,7 @@ pub(super) struct ConductorSample<S: pulp::Simd> {
     /// reports a delta's (the path tracer does not use it there).
     pub pdf: S::f32s,
     /// The smooth lanes (`MicroSample::is_delta`), valid or not.
+    #[cfg_attr(not(test), allow(dead_code))]
     pub delta: S::m32s,
     pub valid: S::m32s,
 }
