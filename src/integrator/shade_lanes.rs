@@ -2,11 +2,13 @@
 //! registers, for the lanes whose hit is Lambertian (any texture, any
 //! light: the kernel samples a scene's single rectangle itself, and
 //! [`ShadeLanes::prepare`] draws any other light's sample per lane), black,
-//! a smooth interface or the smooth boundary of a nested solid (its index
-//! pair from the nested rule), rough glass of a GGX distribution
-//! ([`rough`]), or a miss (weighed against next-event
-//! estimation's sampling of a sun or a map); the wavefront gives the others
-//! to the single-ray step ([`ShadeLanes::prepare`] says which).
+//! a mirror, a smooth interface or the smooth boundary of a nested solid
+//! (its index pair from the nested rule), rough glass of a GGX distribution
+//! ([`rough`]), a smooth or GGX metal ([`conductor`]), or a miss (weighed
+//! against next-event estimation's sampling of a sun or a map); the
+//! wavefront gives the others (plastics, Beckmann roughness, coincident
+//! solid surfaces) to the single-ray step ([`ShadeLanes::prepare`] says
+//! which).
 //!
 //! The paths are the wavefront's columns ([`PathColumns`]): each lane goes
 //! through three phases, as `PathState::advance` does for one path in turn:
@@ -97,8 +99,8 @@ pub(super) struct ShadeLanes {
     beta: [[f32; STAGE]; 3],
     eta_scale: [f32; STAGE],
     /// Per lane: 1 for a Lambertian hit, 0 for a smooth interface, 2 for
-    /// rough glass, 3 for a rough metal, 4 for a smooth metal; −1 past the
-    /// staged lanes.
+    /// rough glass, 3 for a rough metal, 4 for a smooth metal, 5 for a
+    /// mirror; −1 past the staged lanes.
     diffuse: [f32; STAGE],
     /// Lambertian and rough lanes that drew a light sample.
     nee: [f32; STAGE],
@@ -322,6 +324,7 @@ impl ShadeLanes {
             {
                 None
             }
+            Material::Mirror { .. } => None,
             // Smooth metals and GGX ones.
             m @ (Material::Conductor { .. } | Material::RoughConductor { .. })
                 if ConductorParams::of(m).is_some() =>
@@ -444,6 +447,11 @@ impl ShadeLanes {
                 self.moves[j] = moves;
                 self.diffuse[j] = 0.0;
                 self.tir[j] = if tir { 1.0 } else { 0.0 };
+            }
+            (Material::Mirror { reflectance }, _) => {
+                // A perfect mirror draws nothing.
+                set3(&mut self.albedo, j, *reflectance);
+                self.diffuse[j] = 5.0;
             }
             (m @ (Material::Conductor { .. } | Material::RoughConductor { .. }), _) => {
                 let Some(c) = ConductorParams::of(m).filter(|c| front || c.two_sided) else {
@@ -812,6 +820,7 @@ impl pulp::WithSimd for Kernel<'_> {
             let rough_metal = simd.equal_f32s(kind, simd.splat_f32s(3.0));
             let smooth_metal = simd.equal_f32s(kind, simd.splat_f32s(4.0));
             let metal = simd.or_m32s(rough_metal, smooth_metal);
+            let mirror = simd.equal_f32s(kind, simd.splat_f32s(5.0));
             // Lanes that sample a light.
             let scatter = simd.or_m32s(simd.or_m32s(diffuse, rough), rough_metal);
             // A chunk of one kind (a pixel's camera rays on one surface)
@@ -1046,6 +1055,13 @@ impl pulp::WithSimd for Kernel<'_> {
                 next_dir = select(simd, rough, smp.wi, next_dir);
                 next_org = select(simd, rough, select(simd, through, beneath, above), next_org);
                 next_beta = select(simd, rough, scale(simd, beta, smp.weight), next_beta);
+            }
+            if any!(mirror) {
+                // Mirror lanes: about the shading normal, the reflectance
+                // (`albedo`) as weight.
+                next_dir = select(simd, mirror, normalize(simd, reflect(simd, d, n)), next_dir);
+                next_org = select(simd, mirror, above, next_org);
+                next_beta = select(simd, mirror, mul(simd, beta, albedo), next_beta);
             }
             if let Some(m) = &metal_model {
                 // Metal lanes: the mirror or a facet's reflection; no

@@ -232,8 +232,8 @@ fn vector_shading_of_rough_glass_gives_the_scalar_paths() {
     }
 }
 
-/// Metals in the kernel: three_spheres with a smooth gold sphere and a
-/// rough (GGX, anisotropic) copper one, one-sided.
+/// Metals in the kernel: three_spheres with a smooth gold sphere, a rough
+/// (GGX, anisotropic) copper one, one-sided, and a mirror.
 #[test]
 fn vector_shading_of_metals_gives_the_scalar_paths() {
     use crate::bsdf::{Conductor, MicrofacetDistribution, MicrofacetKind, RoughConductor};
@@ -251,6 +251,11 @@ fn vector_shading_of_metals_gives_the_scalar_paths() {
         bsdf: RoughConductor::from_metal(distribution, "Cu", glam::Vec3::ONE).expect("copper"),
         two_sided: false,
     };
+    if let Some(&g) = glass.get(2) {
+        s.geoms[g].material = crate::scene::Material::Mirror {
+            reflectance: glam::Vec3A::new(0.9, 0.8, 0.7),
+        };
+    }
     let scalar = pixels(&s, Shading::Scalar);
     let right = differing(&scalar, &pixels(&s, Shading::Vector));
     let eight = differing(&scalar, &pixels_in(&s, Shading::Vector, PacketWidth::Eight));
