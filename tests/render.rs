@@ -789,7 +789,14 @@ fn packet_counters_count_the_lanes_sent() {
                 assert!(c.shadow_rays <= c.nee_draws, "{name}: {c:?}");
             }
             "glass_of_water_nested" => {
-                assert!(c.packet_lanes > 0 && c.packet_lanes < c.segments, "{name}: {c:?}");
+                // Rays inside overlapping solids go in packets too, masked
+                // (the set reads the masks): here every segment; a
+                // segment the check refuses is traced again alone.
+                assert!(
+                    c.packet_lanes > 0 && c.packet_lanes <= c.segments,
+                    "{name}: {c:?}"
+                );
+                assert!(c.queries >= c.segments, "{name}: {c:?}");
             }
             _ => assert_eq!(
                 c.packet_slots + c.shadow_packet_slots,

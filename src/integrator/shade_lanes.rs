@@ -527,9 +527,10 @@ impl ShadeLanes {
     /// The known-wrong variants the kernel can be (tests only): next-event
     /// estimation weighed against twice the bounce's density, an interface
     /// reflecting with half its Fresnel reflectance, and next-event
-    /// estimation without the cosine at the point.
+    /// estimation without the cosine at the point, and a transmitted
+    /// connection through rough glass with its radiance scale twice.
     #[inline(always)]
-    fn wrong(&self) -> (bool, bool, bool) {
+    fn wrong(&self) -> (bool, bool, bool, bool) {
         #[cfg(test)]
         {
             use crate::scene::model::BsdfVariant;
@@ -537,10 +538,11 @@ impl ShadeLanes {
                 self.variant == BsdfVariant::WrongMisPdf,
                 self.variant == BsdfVariant::WrongHalfFresnel,
                 self.variant == BsdfVariant::WrongNeeCosine,
+                self.variant == BsdfVariant::WrongDoubleScale,
             )
         }
         #[cfg(not(test))]
-        (false, false, false)
+        (false, false, false, false)
     }
 
     /// Rough glass's model in the kernel: the right one, or the render
@@ -548,8 +550,13 @@ impl ShadeLanes {
     #[inline(always)]
     fn rough_variant(&self) -> rough::Variant {
         #[cfg(test)]
-        if self.variant == crate::scene::model::BsdfVariant::WrongRoughFresnel {
-            return rough::Variant::HalfFresnel;
+        {
+            use crate::scene::model::BsdfVariant;
+            match self.variant {
+                BsdfVariant::WrongRoughFresnel => return rough::Variant::HalfFresnel,
+                BsdfVariant::WrongJacobian => return rough::Variant::ReflectionJacobian,
+                _ => {}
+            }
         }
         rough::Variant::Right
     }
@@ -783,7 +790,7 @@ impl pulp::WithSimd for Kernel<'_> {
         let w = S::F32_LANES;
         let chunks = self.lanes.div_ceil(w);
         let light = s.light;
-        let (wrong_mis, wrong_fresnel, wrong_cosine) = s.wrong();
+        let (wrong_mis, wrong_fresnel, wrong_cosine, wrong_scale) = s.wrong();
         let rough_variant = s.rough_variant();
         let metal_variant = s.metal_variant();
         for j in 0..chunks {
@@ -939,6 +946,13 @@ impl pulp::WithSimd for Kernel<'_> {
                 if let Some(m) = &rough_model {
                     // Rough glass: its f·|cos| (grey) and density, where nonzero.
                     let (fr, pr) = m.eval_variant(simd, wi, rough_variant);
+                    let fr = if wrong_scale {
+                        let eta = simd.div_f32s(ld!(s.n1), ld!(s.n2));
+                        let through = simd.not_m32s(toward);
+                        simd.select_f32s(through, simd.mul_f32s(fr, simd.mul_f32s(eta, eta)), fr)
+                    } else {
+                        fr
+                    };
                     ok = simd.or_m32s(
                         simd.and_m32s(rough, simd.greater_than_f32s(fr, zero)),
                         simd.and_m32s(simd.not_m32s(rough), ok),

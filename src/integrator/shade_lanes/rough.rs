@@ -71,6 +71,10 @@ pub(super) enum Variant {
     HalfFresnel,
     /// The transmission's Jacobian without its factor η².
     NoEta2,
+    /// Sampled transmissions weighed with the reflection's Jacobian of the
+    /// half vector, 1 / (4 |wi·m|), in place of refraction's (the scalar
+    /// path's `BsdfVariant::WrongJacobian`).
+    ReflectionJacobian,
 }
 
 /// Fresnel at a facet whose cosine with the direction is `c` (sign: the
@@ -250,6 +254,17 @@ impl<S: pulp::Simd> RoughLanes<S> {
         let wi = select(simd, reflect, wr, wt);
         let pdf = simd.select_f32s(reflect, pdf_r, pdf_t);
         let weight = simd.mul_f32s(simd.select_f32s(reflect, one, scale_t), self.ggx.g1(simd, wi, m));
+        let weight = if variant == Variant::ReflectionJacobian {
+            // The weight goes as 1/pdf: the right Jacobian over the wrong one.
+            let eta2 = simd.mul_f32s(fr.eta_it, fr.eta_it);
+            let k = simd.div_f32s(
+                simd.mul_f32s(simd.mul_f32s(four, eta2), simd.mul_f32s(im, im)),
+                simd.mul_f32s(denom, denom),
+            );
+            simd.select_f32s(transmission, simd.mul_f32s(weight, k), weight)
+        } else {
+            weight
+        };
         let crosses = simd.less_than_f32s(simd.mul_f32s(wi[2], wo[2]), zero);
         valid = simd.and_m32s(
             valid,
