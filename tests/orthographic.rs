@@ -127,24 +127,32 @@ material = { type = "black" }
 emission = { radiance = [1.0, 1.0, 1.0] }
 "#;
     let want = std::f64::consts::PI * 0.25;
-    let area = |camera: &str, z: f64| silhouette_area(&shoot(&scene(camera, z, sphere).unwrap(), 64));
+    let area = |camera: &str, z: f64| silhouette_area(&shoot(&scene(camera, z, sphere).unwrap(), 256));
     let (a3, a12) = (area(ORTHO, 3.0), area(ORTHO, 12.0));
     let (p3, p12) = (area(&perspective_at(3.0), 3.0), area(&perspective_at(3.0), 12.0));
     eprintln!(
         "silhouette m² (πr² = {want:.4}): ortho z=3 {a3:.4}, z=12 {a12:.4}; perspective z=3 {p3:.4}, z=12 {p12:.4}"
     );
+    // At 256 samples a pixel the ~70 edge pixels leave the area within
+    // about 0.05 % (at 64 it was 0.36 % over by chance).
     for a in [a3, a12] {
         assert!(
-            (a / want - 1.0).abs() < 0.005,
+            (a / want - 1.0).abs() < 0.002,
             "orthographic silhouette {a} vs πr² {want}"
         );
     }
     assert!(
-        (a3 / a12 - 1.0).abs() < 0.005,
+        (a3 / a12 - 1.0).abs() < 0.002,
         "orthographic silhouettes differ: {a3} vs {a12}"
     );
-    // Power: the perspective silhouette is the tangent cone's (2.9 % over πr²
-    // at z = 3) and shrinks with the square of the distance.
+    // Power: the perspective silhouette is the tangent cone's, πr² / (1 −
+    // (r/d)²) on the plane through the centre (2.9 % over πr² at d = 3),
+    // and shrinks with the square of the distance.
+    let cone = want / (1.0 - (0.5f64 / 3.0).powi(2));
+    assert!(
+        (p3 / cone - 1.0).abs() < 0.002,
+        "the perspective reference: {p3} vs {cone}"
+    );
     assert!((p3 / want - 1.0).abs() > 0.02, "no power at z = 3: {p3}");
     assert!(p3 / p12 > 10.0, "no power: perspective {p3} vs {p12}");
 }
