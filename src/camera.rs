@@ -1,15 +1,18 @@
-//! Pinhole camera with the conventions of `reference-scenes/scenes.json`:
-//! forward = normalize(target − position); right = normalize(forward × up);
-//! true_up = right × forward; row 0 is the top of the image; `fov_deg` is the
-//! full vertical field of view.
+//! Pinhole, thin-lens and orthographic cameras with the conventions of
+//! `reference-scenes/scenes.json`: forward = normalize(target − position);
+//! right = normalize(forward × up); true_up = right × forward; row 0 is the
+//! top of the image; `fov_deg` is the full vertical field of view. An
+//! orthographic camera's rays all run along forward, from a rectangle
+//! centred on `position` in the plane through it across the view.
 use crate::error::{Error, Result};
 use glam::Vec3A as V3;
 
-/// A pinhole or thin-lens camera over a film of `width × height` pixels, in
-/// world space (metres).
+/// A pinhole, thin-lens or orthographic camera over a film of
+/// `width × height` pixels, in world space (metres).
 #[derive(Debug, Clone, Copy)]
 pub struct Camera {
-    /// The eye point (the centre of the lens), world space.
+    /// The eye point (the centre of the lens), world space; for an
+    /// orthographic camera the centre of the rectangle its rays start from.
     pub position: V3,
     forward: V3,
     right: V3,
@@ -21,6 +24,27 @@ pub struct Camera {
     /// Thin lens: aperture radius (0 = pinhole) and focus distance.
     lens_radius: f32,
     focus_distance: f32,
+    /// Orthographic: half the view's width and height, metres (None: a
+    /// perspective camera). `tan_half` and the lens are then unused.
+    ortho: Option<(f32, f32)>,
+}
+
+/// The camera frame `(forward, right, true_up)` of a camera at `position`
+/// looking at `target` with up hint `up`.
+fn frame(position: V3, target: V3, up: V3) -> Result<(V3, V3, V3)> {
+    let f = target - position;
+    if f.length_squared() == 0.0 || !f.is_finite() {
+        return Err(Error::Invalid("camera target equals position".into()));
+    }
+    let forward = f.normalize();
+    let r = forward.cross(up);
+    if r.length_squared() < 1e-12 {
+        return Err(Error::Invalid(
+            "camera up is parallel to the view direction".into(),
+        ));
+    }
+    let right = r.normalize();
+    Ok((forward, right, right.cross(forward)))
 }
 
 impl Camera {
@@ -46,32 +70,62 @@ impl Camera {
         lens_radius: f32,
         focus_distance: f32,
     ) -> Result<Camera> {
-        let f = target - position;
-        if f.length_squared() == 0.0 || !f.is_finite() {
-            return Err(Error::Invalid("camera target equals position".into()));
-        }
-        let forward = f.normalize();
-        let r = forward.cross(up);
-        if r.length_squared() < 1e-12 {
-            return Err(Error::Invalid(
-                "camera up is parallel to the view direction".into(),
-            ));
-        }
+        let (forward, right, up) = frame(position, target, up)?;
         if !(fov_deg > 0.0 && fov_deg < 180.0) {
             return Err(Error::Invalid("fov must be in (0, 180) degrees".into()));
         }
-        let right = r.normalize();
         Ok(Camera {
             position,
             forward,
             right,
-            up: right.cross(forward),
+            up,
             tan_half: (fov_deg.to_radians() * 0.5).tan(),
             aspect: width as f32 / height as f32,
             width: width as f32,
             height: height as f32,
             lens_radius,
             focus_distance,
+            ortho: None,
+        })
+    }
+
+    /// An orthographic camera: rays along `normalize(target − position)`
+    /// from the `view_width × view_height` metre rectangle centred on
+    /// `position` across the view (its sides along right and true up), over
+    /// a film of `width × height` pixels. The view's aspect need not be the
+    /// film's (Mitsuba and glTF allow non-square pixels).
+    ///
+    /// # Errors
+    ///
+    /// [`Error::Invalid`] as [`Camera::try_new`] for the frame, and unless
+    /// both view sides are finite and > 0.
+    pub fn try_orthographic(
+        position: V3,
+        target: V3,
+        up: V3,
+        (view_width, view_height): (f32, f32),
+        width: u32,
+        height: u32,
+    ) -> Result<Camera> {
+        let (forward, right, up) = frame(position, target, up)?;
+        let ok = |v: f32| v.is_finite() && v > 0.0;
+        if !(ok(view_width) && ok(view_height)) {
+            return Err(Error::Invalid(format!(
+                "an orthographic view must be finite and > 0 on both sides, got {view_width} x {view_height}"
+            )));
+        }
+        Ok(Camera {
+            position,
+            forward,
+            right,
+            up,
+            tan_half: 0.0,
+            aspect: width as f32 / height as f32,
+            width: width as f32,
+            height: height as f32,
+            lens_radius: 0.0,
+            focus_distance: 0.0,
+            ortho: Some((0.5 * view_width, 0.5 * view_height)),
         })
     }
 
@@ -79,6 +133,17 @@ impl Camera {
     /// (x in [0, width), y in [0, height)); `lens` in [0,1)² for a thin lens.
     #[inline]
     pub fn ray(&self, x: f32, y: f32, lens: (f32, f32)) -> (V3, V3) {
+        if let Some((hw, hh)) = self.ortho {
+            // The film maps onto the view rectangle as it maps onto the
+            // perspective camera's image plane, so pixel sampling and
+            // reconstruction are the same for both.
+            let sx = 2.0 * x / self.width - 1.0;
+            let sy = 1.0 - 2.0 * y / self.height;
+            return (
+                self.position + self.right * (sx * hw) + self.up * (sy * hh),
+                self.forward,
+            );
+        }
         let sx = (2.0 * x / self.width - 1.0) * self.tan_half * self.aspect;
         let sy = (1.0 - 2.0 * y / self.height) * self.tan_half;
         let d = (self.forward + self.right * sx + self.up * sy).normalize();
@@ -94,9 +159,17 @@ impl Camera {
         (o, (focus - o).normalize())
     }
 
-    /// Is it a pinhole (no lens)? Then [`Camera::pinhole_dirs`] applies.
+    /// Is it a pinhole (no lens, one origin)? Then [`Camera::pinhole_dirs`]
+    /// applies. An orthographic camera is not: its rays share a direction,
+    /// not an origin.
     pub fn is_pinhole(&self) -> bool {
-        self.lens_radius <= 0.0
+        self.lens_radius <= 0.0 && self.ortho.is_none()
+    }
+
+    /// The orthographic view's width and height in metres (None for a
+    /// perspective camera).
+    pub fn orthographic_view(&self) -> Option<(f32, f32)> {
+        self.ortho.map(|(hw, hh)| (2.0 * hw, 2.0 * hh))
     }
 
     /// The directions [`Camera::ray`] gives a pinhole camera for the film
@@ -110,9 +183,14 @@ impl Camera {
         std::array::from_fn(|i| V3::new(d[0][i], d[1][i], d[2][i]))
     }
 
-    /// The same camera for another film size (vertical fov kept).
+    /// The same camera for another film size: the vertical fov kept, or an
+    /// orthographic view's height, its width following the film's aspect
+    /// as a perspective camera's horizontal field does (pixels keep their
+    /// shape).
     pub fn with_resolution(&self, width: u32, height: u32) -> Camera {
+        let aspect = width as f32 / height as f32;
         Camera {
+            ortho: self.ortho.map(|(hw, hh)| (hw * (aspect / self.aspect), hh)),
             aspect: width as f32 / height as f32,
             width: width as f32,
             height: height as f32,
@@ -126,10 +204,19 @@ impl Camera {
     }
 
     /// Film position (pixels, x right, y down) of the world point `p` for the
-    /// pinhole at `position`; `None` behind the eye.
+    /// pinhole at `position` (or the orthographic view); `None` behind the
+    /// eye (the view's plane).
     pub fn project(&self, p: V3) -> Option<(f32, f32)> {
         let v = p - self.position;
         let z = v.dot(self.forward);
+        if let Some((hw, hh)) = self.ortho {
+            // NaN (a point not finite) is behind too.
+            if z.is_nan() || z <= 0.0 {
+                return None;
+            }
+            let (sx, sy) = (v.dot(self.right) / hw, v.dot(self.up) / hh);
+            return Some(((sx + 1.0) * 0.5 * self.width, (1.0 - sy) * 0.5 * self.height));
+        }
         if z <= 1e-6 * v.length() || z <= 0.0 {
             return None;
         }
@@ -138,7 +225,9 @@ impl Camera {
         Some(((sx + 1.0) * 0.5 * self.width, (1.0 - sy) * 0.5 * self.height))
     }
 
-    /// Angle subtended by one pixel at the image centre (radians).
+    /// Angle subtended by one pixel at the image centre (radians); 0 for an
+    /// orthographic camera, whose pixels subtend no angle (callers that
+    /// need one check [`Camera::orthographic_view`] first).
     pub fn pixel_angle(&self) -> f32 {
         2.0 * self.tan_half / self.height
     }
@@ -268,6 +357,35 @@ mod tests {
             slips > 100,
             "the reciprocal variant differed in only {slips} of 3200 lanes"
         );
+    }
+
+    /// An orthographic camera's rays share the view direction and start on
+    /// the view rectangle: the film's corners at its corners, row 0 at the
+    /// top; `project` inverts `ray`; it is no pinhole, so the packets'
+    /// shared-origin shortcut is not taken for it.
+    #[test]
+    fn orthographic_rays_are_parallel_from_the_view_rectangle() {
+        let pos = V3::new(1.0, 2.0, 5.0);
+        let c = Camera::try_orthographic(pos, V3::new(1.0, 2.0, 0.0), V3::Y, (4.0, 3.0), 80, 60).unwrap();
+        assert!(!c.is_pinhole());
+        assert_eq!(c.orthographic_view(), Some((4.0, 3.0)));
+        let (o, d) = c.ray(0.0, 0.0, (0.3, 0.7));
+        assert_eq!(d, V3::new(0.0, 0.0, -1.0));
+        assert!((o - (pos + V3::new(-2.0, 1.5, 0.0))).length() < 1e-6, "{o}");
+        let (o, d) = c.ray(80.0, 60.0, (0.0, 0.0));
+        assert_eq!(d, V3::new(0.0, 0.0, -1.0));
+        assert!((o - (pos + V3::new(2.0, -1.5, 0.0))).length() < 1e-6, "{o}");
+        let (x, y) = c.project(V3::new(1.5, 2.25, -30.0)).unwrap();
+        assert!((x - 50.0).abs() < 1e-4 && (y - 25.0).abs() < 1e-4, "{x} {y}");
+        assert!(
+            c.project(pos + V3::new(0.0, 0.0, 1.0)).is_none(),
+            "behind the view plane"
+        );
+        // Another film aspect widens the view as a perspective camera's
+        // horizontal field widens; its height stays.
+        assert_eq!(c.with_resolution(160, 60).orthographic_view(), Some((8.0, 3.0)));
+        let bad = |v| Camera::try_orthographic(pos, V3::ZERO, V3::Y, v, 8, 8).is_err();
+        assert!(bad((0.0, 1.0)) && bad((1.0, f32::NAN)) && bad((-1.0, 1.0)));
     }
 
     #[test]

@@ -211,7 +211,8 @@ impl RenderSettings {
         }
     }
 
-    /// Another film size (the camera keeps its vertical field of view).
+    /// Another film size (the camera keeps its vertical field of view, an
+    /// orthographic camera its view's height).
     ///
     /// # Errors
     /// A zero size or more than `scene::MAX_PIXELS` pixels.

@@ -181,7 +181,8 @@ fn features_map_as_documented() {
     assert_eq!(d.camera.focus_distance, Some(4.0));
     // fov_axis x (Mitsuba's default) on a 2:1 film: the vertical field is narrower.
     let want = 2.0 * ((30f64).to_radians().tan() / 2.0).atan().to_degrees();
-    assert!((d.camera.fov - want).abs() < 1e-12, "{}", d.camera.fov);
+    let fov = d.camera.fov.unwrap();
+    assert!((fov - want).abs() < 1e-12, "{fov}");
     let dbg = format!("{d:?}");
     // A uniform emitter spectrum is Mitsuba's RGB-variant purple, not white.
     assert!(dbg.contains("intensity: [2.409588"), "{dbg}");
@@ -516,7 +517,11 @@ fn imported_fov(w: u32, h: u32, params: &str) -> snell::Result<f64> {
     let xml = format!(
         r#"<scene version="3.0.0"><sensor type="perspective">{params}<film type="hdrfilm"><integer name="width" value="{w}"/><integer name="height" value="{h}"/><rfilter type="box"/></film></sensor></scene>"#
     );
-    Ok(import_text(&xml, &ImportOptions::default())?.desc.camera.fov)
+    Ok(import_text(&xml, &ImportOptions::default())?
+        .desc
+        .camera
+        .fov
+        .unwrap_or(f64::NAN))
 }
 
 /// What a sensor's field is, written out from Mitsuba 3's `parse_fov`
@@ -904,4 +909,81 @@ fn jpeg_textures_load_in_toml_and_xml() {
         }
     }
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Mitsuba 3's `orthographic` sensor (src/sensors/orthographic.cpp,
+/// `orthographic_projection` in include/mitsuba/render/sensor.h): a film
+/// sample (u, v) in [0, 1]² starts its ray at the camera-space point
+/// ((1 − 2u), (1 − 2v) / aspect, near_clip) through to_world, along
+/// to_world's +z. The built camera's rays start at the same points for
+/// film points all over; scale, `near_clip` and a 2:1 film included. Bad
+/// sensors are refused.
+#[test]
+fn an_orthographic_sensor_starts_its_rays_where_mitsuba_does() {
+    let xml = |inner: &str| {
+        format!(
+            r#"<scene version="3.0.0"><sensor type="orthographic">{inner}<film type="hdrfilm"><integer name="width" value="64"/><integer name="height" value="32"/><rfilter type="box"/></film></sensor><shape type="sphere"><point name="center" x="0" y="1" z="-5"/><bsdf type="diffuse"/></shape></scene>"#
+        )
+    };
+    let good = xml(
+        r#"<float name="near_clip" value="0.5"/><transform name="to_world"><scale x="2" y="3" z="2"/><lookat origin="1, 1, 10" target="1, 1, 0" up="0, 1, 0"/></transform>"#,
+    );
+    let imp = import_text(&good, &ImportOptions::default()).unwrap();
+    assert!(imp.warnings.is_empty(), "{:?}", imp.warnings);
+    let c = &imp.desc.camera;
+    assert_eq!(c.kind, "orthographic");
+    // 2·sx wide, 2·sy / aspect high; the near plane 0.5 · sz along the view.
+    assert_eq!((c.fov, c.size), (None, Some([4.0, 3.0])));
+    assert_eq!(c.position, [1.0, 1.0, 9.0]);
+    let s = build_xml(&good);
+    // Mitsuba's ray for sample (u, v), written out: lookat's frame is
+    // left = up × dir = −x, up = +y, dir = −z here.
+    let mitsuba = |u: f64, v: f64| {
+        let aspect = 2.0;
+        let local = glam::DVec3::new(1.0 - 2.0 * u, (1.0 - 2.0 * v) / aspect, 0.5);
+        let scaled = local * glam::DVec3::new(2.0, 3.0, 2.0);
+        glam::DVec3::new(1.0, 1.0, 10.0) + glam::DVec3::new(-scaled.x, scaled.y, -scaled.z)
+    };
+    for (u, v) in [(0.0, 0.0), (1.0, 1.0), (0.25, 0.8), (0.6, 0.1), (0.5, 0.5)] {
+        let (o, d) = s.camera.ray(u as f32 * 64.0, v as f32 * 32.0, (0.0, 0.0));
+        let want = mitsuba(u, v);
+        assert!(
+            (o.as_dvec3() - want).length() < 1e-5,
+            "({u}, {v}): snell {o}, Mitsuba {want}"
+        );
+        assert_eq!(d.to_array(), [0.0, 0.0, -1.0]);
+    }
+
+    let refused = [
+        (
+            r#"<transform name="to_world"><scale x="-1" y="1"/></transform>"#,
+            "mirror",
+        ),
+        (
+            r#"<transform name="to_world"><matrix value="1 0.5 0 0  0 1 0 0  0 0 1 0  0 0 0 1"/></transform>"#,
+            "skew",
+        ),
+        (
+            r#"<float name="near_clip" value="20"/><float name="far_clip" value="10"/>"#,
+            "near_clip",
+        ),
+        (r#"<float name="fov" value="30"/>"#, "fov"),
+    ];
+    for (inner, words) in refused {
+        match import_text(&xml(inner), &ImportOptions::default()) {
+            Err(e) => assert!(e.to_string().contains(words), "{inner}: {e}"),
+            Ok(_) => panic!("accepted: {inner}"),
+        }
+    }
+    // A far clip snell does not apply is said.
+    let far = import_text(
+        &xml(r#"<float name="far_clip" value="50"/>"#),
+        &ImportOptions::default(),
+    )
+    .unwrap();
+    assert!(
+        far.warnings.iter().any(|w| w.to_string().contains("far_clip")),
+        "{:?}",
+        far.warnings
+    );
 }

@@ -209,6 +209,14 @@ struct Traced {
 /// errors of the scene's queries.
 pub fn trace_fan(scene: &RenderScene, opts: &FanOptions) -> Result<Fan> {
     check(opts)?;
+    // A fan is the rays from one eye over the elevations the image spans;
+    // an orthographic camera has no eye and spans no angle.
+    if scene.camera.orthographic_view().is_some() {
+        return Err(Error::Invalid(
+            "grin-fan draws the rays from a perspective camera's eye; this scene's camera is orthographic"
+                .into(),
+        ));
+    }
     let plane = Plane::of(&scene.camera, scene.medium.as_ref(), opts.toward)?;
     let (lo, hi) = match opts.elevations {
         Some(e) => e,

@@ -238,3 +238,33 @@ impl<'m> CurvedStarts<'m> {
         self.group.get_mut(i)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An orthographic camera's rays differ in origin, not direction: its
+    /// packets' starts and a pixel's group are `one`'s rays bit for bit (the
+    /// pinhole shortcut, which keeps one origin, would fail this).
+    #[test]
+    fn orthographic_starts_and_groups_are_the_single_rays() {
+        let cam =
+            Camera::try_orthographic(V3::new(0.3, 1.0, 4.0), V3::ZERO, V3::Y, (2.0, 1.5), 40, 30).unwrap();
+        let rays = CameraRays::new(cam, 11, 40, pulp::Arch::new());
+        let group: Vec<(usize, u32)> = (0..16).map(|i| (i / 3, i as u32 % 3)).collect();
+        let mut out = Vec::new();
+        rays.starts(&group, (8, 4), 5, &mut out);
+        let bits = |(o, d): (V3, V3)| [o.to_array(), d.to_array()].map(|a| a.map(f32::to_bits));
+        let mut origins = std::collections::HashSet::new();
+        for (p, &(k, s)) in out.iter().zip(&group) {
+            let (x, y) = (8 + k as u32 % 5, 4 + k as u32 / 5);
+            assert_eq!(bits(p.ray), bits(rays.one(x, y, s).1), "sample {k} {s}");
+            origins.insert(bits(p.ray)[0]);
+        }
+        assert!(origins.len() > 8, "the origins should differ");
+        let g = rays.group(3, 7, 2, 5);
+        for i in 0..5 {
+            assert_eq!(bits(g.rays[i]), bits(rays.one(3, 7, 2 + i as u32).1));
+        }
+    }
+}

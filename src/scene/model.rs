@@ -571,7 +571,7 @@ impl RenderScene {
 
 impl RenderScene {
     /// Change the declared film resolution (the camera keeps its vertical
-    /// field of view). Only the warp renderer uses this; path-traced renders
+    /// field of view, or an orthographic view its height). Only the warp renderer uses this; path-traced renders
     /// leave the scene alone and take a `render::RenderSettings`.
     ///
     /// # Errors

@@ -7,7 +7,7 @@ use super::rays::{cast, d3, pixel_ray, run_rows};
 use super::shade::shade;
 use super::vertex_images::{VertexImages, VertexSolver};
 use crate::embree::{BuildQuality, Scene, SceneBuilder, SceneFlags};
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::scene::RenderScene;
 use crate::warp::{CopyKey, WarpGlass, WarpSpec};
 use glam::{DVec3, Vec3A as V3};
@@ -42,6 +42,12 @@ pub struct Warped {
 
 /// Warp every vertex (in parallel) and build the copies.
 pub fn warp_scene(scene: &RenderScene, spec: &WarpSpec, prep: &Prepared) -> Result<Warped> {
+    // As in `prepare`: the warp needs one eye.
+    if scene.camera.orthographic_view().is_some() {
+        return Err(Error::Invalid(
+            "the warp renderer needs a perspective camera".into(),
+        ));
+    }
     let eye = DVec3::from(scene.camera.position.to_array().map(|x| x as f64));
     let t0 = Instant::now();
     let all: Vec<DVec3> = prep

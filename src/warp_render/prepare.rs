@@ -100,6 +100,16 @@ fn max_edge_px(scene: &RenderScene, m: &Mesh) -> f64 {
 /// Collect the scene's meshes (everything but the glass) and subdivide each
 /// until its longest projected edge is at most `tol_px` pixels.
 pub fn prepare(scene: &RenderScene, spec: &WarpSpec, tol_px: f64) -> Result<Prepared> {
+    // The warp solves for where a vertex must move so that the straight ray
+    // from the eye sees it where refraction would: it needs one eye, which
+    // an orthographic camera (parallel rays from a rectangle) does not have.
+    if scene.camera.orthographic_view().is_some() {
+        return Err(Error::Invalid(
+            "the warp renderer needs a perspective camera (it warps vertices toward one eye); \
+             an orthographic scene renders with `snell render`, which traces the glass"
+                .into(),
+        ));
+    }
     let mut objects = Vec::new();
     let mut total: u64 = 0;
     let mut max_edge: f64 = 0.0;

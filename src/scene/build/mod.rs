@@ -226,15 +226,32 @@ impl Builder<'_> {
         let up = self.upload(pending, set_wanted)?;
         // The medium sees the camera (pixel tolerances) and the geometry as
         // boxes (stretches that can meet nothing need no chords).
-        let medium = self.medium(d)?.map(|m| {
-            m.with_view(position, camera.pixel_angle() as f64)
-                .with_obstacles(up.geoms.iter().map(|g| {
-                    let (lo, hi) = match &g.shape {
-                        crate::scene::Shape::Mesh(m) => m.aabb(),
-                        crate::scene::Shape::Analytic(a) => a.aabb(),
-                    };
-                    crate::media::Aabb::new(lo, hi)
-                }))
+        let medium = self.medium(d)?;
+        if let (Some(m), Some(_)) = (&medium, camera.orthographic_view()) {
+            // Pixel tolerances are a fraction of the angle a pixel subtends
+            // from the eye (media/footprint.rs); an orthographic camera has
+            // neither, so its medium keeps `tolerance` metres, as without a
+            // camera, and a pixel tolerance would be silently ignored.
+            if m.pixel_tolerance().is_some() {
+                return Err(self.err(
+                    "medium.pixel_tolerance",
+                    "an orthographic camera has no pixel angle to hold chords to: \
+                     use medium.tolerance (metres) with it",
+                ));
+            }
+        }
+        let medium = medium.map(|m| {
+            let m = match camera.orthographic_view() {
+                None => m.with_view(position, camera.pixel_angle() as f64),
+                Some(_) => m,
+            };
+            m.with_obstacles(up.geoms.iter().map(|g| {
+                let (lo, hi) = match &g.shape {
+                    crate::scene::Shape::Mesh(m) => m.aabb(),
+                    crate::scene::Shape::Analytic(a) => a.aabb(),
+                };
+                crate::media::Aabb::new(lo, hi)
+            }))
         });
         let film = &d.film;
         let mut scene = RenderScene {
@@ -344,32 +361,94 @@ impl Builder<'_> {
         let position = self.finite3("camera.position", c.position)?;
         let target = self.finite3("camera.target", c.target)?;
         let up = self.unit("camera.up", c.up)?;
-        if !(c.fov.is_finite() && c.fov > 0.0 && c.fov < 180.0) {
-            return Err(self.err(
-                "camera.fov",
-                format!(
-                    "expected a vertical field of view in (0, 180) degrees, got {}",
-                    c.fov
-                ),
-            ));
+        let camera = match c.kind.as_str() {
+            "perspective" => {
+                if c.size.is_some() {
+                    return Err(self.err(
+                        "camera.size",
+                        "a perspective camera's view is its fov (size is for type = \"orthographic\")",
+                    ));
+                }
+                let fov = c.fov.ok_or_else(|| {
+                    self.err("camera.fov", "a perspective camera needs fov (its full vertical field of view, degrees)")
+                })?;
+                if !(fov.is_finite() && fov > 0.0 && fov < 180.0) {
+                    return Err(self.err(
+                        "camera.fov",
+                        format!("expected a vertical field of view in (0, 180) degrees, got {fov}"),
+                    ));
+                }
+                if !(c.aperture_radius.is_finite() && c.aperture_radius >= 0.0) {
+                    return Err(self.err("camera.aperture_radius", "expected a finite radius >= 0"));
+                }
+                let focus = match c.focus_distance {
+                    Some(fd) => self.positive("camera.focus_distance", fd)?,
+                    None => (target - position).length(),
+                };
+                Camera::try_new(
+                    position.as_vec3a(),
+                    target.as_vec3a(),
+                    up.as_vec3a(),
+                    fov as f32,
+                    film.width as u32,
+                    film.height as u32,
+                    c.aperture_radius as f32,
+                    focus as f32,
+                )
+            }
+            "orthographic" => {
+                // Keys of the perspective camera would be silently ignored:
+                // a scene that sets them means something this camera lacks.
+                if c.fov.is_some() {
+                    return Err(self.err(
+                        "camera.fov",
+                        "an orthographic camera has no field of view: its view is size = [width, height] in metres",
+                    ));
+                }
+                if c.aperture_radius != 0.0 {
+                    return Err(self.err(
+                        "camera.aperture_radius",
+                        "an orthographic camera has no lens (thin-lens depth of field is for perspective cameras)",
+                    ));
+                }
+                if c.focus_distance.is_some() {
+                    return Err(self.err(
+                        "camera.focus_distance",
+                        "an orthographic camera has no lens (thin-lens depth of field is for perspective cameras)",
+                    ));
+                }
+                let Some([w, h]) = c.size else {
+                    return Err(self.err(
+                        "camera.size",
+                        "an orthographic camera needs size = [width, height], its view in metres",
+                    ));
+                };
+                // f32 rays: a side below ~1e-6 m or above 1e15 m cannot be
+                // resolved into pixels across a film.
+                for (v, side) in [(w, "width"), (h, "height")] {
+                    if !(v.is_finite() && v > 1e-6 && v <= 1e15) {
+                        return Err(self.err(
+                            "camera.size",
+                            format!("expected the view's {side} in metres within (1e-6, 1e15], got {v}"),
+                        ));
+                    }
+                }
+                Camera::try_orthographic(
+                    position.as_vec3a(),
+                    target.as_vec3a(),
+                    up.as_vec3a(),
+                    (w as f32, h as f32),
+                    film.width as u32,
+                    film.height as u32,
+                )
+            }
+            other => {
+                return Err(self.err(
+                    "camera.type",
+                    format!("unknown camera type \"{other}\" (expected perspective or orthographic)"),
+                ))
+            }
         }
-        if !(c.aperture_radius.is_finite() && c.aperture_radius >= 0.0) {
-            return Err(self.err("camera.aperture_radius", "expected a finite radius >= 0"));
-        }
-        let focus = match c.focus_distance {
-            Some(fd) => self.positive("camera.focus_distance", fd)?,
-            None => (target - position).length(),
-        };
-        let camera = Camera::try_new(
-            position.as_vec3a(),
-            target.as_vec3a(),
-            up.as_vec3a(),
-            c.fov as f32,
-            film.width as u32,
-            film.height as u32,
-            c.aperture_radius as f32,
-            focus as f32,
-        )
         .map_err(|e| self.err("camera", e.to_string()))?;
         Ok((camera, position))
     }
@@ -530,7 +609,50 @@ impl Builder<'_> {
                 }
                 v
             }
-            None => scene.solids_containing(position),
+            None => {
+                let list = scene.solids_containing(position);
+                if scene.camera.orthographic_view().is_some() {
+                    self.view_in_one_interior(scene, &list)?;
+                }
+                list
+            }
         })
+    }
+
+    /// An orthographic camera's rays start all over its view rectangle, but
+    /// every camera ray begins with the one interior list found at
+    /// `camera.position`: a rectangle that crosses a solid's surface would
+    /// start some rays with the wrong list (wrong indices at their first
+    /// hit). So the rectangle's points on a 33 × 33 grid (its edges
+    /// included) must all be inside the same solids as its centre. A grid
+    /// can miss a solid thinner than its spacing poking through; such a
+    /// scene needs `camera.inside`, which is taken as given.
+    fn view_in_one_interior(&self, scene: &RenderScene, list: &[u32]) -> Result<()> {
+        const N: u32 = 32;
+        let (w, h) = scene.camera.size();
+        for j in 0..=N {
+            for i in 0..=N {
+                let (x, y) = (i as f32 * w as f32 / N as f32, j as f32 * h as f32 / N as f32);
+                let o = scene.camera.ray(x, y, (0.0, 0.0)).0.as_dvec3();
+                let here = scene.solids_containing(o);
+                if here != list {
+                    let odd = here
+                        .iter()
+                        .chain(list)
+                        .find(|&&s| here.contains(&s) != list.contains(&s))
+                        .map_or("?", |&s| scene.solids[s as usize].name.as_str());
+                    return Err(self.err(
+                        "camera.size",
+                        format!(
+                            "the orthographic view rectangle crosses the surface of solid \"{odd}\" \
+                             (at {o:?}): every camera ray starts with the interior list at camera.position, \
+                             so the rectangle must lie wholly inside or outside each solid \
+                             (move or shrink it, or give camera.inside)"
+                        ),
+                    ));
+                }
+            }
+        }
+        Ok(())
     }
 }

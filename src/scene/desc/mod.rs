@@ -184,21 +184,33 @@ pub fn default_ambient_ior() -> f64 {
     1.000293
 }
 
-/// `[camera]`: a pinhole or thin-lens camera looking from `position` at
-/// `target`. Conventions: `forward = normalize(target − position)`,
-/// `right = normalize(forward × up)`, row 0 at the top of the image.
+/// `[camera]`: a pinhole, thin-lens or orthographic camera looking from
+/// `position` at `target`. Conventions: `forward = normalize(target −
+/// position)`, `right = normalize(forward × up)`, row 0 at the top of the
+/// image.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CameraDesc {
-    /// Eye point (the lens centre), world space, metres.
+    /// "perspective" (the default: pinhole or thin lens) or "orthographic".
+    #[serde(rename = "type", default = "default_camera_type")]
+    pub kind: String,
+    /// Eye point (the lens centre), world space, metres; for an orthographic
+    /// camera the centre of the view rectangle its rays start from.
     pub position: Vec3,
     /// Point the view axis passes through, world space, metres.
     pub target: Vec3,
     /// Up hint, need not be perpendicular to the view axis (default +y).
     #[serde(default = "default_up")]
     pub up: Vec3,
-    /// Full vertical field of view, degrees, in (0, 180).
-    pub fov: f64,
+    /// Full vertical field of view, degrees, in (0, 180): required for a
+    /// perspective camera, an error for an orthographic one.
+    #[serde(default)]
+    pub fov: Option<f64>,
+    /// Orthographic: the view's `[width, height]` in metres, both > 0
+    /// (required; an error for a perspective camera). Its aspect may differ
+    /// from the film's (non-square pixels).
+    #[serde(default)]
+    pub size: Option<[f64; 2]>,
     /// Thin-lens aperture radius in metres (0 = pinhole, the default).
     #[serde(default)]
     pub aperture_radius: f64,
@@ -211,6 +223,10 @@ pub struct CameraDesc {
     /// point-in-solid tests).
     #[serde(default)]
     pub inside: Option<Vec<String>>,
+}
+
+fn default_camera_type() -> String {
+    "perspective".into()
 }
 
 fn default_up() -> Vec3 {

@@ -18,10 +18,18 @@ pub fn to_toml(desc: &SceneDesc) -> Result<String> {
     let _ = writeln!(o, "ambient_ior = {}", num(desc.ambient_ior));
     let c = &desc.camera;
     let _ = writeln!(o, "\n[camera]");
+    if c.kind != "perspective" {
+        let _ = writeln!(o, "type = {}", string(&c.kind));
+    }
     let _ = writeln!(o, "position = {}", vec3(c.position));
     let _ = writeln!(o, "target = {}", vec3(c.target));
     let _ = writeln!(o, "up = {}", vec3(c.up));
-    let _ = writeln!(o, "fov = {}", num(c.fov));
+    if let Some(fov) = c.fov {
+        let _ = writeln!(o, "fov = {}", num(fov));
+    }
+    if let Some([w, h]) = c.size {
+        let _ = writeln!(o, "size = [{}, {}]", num(w), num(h));
+    }
     if c.aperture_radius != 0.0 {
         let _ = writeln!(o, "aperture_radius = {}", num(c.aperture_radius));
     }

@@ -163,16 +163,6 @@ impl Walk<'_> {
         ptr: &str,
     ) -> Result<(CameraDesc, FilmDesc, Location)> {
         let cp = format!("/cameras/{}", c.index());
-        let gltf::camera::Projection::Perspective(p) = c.projection() else {
-            return Err(self.err(cp, "an orthographic camera: snell has perspective cameras only"));
-        };
-        let fov = material::short(p.yfov()).to_degrees();
-        if !(fov > 0.0 && fov < 180.0) {
-            return Err(self.err(
-                format!("{cp}/perspective/yfov"),
-                format!("expected (0, π), got {}", p.yfov()),
-            ));
-        }
         let pos = m.transform_point3(DVec3::ZERO);
         let f = m.transform_vector3(-DVec3::Z);
         let up = m.transform_vector3(DVec3::Y);
@@ -186,6 +176,23 @@ impl Walk<'_> {
                 "the camera's node transform must be a rotation and translation",
             ));
         }
+        // The node's scale along each axis (an orthographic view scales
+        // with it; a perspective camera's angles do not).
+        let scale = DVec3::new(m.transform_vector3(DVec3::X).length(), up.length(), f.length());
+        let (f, up) = (f.normalize(), up.normalize());
+        let p = match c.projection() {
+            gltf::camera::Projection::Perspective(p) => p,
+            gltf::camera::Projection::Orthographic(o) => {
+                return self.orthographic(&o, &cp, ptr, (pos, f, up), scale)
+            }
+        };
+        let fov = material::short(p.yfov()).to_degrees();
+        if !(fov > 0.0 && fov < 180.0) {
+            return Err(self.err(
+                format!("{cp}/perspective/yfov"),
+                format!("expected (0, π), got {}", p.yfov()),
+            ));
+        }
         let mut film = FilmDesc::default();
         if let Some(a) = p.aspect_ratio() {
             if !(a > 0.0 && a.is_finite()) {
@@ -196,13 +203,78 @@ impl Walk<'_> {
             }
             film.height = ((film.width as f64 / a as f64).round() as u64).clamp(1, 1 << 16);
         }
-        let f = f.normalize();
         Ok((
             CameraDesc {
+                kind: "perspective".into(),
                 position: pos.to_array(),
                 target: (pos + f).to_array(),
-                up: up.normalize().to_array(),
-                fov,
+                up: up.to_array(),
+                fov: Some(fov),
+                size: None,
+                aperture_radius: 0.0,
+                focus_distance: None,
+                inside: None,
+            },
+            film,
+            self.at(ptr),
+        ))
+    }
+
+    /// glTF 2.0's orthographic camera (§3.10.3): it sees x in [−xmag, xmag]
+    /// and y in [−ymag, ymag] of its node's frame, looking along −z, between
+    /// the planes z = −znear and −zfar (the view matrix is the inverse of
+    /// the node's transform, so a node's `scale` scales all three). snell's
+    /// rays start on the near plane (parallel rays make that exactly the
+    /// near clip); the far clip is not applied. The film keeps the default
+    /// width, its height the view's aspect (square pixels), as a perspective
+    /// camera's takes aspectRatio.
+    fn orthographic(
+        &self,
+        o: &gltf::camera::Orthographic<'_>,
+        cp: &str,
+        ptr: &str,
+        (pos, f, up): (DVec3, DVec3, DVec3),
+        scale: DVec3,
+    ) -> Result<(CameraDesc, FilmDesc, Location)> {
+        // The spec: xmag and ymag MUST NOT be zero and SHOULD NOT be
+        // negative; a negative one would mirror the image, which snell's
+        // cameras never do.
+        let mag = |k: &str, v: f32| -> Result<f64> {
+            let v = material::short(v);
+            if v.is_finite() && v > 0.0 {
+                Ok(v)
+            } else {
+                Err(self.err(
+                    format!("{cp}/orthographic/{k}"),
+                    format!("expected a finite number > 0, got {v}"),
+                ))
+            }
+        };
+        let (xmag, ymag) = (mag("xmag", o.xmag())? * scale.x, mag("ymag", o.ymag())? * scale.y);
+        let (near, far) = (material::short(o.znear()), material::short(o.zfar()));
+        if !(near.is_finite() && near >= 0.0) {
+            return Err(self.err(
+                format!("{cp}/orthographic/znear"),
+                format!("expected a finite number >= 0, got {near}"),
+            ));
+        }
+        if !(far.is_finite() && far > near) {
+            return Err(self.err(
+                format!("{cp}/orthographic/zfar"),
+                format!("expected a finite number > znear ({near}), got {far}"),
+            ));
+        }
+        let mut film = FilmDesc::default();
+        film.height = ((film.width as f64 * ymag / xmag).round() as u64).clamp(1, 1 << 16);
+        let position = pos + f * (near * scale.z);
+        Ok((
+            CameraDesc {
+                kind: "orthographic".into(),
+                position: position.to_array(),
+                target: (position + f).to_array(),
+                up: up.to_array(),
+                fov: None,
+                size: Some([2.0 * xmag, 2.0 * ymag]),
                 aperture_radius: 0.0,
                 focus_distance: None,
                 inside: None,

@@ -1,5 +1,5 @@
-//! `<sensor>` (perspective, thinlens) with its `<film>` and `<sampler>`,
-//! and `<integrator>`: snell's camera, film and integrator.
+//! `<sensor>` (perspective, thinlens, orthographic) with its `<film>` and
+//! `<sampler>`, and `<integrator>`: snell's camera, film and integrator.
 use super::props::{Ctx, Obj};
 use super::transform;
 use super::xml::Node;
@@ -17,14 +17,13 @@ pub fn sensor(ctx: &Ctx<'_>, n: &Node) -> Result<(CameraDesc, FilmDesc)> {
     let thin = match plugin {
         "perspective" => false,
         "thinlens" => true,
-        "orthographic" | "telecentric" => {
-            return Err(o.at().error(format!(
-                "<sensor type=\"{plugin}\">: snell has perspective and thin-lens cameras only"
-            )))
-        }
+        "orthographic" => return orthographic(ctx, o),
+        "telecentric" => return Err(o.at().error(
+            "<sensor type=\"telecentric\">: snell has perspective, thin-lens and orthographic cameras only",
+        )),
         other => {
             return Err(o.at().error(format!(
-                "unknown sensor \"{other}\" (expected perspective or thinlens)"
+                "unknown sensor \"{other}\" (expected perspective, thinlens or orthographic)"
             )))
         }
     };
@@ -66,12 +65,90 @@ pub fn sensor(ctx: &Ctx<'_>, n: &Node) -> Result<(CameraDesc, FilmDesc)> {
     o.finish()?;
     Ok((
         CameraDesc {
+            kind: "perspective".into(),
             position: position.to_array(),
             target: target.to_array(),
             up: up.to_array(),
-            fov: fov_y,
+            fov: Some(fov_y),
+            size: None,
             aperture_radius,
             focus_distance,
+            inside: None,
+        },
+        film,
+    ))
+}
+
+/// Mitsuba 3's `orthographic` sensor (src/sensors/orthographic.cpp and
+/// `orthographic_projection` in include/mitsuba/render/sensor.h): in its own
+/// frame it sees x in [−1, 1] and y in [−1/aspect, 1/aspect] (aspect = the
+/// film's width / height), looking along +z, with rays starting on the near
+/// plane z = `near_clip`; `to_world` (usually a scale, then a `<lookat>`)
+/// places and sizes that. So the view is 2·|to_world x| wide and
+/// 2·|to_world y| / aspect high, and snell's rays start where Mitsuba's do:
+/// `position` is to_world·(0, 0, near_clip). Parallel rays make that shift
+/// exactly Mitsuba's near clip; its far clip snell does not apply.
+fn orthographic(ctx: &Ctx<'_>, o: Obj<'_, '_>) -> Result<(CameraDesc, FilmDesc)> {
+    let film = film(ctx, &o)?;
+    let aspect = film.width as f64 / film.height as f64;
+    let (m, tnode) = o.transform("to_world")?;
+    let near = o.float_or("near_clip", 1e-2)?;
+    let far = o.float_or("far_clip", 1e4)?;
+    if !(near.is_finite() && far.is_finite() && near >= 0.0 && far > near) {
+        return Err(o.at().error(format!(
+            "near_clip {near}, far_clip {far}: expected 0 <= near_clip < far_clip, both finite"
+        )));
+    }
+    if far != 1e4 {
+        ctx.warn(
+            o.at(),
+            format!("far_clip = {far} is ignored: snell does not clip"),
+        );
+    }
+    for k in ["shutter_open", "shutter_close"] {
+        o.float(k)?;
+    }
+    o.finish()?;
+    let at = tnode.map(|t| &t.at);
+    let bad = |msg: String| match at {
+        Some(a) => a.error(msg),
+        None => crate::error::Error::Invalid(msg),
+    };
+    // The camera's axes in the world: image left, up and forward, each
+    // scaled by to_world.
+    let (x, y, z) = (
+        transform::vector(&m, DVec3::X),
+        transform::vector(&m, DVec3::Y),
+        transform::vector(&m, DVec3::Z),
+    );
+    let (lx, ly, lz) = (x.length(), y.length(), z.length());
+    if !(lx > 0.0 && ly > 0.0 && lz > 0.0 && (lx * ly * lz).is_finite()) {
+        return Err(bad(
+            "the orthographic sensor's to_world collapses or overflows an axis".into(),
+        ));
+    }
+    let (left, up, f) = (x / lx, y / ly, z / lz);
+    let skew = left.dot(up).abs().max(left.dot(f).abs()).max(up.dot(f).abs());
+    // Mitsuba's image x runs along −left: it must be snell's forward × up,
+    // or the image would come out mirrored.
+    if skew > 1e-6 || f.cross(up).dot(-left) < 0.0 {
+        return Err(bad(
+            "the orthographic sensor's to_world must be a rotation, translation and a scale along \
+             its axes (no skew or mirror)"
+                .into(),
+        ));
+    }
+    let position = transform::point(&m, DVec3::new(0.0, 0.0, near));
+    Ok((
+        CameraDesc {
+            kind: "orthographic".into(),
+            position: position.to_array(),
+            target: (position + f).to_array(),
+            up: up.to_array(),
+            fov: None,
+            size: Some([2.0 * lx, 2.0 * ly / aspect]),
+            aperture_radius: 0.0,
+            focus_distance: None,
             inside: None,
         },
         film,
