@@ -8,7 +8,7 @@
 //! Beckmann is not here ([`supports`]): its sampling needs error functions
 //! in f64, and its lanes go to the scalar step.
 
-use super::{normalize, sincos_turns};
+use super::lane_math::{normalize, sincos_turns};
 use crate::bsdf::{MicrofacetDistribution, MicrofacetKind};
 use crate::simd3::{add, dot, scale, select, Vec3s};
 use std::f32::consts::PI;

@@ -24,7 +24,7 @@
 //!
 
 use super::ggx::{finite, neg, Frame, Ggx};
-use super::normalize;
+use super::lane_math::normalize;
 use crate::simd3::{add, dot, scale, select, sub, Vec3s};
 
 /// Whether [`RoughLanes`] models a distribution: GGX yes, Beckmann no (its

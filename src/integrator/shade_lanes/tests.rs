@@ -1,8 +1,10 @@
 //! The kernel against the scalar model it replaces, lane by lane at every
 //! vector level.
+use super::lane_math::sincos_turns;
 use super::*;
 use crate::optics;
 use crate::sampling::{cosine_hemisphere, uniform_sphere};
+use std::f32::consts::FRAC_1_PI;
 
 use crate::sampling::Rng;
 use crate::vector_levels as levels;
