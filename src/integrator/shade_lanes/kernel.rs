@@ -2,6 +2,7 @@
 //! vectors at pulp's widest level (light weights, bounces, Fresnel
 //! choices, microfacet lobes, next rays).
 use super::conductor::ConductorLanes;
+use super::ggx::Frame;
 use super::lane_math::{normalize, reflect, refract, sincos_turns};
 use super::rough::RoughLanes;
 use super::ShadeLanes;
@@ -245,23 +246,7 @@ impl pulp::WithSimd for Kernel<'_> {
                 let r = simd.sqrt_f32s(r2);
                 let (sin, cos) = sincos_turns(simd, phi);
                 // `sampling::basis(n)`.
-                // `1.0f32.copysign(n.z)`: the sign bit of n.z on 1.
-                let sign = simd.or_f32s(one, simd.and_f32s(n[2], simd.splat_f32s(-0.0)));
-                let a = simd.div_f32s(simd.splat_f32s(-1.0), simd.add_f32s(sign, n[2]));
-                let b = simd.mul_f32s(simd.mul_f32s(n[0], n[1]), a);
-                let t = [
-                    simd.add_f32s(
-                        one,
-                        simd.mul_f32s(simd.mul_f32s(simd.mul_f32s(sign, n[0]), n[0]), a),
-                    ),
-                    simd.mul_f32s(sign, b),
-                    simd.neg_f32s(simd.mul_f32s(sign, n[0])),
-                ];
-                let bt = [
-                    b,
-                    simd.add_f32s(sign, simd.mul_f32s(simd.mul_f32s(n[1], n[1]), a)),
-                    simd.neg_f32s(n[1]),
-                ];
+                let Frame { s: t, t: bt, .. } = Frame::new(simd, n);
                 let z = simd.sqrt_f32s(simd.max_f32s(simd.sub_f32s(one, r2), zero));
                 let bounce = normalize(
                     simd,
