@@ -5,7 +5,8 @@ use crate::camera::Camera;
 use crate::counters::Counters;
 use crate::dielectric::NestedStrategy;
 use crate::error::{Error, Result};
-use crate::integrator::{path_lanes_apply, CameraRays, LightSampling, RayObserver, Tracer};
+pub use crate::integrator::Shading;
+use crate::integrator::{CameraRays, LightSampling, RayObserver, Scheduler, Tracer};
 use crate::scene::RenderScene;
 use glam::Vec3A as V3;
 use rayon::prelude::*;
@@ -301,26 +302,6 @@ pub struct RenderOptions {
     pub shading: Shading,
 }
 
-/// How the path tracer shades a packet's paths ([`RenderOptions::shading`]).
-/// The two give the same image up to rounding: vector shading is f32
-/// throughout (and so are its packets' queries of the analytic shapes,
-/// where no solids overlap: `shapes::SetScratch::f32`), scalar shading
-/// solves Fresnel and Snell in f64 and queries the analytic shapes in f64,
-/// the reference that single rays reproduce bit for bit (a path whose
-/// random number falls within rounding of a Fresnel reflectance takes the
-/// other lobe).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub enum Shading {
-    /// A packet's paths side by side in vector registers where their hits
-    /// allow it (Lambertian lit by at most one rectangular light, black,
-    /// smooth interfaces and nested solids' smooth boundaries), the others
-    /// one by one.
-    #[default]
-    Vector,
-    /// One path at a time (`PathState::advance`).
-    Scalar,
-}
-
 /// How the path tracer's camera rays cross a 3-D gradient-index field where
 /// no geometry is near ([`RenderOptions::flights`]; `media::fly_camera_rays`).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -540,6 +521,8 @@ struct TileJob<'a> {
     observer: Option<&'a dyn RayObserver>,
     /// Paths per packet (8 or 16).
     packet_lanes: usize,
+    /// Vector or scalar shading (for [`Scheduler::of`]).
+    shading: Shading,
     /// Fly each tile row's camera rays side by side (the path tracer through
     /// a medium with flights).
     fly_rows: bool,
@@ -597,10 +580,11 @@ impl TileJob<'_> {
                 aov: &mut aov,
                 stats: &mut stats,
             };
-            if path_lanes_apply(tracer) {
-                self.stream_tile(tracer, lanes, (x0, y0), (w, h), &taken, sums)?;
-            } else {
-                self.trace_tile(tracer, (x0, y0), (w, h), &taken, sums)?;
+            match Scheduler::of(tracer, self.shading) {
+                Scheduler::Wavefront(mode) => {
+                    self.stream_tile(tracer, mode, lanes, (x0, y0), (w, h), &taken, sums)?
+                }
+                Scheduler::PathByPath => self.trace_tile(tracer, (x0, y0), (w, h), &taken, sums)?,
             }
         }
         for k in 0..n {
@@ -703,6 +687,7 @@ pub fn render_part(
         base: part.base.as_ref(),
         want_aovs: opts.want_aovs,
         observer: opts.observer.as_deref(),
+        shading: opts.shading,
         packet_lanes: match opts.packet_width.lanes(scene.embree.device()) {
             // Fewer samples per pixel than a packet holds: half of it would
             // go out empty.
@@ -731,7 +716,7 @@ pub fn render_part(
             .par_iter()
             // Each thread's packets and wavefront storage, kept from tile to tile.
             .map_init(
-                || trace::Lanes::of_width(job.packet_lanes, opts.shading),
+                || trace::Lanes::of_width(job.packet_lanes),
                 |lanes, &(x, y)| {
                     let t = job.tile(lanes, x, y, opts.cancel.is_cancelled())?;
                     let s = samples_done.fetch_add(t.stats.samples, Ordering::Relaxed) + t.stats.samples;

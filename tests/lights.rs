@@ -3,6 +3,8 @@
 //! spot and emission input, and the packet path tracing the new lights'
 //! paths as single rays do. (Next-event estimation of emitters against BSDF
 //! sampling alone, with known-wrong densities: `src/render/light_tests.rs`.)
+mod common;
+
 use glam::{DVec3, Vec3A as V3};
 use snell::counters::Counters;
 use snell::dielectric::InteriorList;
@@ -267,13 +269,15 @@ material = { type = "mirror" }
 #[test]
 fn packet_lanes_trace_the_new_lights_as_single_rays_do() {
     use snell::embree::Packet8;
-    use snell::integrator::{path_lanes, path_lanes_apply, LanePackets};
+    use snell::integrator::Scheduler;
     let s = load("lamps.toml", LAMPS).unwrap();
     assert_eq!(s.lights.len(), 5, "spot, rect and three emitting objects");
     let tr = Tracer::new(&s);
-    assert!(path_lanes_apply(tr));
+    assert!(matches!(
+        Scheduler::of(tr, Default::default()),
+        Scheduler::Wavefront(_)
+    ));
     let list = InteriorList::from_solids(&s.solids, &s.camera_interior);
-    let reference = || LanePackets::<Packet8>::with_vector_shading(false);
     let (mut lit, mut differs) = (0, 0);
     for pixel in 0..32 * 24u64 {
         let (x, y) = ((pixel % 32) as f32, (pixel / 32) as f32);
@@ -286,7 +290,8 @@ fn packet_lanes_trace_the_new_lights_as_single_rays_do() {
             .collect();
         let mut scalar = rngs.clone();
         let mut sts = [Counters::default(); 8];
-        let lanes = path_lanes::<8, Packet8>(tr, &cams, &list, &rngs, &mut sts, &mut reference()).unwrap();
+        let lanes =
+            common::wavefront_paths::<8, Packet8>(tr, &cams, &list, &rngs, &mut sts, &mut Default::default());
         for i in 0..8 {
             let mut st = Counters::default();
             let l = radiance(tr, cams[i].0, cams[i].1, list.clone(), &mut scalar[i], &mut st).unwrap();
@@ -299,8 +304,14 @@ fn packet_lanes_trace_the_new_lights_as_single_rays_do() {
         }
         let other = rngs_at(8);
         let mut sts2 = [Counters::default(); 8];
-        let shifted =
-            path_lanes::<8, Packet8>(tr, &cams, &list, &other, &mut sts2, &mut reference()).unwrap();
+        let shifted = common::wavefront_paths::<8, Packet8>(
+            tr,
+            &cams,
+            &list,
+            &other,
+            &mut sts2,
+            &mut Default::default(),
+        );
         differs += (shifted != lanes) as u32;
     }
     assert!(lit > 2000, "{lit} lit paths");

@@ -1,5 +1,7 @@
 //! The renderer end to end: furnace tests, an analytic direct-lighting case,
 //! thread-count independence, reference-scene means, and bad input.
+mod common;
+
 use glam::Vec3A as V3;
 use snell::render::{render, RenderOptions, RenderSettings, Rendered};
 use snell::scene::{load_scene, load_scene_str, BuildOptions};
@@ -467,7 +469,7 @@ material = { type = "diffuse", reflectance = [0.5, 0.5, 0.5] }
     );
 }
 
-/// The path tracer's packets of 16 and 8 lanes (`path_lanes`, what renders use without
+/// The path tracer's packets of 16 and 8 lanes (the wavefront, what renders use without
 /// a gradient-index medium) give every path the radiance and counters of the
 /// scalar path (`radiance`) with the same random numbers, bit for bit (also
 /// where the packets' analytic shapes are intersected by snell's own vector
@@ -482,7 +484,7 @@ fn packet_lanes_trace_the_same_paths_as_single_rays() {
     use snell::counters::Counters;
     use snell::dielectric::{InteriorList, NestedStrategy};
     use snell::embree::{Packet16, Packet8};
-    use snell::integrator::{path_lanes, path_lanes_apply, radiance, LanePackets, Tracer};
+    use snell::integrator::{radiance, Scheduler, Tracer};
     use snell::render::RenderSettings;
     use snell::sampling::Rng;
     let cases = [
@@ -496,7 +498,10 @@ fn packet_lanes_trace_the_same_paths_as_single_rays() {
     for (name, strategy) in cases {
         let scene = shipped_scene(name);
         let tr = Tracer::new(&scene).with_strategy(strategy);
-        assert!(path_lanes_apply(tr), "{name}: no medium, the packet path applies");
+        assert!(
+            matches!(Scheduler::of(tr, Default::default()), Scheduler::Wavefront(_)),
+            "{name}: no medium, the wavefront applies"
+        );
         // The scenes of few analytic shapes intersect them outside Embree
         // (`shapes::AnalyticSet`) in packets; `radiance` through Embree.
         if matches!(name, "three_spheres" | "cylinder_refraction") {
@@ -530,25 +535,23 @@ fn packet_lanes_trace_the_same_paths_as_single_rays() {
             // The renderer's width (16) on all of them, and 8 on the first half.
             let rngs8 = rngs.clone();
             let mut sts8 = [Counters::default(); 8];
-            let lanes8 = path_lanes::<8, Packet8>(
+            let lanes8 = common::wavefront_paths::<8, Packet8>(
                 tr,
                 &cams[..8],
                 &list,
                 &rngs8,
                 &mut sts8,
-                &mut LanePackets::with_vector_shading(false),
-            )
-            .unwrap();
+                &mut Default::default(),
+            );
             let mut sts = [Counters::default(); 16];
-            let lanes = path_lanes::<16, Packet16>(
+            let lanes = common::wavefront_paths::<16, Packet16>(
                 tr,
                 &cams,
                 &list,
                 &rngs,
                 &mut sts,
-                &mut LanePackets::with_vector_shading(false),
-            )
-            .unwrap();
+                &mut Default::default(),
+            );
             assert_eq!(lanes8[..], lanes[..8], "{name}: 8 and 16 lanes");
             assert_eq!(sts8[..], sts[..8], "{name}: 8 and 16 lanes, counters");
             for i in 0..16 {
@@ -577,15 +580,14 @@ fn packet_lanes_trace_the_same_paths_as_single_rays() {
             // Power: other random numbers give other paths.
             let other = rngs_at(1);
             let mut sts2 = [Counters::default(); 16];
-            let shifted = path_lanes::<16, Packet16>(
+            let shifted = common::wavefront_paths::<16, Packet16>(
                 tr,
                 &cams,
                 &list,
                 &other,
                 &mut sts2,
-                &mut LanePackets::with_vector_shading(false),
-            )
-            .unwrap();
+                &mut Default::default(),
+            );
             shifted_differs += (shifted != lanes) as u32;
         }
         assert!(lit > 100, "{name}: {lit} lit paths, too few to compare");
@@ -596,7 +598,7 @@ fn packet_lanes_trace_the_same_paths_as_single_rays() {
     }
 }
 
-/// The wavefront (`path_stream`, what renders use without a gradient-index
+/// The wavefront (`trace_paths`, what renders use without a gradient-index
 /// medium): hundreds of paths from many pixels, compacted into full packets
 /// at every step, each give the radiance and counters of the scalar path
 /// (`radiance`) with the same random numbers, bit for bit, at 16 and 8
@@ -609,7 +611,9 @@ fn the_wavefront_traces_the_same_paths_as_single_rays() {
     use snell::counters::Counters;
     use snell::dielectric::{InteriorList, NestedStrategy};
     use snell::embree::{Packet16, Packet8};
-    use snell::integrator::{path_lanes, path_stream, radiance, LanePackets, PathStart, Tracer};
+    use snell::integrator::{
+        radiance, trace_paths, PathStart, Scheduler, Shading, Tracer, Wavefront, WavefrontMode,
+    };
     use snell::sampling::Rng;
     let cases = [
         ("three_spheres", NestedStrategy::Filter),
@@ -651,13 +655,18 @@ fn the_wavefront_traces_the_same_paths_as_single_rays() {
             let mut total = Counters::default();
             // `done` names a path by its place in `starts`.
             let done = |i: u32, l: V3, st: &Counters| out[i as usize] = (l, *st);
+            // The renderer's vector mode, or the reference.
+            let mode = match Scheduler::of(tr, Shading::Vector) {
+                Scheduler::Wavefront(m) if vector => m,
+                _ => WavefrontMode::SCALAR,
+            };
             if wide {
-                let mut packets = LanePackets::<Packet16>::with_vector_shading(vector);
-                path_stream::<16, _>(tr, &list, &starts, done, true, &mut total, &mut packets).unwrap();
+                let mut packets = Wavefront::<Packet16>::default();
+                trace_paths::<16, _>(tr, mode, &list, &starts, done, true, &mut total, &mut packets).unwrap();
                 total += packets.take_occupancy();
             } else {
-                let mut packets = LanePackets::<Packet8>::with_vector_shading(vector);
-                path_stream::<8, _>(tr, &list, &starts, done, true, &mut total, &mut packets).unwrap();
+                let mut packets = Wavefront::<Packet8>::default();
+                trace_paths::<8, _>(tr, mode, &list, &starts, done, true, &mut total, &mut packets).unwrap();
                 total += packets.take_occupancy();
             }
             (out, total)
@@ -718,11 +727,18 @@ fn the_wavefront_traces_the_same_paths_as_single_rays() {
         // (at most 7/16 full; with nested solids, lanes inside a solid go
         // one by one and count in neither).
         let mut grouped = Counters::default();
-        let mut packets = LanePackets::<Packet16>::with_vector_shading(false);
+        let mut packets = Wavefront::<Packet16>::default();
         for group in starts(0).chunks(7) {
             let cams: Vec<_> = group.iter().map(|g| g.1).collect();
             let rngs: Vec<_> = group.iter().map(|g| g.2.clone()).collect();
-            path_lanes::<16, _>(tr, &cams, &list, &rngs, &mut [Counters::default()], &mut packets).unwrap();
+            common::wavefront_paths::<16, _>(
+                tr,
+                &cams,
+                &list,
+                &rngs,
+                &mut [Counters::default()],
+                &mut packets,
+            );
         }
         grouped += packets.take_occupancy();
         let share = |c: &Counters| c.packet_lanes as f64 / c.packet_slots as f64;

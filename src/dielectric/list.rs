@@ -64,14 +64,32 @@ impl InteriorList {
         }
     }
 
+    /// The entries as two slices (inline, then spilled): scanned without a
+    /// branch per entry.
+    #[inline]
+    fn keys(&self) -> (&[u64], &[u64]) {
+        (&self.inline[..self.len().min(INLINE)], &self.spill)
+    }
+
+    /// The members as a bit set (bit `s` for solid `s`), when every member's
+    /// index is below 128.
+    #[inline]
+    pub fn member_bits(&self) -> Option<u128> {
+        self.iter()
+            .try_fold(0u128, |bits, s| (s < 128).then(|| bits | 1u128 << s))
+    }
+
     /// The solid indices, in no particular order.
     pub fn iter(&self) -> impl Iterator<Item = u32> + '_ {
-        (0..self.len()).map(|i| self.get(i) as u32)
+        let (a, b) = self.keys();
+        a.iter().chain(b).map(|&k| k as u32)
     }
 
     /// Is the ray inside solid `s`?
+    #[inline]
     pub fn contains(&self, s: u32) -> bool {
-        self.iter().any(|x| x == s)
+        let (a, b) = self.keys();
+        a.iter().any(|&k| k as u32 == s) || b.iter().any(|&k| k as u32 == s)
     }
 
     /// Add solid `s` of rank `rank` if absent (idempotent: a duplicate report
@@ -119,16 +137,19 @@ impl InteriorList {
     /// The solid with the highest rank (the medium the ray travels in).
     #[inline]
     pub fn top(&self) -> Option<u32> {
-        (0..self.len()).map(|i| self.get(i)).max().map(|k| k as u32)
+        self.top_key().map(|k| k as u32)
+    }
+
+    #[inline]
+    fn top_key(&self) -> Option<u64> {
+        let (a, b) = self.keys();
+        a.iter().chain(b).copied().max()
     }
 
     /// The highest rank in the list (the paper's P0).
     #[inline]
     pub fn top_rank(&self) -> Option<u32> {
-        (0..self.len())
-            .map(|i| self.get(i))
-            .max()
-            .map(|k| (k >> 32) as u32)
+        self.top_key().map(|k| (k >> 32) as u32)
     }
 
     /// Sorted solid indices (for comparisons).
@@ -162,5 +183,9 @@ mod tests {
         l.toggle(0, 100);
         assert_eq!(l.top(), Some(0));
         assert!(!l.contains(49) && l.contains(0));
+        let bits = l.member_bits().unwrap();
+        assert!((0..50).all(|s| (bits >> s & 1 != 0) == l.contains(s)));
+        l.insert(200, 1);
+        assert_eq!(l.member_bits(), None, "an index past the set's width");
     }
 }

@@ -500,12 +500,19 @@ fn settle_masked(
         ray.org.as_dvec3() + ray.dir.as_dvec3() * t as f64
     });
     let mut changed = 0;
+    // The list's members as bits, read once: a lookup per masked solid
+    // would cost masked × listed comparisons on deep nests.
+    let held = list.member_bits();
     for &s in masked {
         let solid = &scene.solids[s as usize];
         let inside = q.is_some_and(|q| {
             q.cmpge(solid.aabb.0).all() && q.cmple(solid.aabb.1).all() && scene.solid_contains(s, q)
         });
-        if inside != list.contains(s) {
+        let listed = match held {
+            Some(bits) => s < 128 && bits >> s & 1 != 0,
+            None => list.contains(s),
+        };
+        if inside != listed {
             changed += 1;
             if inside {
                 list.insert(s, solid.rank);

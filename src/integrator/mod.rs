@@ -9,8 +9,9 @@
 //! (straight, chords through a gradient-index medium, or a packet's) in
 //! `cast`; light sampling and shadow rays in `light`; the materials' one
 //! scattering model in `scatter`; the path tracer's state and step in `path`;
-//! paths traced side by side in Embree packets in `lanes`, and held as
-//! columns (`columns`) shaded in vector registers in `wavefront` and
+//! which scheduler traces a render's paths in `scheduler` (the one place
+//! that decides); paths traced side by side in Embree packets, held as
+//! columns, in `wavefront`, their hits shaded in vector registers by
 //! `shade_lanes`; the Whitted preview in `whitted`; the deterministic
 //! refraction-only path of tests and audits in `refraction_path`.
 use crate::counters::Counters;
@@ -26,22 +27,23 @@ use glam::Vec3A as V3;
 mod camera_rays;
 mod cast;
 mod columns;
-mod lanes;
 mod light;
 mod observer;
 mod path;
 mod refraction_path;
 mod scatter;
+mod scheduler;
 mod shade_lanes;
 mod wavefront;
 mod whitted;
 
 pub use camera_rays::{CameraRays, CurvedStarts, Group, MAX_GROUP};
 pub use cast::MAX_CHORDS_PER_SEGMENT;
-pub use lanes::{path_lanes, path_lanes_apply, path_stream, LanePackets};
 pub use observer::{RayObserver, RayQuery, RayRecorder};
 pub use path::PathStart;
 pub use refraction_path::{refraction_path, refraction_path_with, PathEvent, Queries, RefractionPath};
+pub use scheduler::{Scheduler, Shading, WavefrontMode};
+pub use wavefront::{trace_paths, Wavefront};
 
 /// How paths find the light sources (a render setting, not part of the scene).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]

@@ -17,7 +17,8 @@ use crate::scene::{RenderScene, SurfacePoint};
 use glam::Vec3A as V3;
 
 /// A path tracer's path between two segments: the loop state of [`path`]
-/// and of [`path_lanes`](super::path_lanes), which both advance it with [`PathState::advance`].
+/// and of the wavefront's single-ray step ([`trace_paths`](super::trace_paths)),
+/// which both advance it with [`PathState::advance`].
 pub(super) struct PathState {
     pub(super) l: V3,
     pub(super) beta: V3,
@@ -39,7 +40,7 @@ pub(super) struct PathState {
     pub(super) list: InteriorList,
     /// No diffuse bounce yet: the camera ray and its mirror and dielectric
     /// continuations, which a pixel's samples follow side by side nearly in
-    /// parallel (Embree's coherent packets, `path_lanes`).
+    /// parallel (Embree's coherent packets, in the wavefront).
     pub(super) only_specular: bool,
 }
 
@@ -66,7 +67,7 @@ impl PathState {
     /// connection (returned as a shadow ray to resolve before the next
     /// segment, in order), the next ray and Russian roulette. `false`: the
     /// path has ended. `surface`: the hit's surface point when the caller
-    /// has already reconstructed it (`path_lanes`), else it is made here.
+    /// has already reconstructed it (the wavefront), else it is made here.
     /// (Forced inline: one call per segment, in the lane loop and in `path`.)
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
@@ -172,7 +173,7 @@ impl PathState {
                             Some(ray) => shadow = Some(PendingShadow { ray, contrib }),
                         }
                     }
-                    // Its curved shadow ray is cast here (`path_lanes` never
+                    // Its curved shadow ray is cast here (the wavefront never
                     // runs with a medium).
                     Some(NextEvent::SunThroughMedium(ls)) => {
                         self.l += self.beta * sun_through_medium(tr, sp.p, &lambert, &ls, st);
@@ -318,7 +319,7 @@ pub(super) fn finite_radiance(l: V3, st: &mut Counters) -> V3 {
     }
 }
 
-/// One path for [`path_stream`](super::path_stream) to start.
+/// One path for [`trace_paths`](super::trace_paths) to start.
 pub struct PathStart {
     /// The camera ray: origin and unit direction.
     pub ray: (V3, V3),

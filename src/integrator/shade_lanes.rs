@@ -228,14 +228,6 @@ fn get3(a: &[[f32; STAGE]; 3], i: usize) -> V3 {
 }
 
 impl ShadeLanes {
-    /// Can lanes of a render of `tr` be shaded here (which ones, each lane
-    /// decides in [`ShadeLanes::prepare`])? The path tracer with next-event
-    /// estimation, without a gradient-index medium or an observer (which is
-    /// told of every query the single-ray step makes).
-    pub(super) fn applies(tr: Tracer<'_>) -> bool {
-        tr.nee() && tr.observer.is_none() && tr.scene.medium.is_none()
-    }
-
     /// Ready for a step of `scene` (once per wavefront).
     pub(super) fn start(&mut self, scene: &RenderScene) {
         #[cfg(test)]

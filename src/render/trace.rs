@@ -1,44 +1,45 @@
 //! How a tile's samples are traced: as wavefronts of paths in Embree packets
-//! ([`path_stream`]), or path by path (through a gradient-index medium, or
+//! ([`trace_paths`]), or path by path (through a gradient-index medium, or
 //! by the Whitted tracer). Either way each sample's radiance goes to its
 //! pixel in sample order.
-use super::{Aov, Shading, TileJob, TileSums};
+use super::{Aov, TileJob, TileSums};
 use crate::counters::Counters;
 use crate::dielectric::InteriorList;
 use crate::error::Result;
 use crate::integrator::{
-    path_stream, radiance_after, CurvedStarts, Group, LanePackets, PathStart, Tracer, MAX_GROUP,
+    radiance_after, trace_paths, CurvedStarts, Group, PathStart, Tracer, Wavefront, WavefrontMode, MAX_GROUP,
 };
 use glam::Vec3A as V3;
 
 /// The most paths traced side by side: [`PacketWidth::lanes`](super::PacketWidth::lanes) (8 or 16).
 const MAX_PATHS_PER_PACKET: usize = 16;
 
-/// Samples a tile streams through its packets at a time ([`path_stream`]):
+/// Samples a tile streams through its packets at a time ([`trace_paths`]):
 /// their radiance waits in a buffer of this many until all have ended, then
 /// goes to the pixels in sample order, as a pixel-by-pixel render adds them.
 const STREAM_WINDOW: usize = 1024;
 
-/// A thread's packets and wavefront storage for [`path_stream`], of the
+/// A thread's packets and wavefront storage for [`trace_paths`], of the
 /// render's width.
 pub(super) enum Lanes {
-    Eight(Box<LanePackets<crate::embree::Packet8>>),
-    Sixteen(Box<LanePackets<crate::embree::Packet16>>),
+    Eight(Box<Wavefront<crate::embree::Packet8>>),
+    Sixteen(Box<Wavefront<crate::embree::Packet16>>),
 }
 
 impl Lanes {
-    pub(super) fn of_width(lanes: usize, shading: Shading) -> Lanes {
-        let vector = shading == Shading::Vector;
+    pub(super) fn of_width(lanes: usize) -> Lanes {
         match lanes {
-            16 => Lanes::Sixteen(Box::new(LanePackets::with_vector_shading(vector))),
-            _ => Lanes::Eight(Box::new(LanePackets::with_vector_shading(vector))),
+            16 => Lanes::Sixteen(Box::default()),
+            _ => Lanes::Eight(Box::default()),
         }
     }
 
-    /// [`path_stream`] at this width.
+    /// [`trace_paths`] at this width.
+    #[allow(clippy::too_many_arguments)]
     fn stream(
         &mut self,
         tr: Tracer<'_>,
+        mode: WavefrontMode,
         list: &InteriorList,
         starts: &[PathStart],
         done: impl FnMut(u32, V3, &Counters),
@@ -46,8 +47,8 @@ impl Lanes {
         stats: &mut Counters,
     ) -> Result<()> {
         match self {
-            Lanes::Eight(p) => path_stream::<8, _>(tr, list, starts, done, per_path, stats, p),
-            Lanes::Sixteen(p) => path_stream::<16, _>(tr, list, starts, done, per_path, stats, p),
+            Lanes::Eight(p) => trace_paths::<8, _>(tr, mode, list, starts, done, per_path, stats, p),
+            Lanes::Sixteen(p) => trace_paths::<16, _>(tr, mode, list, starts, done, per_path, stats, p),
         }
     }
 
@@ -62,11 +63,14 @@ impl Lanes {
 impl TileJob<'_> {
     /// The samples of a w × h tile at (x0, y0) (`taken[k]` of pixel `k`, row
     /// by row) traced as wavefronts of up to [`STREAM_WINDOW`] paths
-    /// ([`path_stream`]), the tile's samples in order, a pixel's side by side.
+    /// ([`trace_paths`], in `mode`), the tile's samples in order, a pixel's
+    /// side by side.
     /// Each sample's radiance is added to its pixel in sample order.
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn stream_tile(
         &self,
         tracer: Tracer<'_>,
+        mode: WavefrontMode,
         lanes: &mut Lanes,
         (x0, y0): (u32, u32),
         (w, h): (u32, u32),
@@ -100,7 +104,7 @@ impl TileJob<'_> {
                     own[t as usize] = *st;
                 }
             };
-            lanes.stream(tracer, &list, &starts, done, per_path, stats)?;
+            lanes.stream(tracer, mode, &list, &starts, done, per_path, stats)?;
             for (t, &(k, _)) in window.iter().enumerate() {
                 pix[k].add(ls[t]);
                 if let Some(a) = aov.as_mut() {

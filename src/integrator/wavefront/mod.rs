@@ -1,5 +1,5 @@
-//! The path tracer's wavefront: the live paths held as columns
-//! ([`PathColumns`]), one array per component of their state. A step writes
+//! The path tracer's wavefront scheduler ([`trace_paths`]): the live paths
+//! held as columns ([`PathColumns`]), one array per component of their state. A step writes
 //! `N` consecutive paths' rays into a packet straight from the columns, and
 //! shades each lane in one of two ways:
 //!
@@ -32,7 +32,7 @@ use super::columns::{self, PacketPaths, PathColumns, MAX};
 use super::light::{resolve_shadows, PendingShadow};
 use super::path::{finite_radiance, PathStart, PathState};
 use super::shade_lanes::{Prepared, ShadeLanes};
-use super::Tracer;
+use super::{Tracer, WavefrontMode};
 use crate::counters::Counters;
 use crate::dielectric::{self, Coincident, InteriorList, NestedStrategy, PacketQuery};
 use crate::embree::RayPacket;
@@ -41,31 +41,139 @@ use crate::scene::shapes::{SetScratch, SurfaceLanes};
 use crate::scene::SurfacePoint;
 use glam::Vec3A as V3;
 
-/// The wavefront's storage, kept across calls for its allocations.
-pub(super) struct Stream<'a, const N: usize, P> {
-    pub near: &'a mut P,
-    pub shadow: &'a mut P,
-    pub occupancy: &'a mut Counters,
-    pub cols: &'a mut PathColumns,
-    pub own: &'a mut Vec<Counters>,
-    pub waiting: &'a mut Vec<(u32, PendingShadow)>,
-    pub shade: &'a mut ShadeLanes,
-    pub scratch: &'a mut SetScratch<N>,
+/// A thread's wavefront storage: the two Embree packets (nearest-hit
+/// segments and shadow rays), the path columns and the kernel's stage, made
+/// once and kept from call to call (zeroing a packet per call shows in a
+/// render's profile), with how full the packets went out.
+pub struct Wavefront<P> {
+    near: P,
+    shadow: P,
+    occupancy: Counters,
+    /// The counters of the paths, kept for their allocation.
+    own: Vec<Counters>,
+    /// A step's shadow rays: the place of their path in the front and the
+    /// connection (kept apart from the paths, which move as the front
+    /// shrinks).
+    waiting: Vec<(u32, PendingShadow)>,
+    /// The lanes staged for the kernel.
+    shade: Box<ShadeLanes>,
+    /// The paths of a wavefront.
+    columns: PathColumns,
+}
+
+impl<P: Default> Default for Wavefront<P> {
+    fn default() -> Self {
+        Wavefront {
+            near: P::default(),
+            shadow: P::default(),
+            occupancy: Counters::default(),
+            own: Vec::new(),
+            waiting: Vec::new(),
+            shade: Box::default(),
+            columns: Default::default(),
+        }
+    }
+}
+
+impl<P> Wavefront<P> {
+    /// The packets' slots and the rays they carried since the last call
+    /// (the `packet_*` and `shade_*` fields of [`Counters`]; the others are
+    /// zero).
+    pub fn take_occupancy(&mut self) -> Counters {
+        std::mem::take(&mut self.occupancy)
+    }
+}
+
+/// Paths of the path tracer traced as one wavefront, `N` side by side
+/// (where [`Scheduler::of`](super::Scheduler::of) chose the wavefront, with
+/// its `mode`): all the paths of `starts` start together, and each step
+/// takes the segment of every live path, in packets of `N` made of the live
+/// paths in order (a pixel's camera rays fill packets as before; later the
+/// survivors of many pixels, so packets stay full however the paths'
+/// lengths differ). The segments that a plain query answers
+/// ([`dielectric::plain_query_suffices`], or a masked query:
+/// [`dielectric::packet_query`]) go to Embree in those packets (a coherent
+/// one while each of its paths has only met smooth surfaces), the others
+/// through [`dielectric::trace`]; the step's shadow rays follow, in packets
+/// of `N` of their own.
+///
+/// Each path gives the same radiance, bit for bit, as
+/// [`radiance`](super::radiance) with its own generator in the
+/// [`WavefrontMode::SCALAR`] mode (the shading is `PathState::advance` in
+/// both, each path's random numbers are its own, and a path's shadow ray is
+/// resolved before its next segment); with the kernel, up to rounding.
+/// Every ended path goes to `done` with its index in `starts`, its radiance
+/// and (`per_path`) its own counters, else zeros; all counts also add to
+/// `stats`.
+///
+/// # Errors
+/// As [`radiance`](super::radiance).
+#[allow(clippy::too_many_arguments)]
+pub fn trace_paths<const N: usize, P: RayPacket<N>>(
+    tr: Tracer<'_>,
+    mode: WavefrontMode,
+    list: &InteriorList,
+    starts: &[PathStart],
+    done: impl FnMut(u32, V3, &Counters),
+    per_path: bool,
+    stats: &mut Counters,
+    w: &mut Wavefront<P>,
+) -> Result<()> {
+    debug_assert!(matches!(
+        super::Scheduler::of(tr, super::Shading::Scalar),
+        super::Scheduler::Wavefront(_)
+    ));
+    let Wavefront {
+        near,
+        shadow,
+        occupancy,
+        own,
+        waiting,
+        shade,
+        columns,
+    } = w;
+    let scratch = &mut if mode.f32_set {
+        SetScratch::<N>::f32()
+    } else {
+        SetScratch::<N>::default()
+    };
+    let storage = Stream {
+        near,
+        shadow,
+        occupancy,
+        cols: columns,
+        own,
+        waiting,
+        shade,
+        scratch,
+    };
+    stream(tr, list, starts, done, per_path, stats, mode.kernel, storage)
+}
+
+/// The wavefront's storage, borrowed for one call.
+struct Stream<'a, const N: usize, P> {
+    near: &'a mut P,
+    shadow: &'a mut P,
+    occupancy: &'a mut Counters,
+    cols: &'a mut PathColumns,
+    own: &'a mut Vec<Counters>,
+    waiting: &'a mut Vec<(u32, PendingShadow)>,
+    shade: &'a mut ShadeLanes,
+    scratch: &'a mut SetScratch<N>,
 }
 
 /// The paths `starts` (camera rays inside `list`) traced to their ends as
-/// one wavefront, `N` side by side (the contract of
-/// [`path_stream`](super::path_stream)); lanes shaded in vector registers
-/// where `vector` and [`ShadeLanes::applies`].
+/// one wavefront, `N` side by side (the contract of [`trace_paths`]); lanes
+/// shaded in vector registers where `kernel`.
 #[allow(clippy::too_many_arguments)]
-pub(super) fn stream<const N: usize, P: RayPacket<N>>(
+fn stream<const N: usize, P: RayPacket<N>>(
     tr: Tracer<'_>,
     list: &InteriorList,
     starts: &[PathStart],
     mut done: impl FnMut(u32, V3, &Counters),
     per_path: bool,
     stats: &mut Counters,
-    vector: bool,
+    kernel_on: bool,
     w: Stream<'_, N, P>,
 ) -> Result<()> {
     debug_assert!(N <= MAX);
@@ -81,7 +189,6 @@ pub(super) fn stream<const N: usize, P: RayPacket<N>>(
         scratch,
     } = w;
     let surfaces = &mut SurfaceLanes::<N>::default();
-    let kernel_on = vector && ShadeLanes::applies(tr);
     shade.start(scene);
     // Only overlapping solids make some segments need more than a plain
     // query, and only absorbing ones attenuate a segment.
@@ -108,10 +215,16 @@ pub(super) fn stream<const N: usize, P: RayPacket<N>>(
         () => {
             occupancy.shade_slots += shade.shade() as u64;
             occupancy.shade_lanes += shade.count as u64;
+            // Lanes are staged packet by packet: a packet's view is made
+            // once per run of its lanes, not per lane.
+            let mut view: Option<(usize, PacketPaths<'_, N>)> = None;
             for j in 0..shade.count {
                 let k = shade.at[j] as usize;
                 let base = k - k % N;
-                let lanes = &mut cols.packet::<N>(base);
+                if view.as_ref().is_none_or(|v| v.0 != base) {
+                    view = Some((base, cols.packet::<N>(base)));
+                }
+                let lanes = &mut view.as_mut().expect("made above").1;
                 let i = k - base;
                 let st = counts!(lanes.s[i].slot);
                 let (sh, go) = shade.finish(j, i, scene, lanes, st);
