@@ -5,6 +5,9 @@ CARGO ?= cargo
 DEMO_SCENE ?= scenes/three_spheres.toml
 DEMO_OUT ?= out/demo.png
 APT_PACKAGES := libembree-dev libclang-dev
+# Where cargo puts what it builds (CARGO_TARGET_DIR when it is set).
+TARGET_DIR ?= $(or $(CARGO_TARGET_DIR),target)
+SNELL_BIN ?= $(TARGET_DIR)/release/snell
 
 .PHONY: deps demo test build bench fmt lint clean fuzz check-memory openjd bench-peers bench-grin
 
@@ -37,7 +40,7 @@ build: deps
 
 demo: build
 	@mkdir -p $(dir $(DEMO_OUT))
-	./target/release/snell render $(DEMO_SCENE) -o $(DEMO_OUT) --quiet
+	$(SNELL_BIN) render $(DEMO_SCENE) -o $(DEMO_OUT) --quiet
 	@echo "snell: demo image written to $(abspath $(DEMO_OUT))"
 
 # The core library builds without the command line's dependencies (clap,
@@ -83,13 +86,13 @@ check-memory: deps
 	@command -v valgrind >/dev/null || { [ "$$(id -u)" = 0 ] && apt-get install -y valgrind; }
 	$(CARGO) test --locked --test embree_ffi --no-run
 	valgrind --error-exitcode=3 --leak-check=full --errors-for-leak-kinds=definite \
-	  $$(ls -t target/debug/deps/embree_ffi-* | grep -v '\.d$$' | head -1) --test-threads=1
+	  $$(ls -t $(TARGET_DIR)/debug/deps/embree_ffi-* | grep -v '\.d$$' | head -1) --test-threads=1
 	$(CARGO) build --locked
 	valgrind --error-exitcode=3 --leak-check=full --errors-for-leak-kinds=definite \
-	  ./target/debug/snell render scenes/glass_of_water_nested.toml -o /tmp/snell-memcheck.png --width 16 --height 12 --spp 1 --threads 1 --quiet
+	  $(TARGET_DIR)/debug/snell render scenes/glass_of_water_nested.toml -o /tmp/snell-memcheck.png --width 16 --height 12 --spp 1 --threads 1 --quiet
 
 fuzz: build
-	./target/release/snell fuzz --cases 100000
+	$(SNELL_BIN) fuzz --cases 100000
 
 bench: deps
 	$(CARGO) bench --locked
@@ -102,7 +105,6 @@ PEERS_VENV ?= .venv-peers
 PEERS_MITSUBA ?= mitsuba==3.9.1
 PEERS_NUMPY ?= numpy>=1.24,<3
 PEERS_ARGS ?=
-SNELL_BIN ?= $(or $(CARGO_TARGET_DIR),target)/release/snell
 bench-peers: build
 	@llvm=$$(bench/peers/setup.sh '$(PEERS_VENV)' '$(PEERS_MITSUBA)' '$(PEERS_NUMPY)') || exit 1; \
 	echo "bench-peers: DRJIT_LIBLLVM_PATH=$$llvm"; \
@@ -142,7 +144,7 @@ clean:
 # python/tests with pytest.
 PYTHON_VENV ?= $(OPENJD_VENV)
 PYTHON_TOOLS ?= 'maturin>=1.7,<2' 'numpy>=1.21' 'pytest>=7'
-PYTHON_TARGET_DIR ?= $(or $(CARGO_TARGET_DIR),target)
+PYTHON_TARGET_DIR ?= $(TARGET_DIR)
 PYTHON_PROFILE ?= release
 .PHONY: python test-python lint-python bench-python
 python: deps openjd
@@ -162,7 +164,7 @@ test-python:
 bench-python: build
 	$(MAKE) --no-print-directory python PYTHON_PROFILE=release
 	$(CARGO) bench --bench warp --no-run --locked
-	$(PYTHON_VENV)/bin/python python/benchmarks/overhead.py --snell target/release/snell $(OVERHEAD_ARGS)
+	$(PYTHON_VENV)/bin/python python/benchmarks/overhead.py --snell $(SNELL_BIN) $(OVERHEAD_ARGS)
 
 # fmt and clippy on the binding crate (its own workspace, so `make lint` does not see it).
 lint-python: deps

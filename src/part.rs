@@ -213,7 +213,7 @@ pub fn read_part(path: &Path) -> Result<Part> {
     };
     let (fw, fh) =
         parse_pair::<u32>(&need("snell_film")?, 'x').ok_or_else(|| bad("bad snell_film".into()))?;
-    if fw as u64 * fh as u64 > crate::scene::build::MAX_PIXELS {
+    if fw as u64 * fh as u64 > crate::scene::builder::MAX_PIXELS {
         return Err(bad(format!("film {fw}x{fh} is larger than snell renders")));
     }
     let spp: u32 = need("snell_spp")?

@@ -5,8 +5,11 @@
 //! not count; `#[cfg(test)]` code counts like any other) and resolves every
 //! path that starts with `crate::`, `super::` or `self::`, and every `use`,
 //! to the module it names, following `super::` out of inline modules and a
-//! module's re-exports (`pub use room::Item` in a `mod.rs`) to the room that
-//! defines the item. Then:
+//! module's re-exports (`pub use room::Item` in a `mod.rs`, or a glob
+//! `pub use room::*` through the `pub` items the room's file defines) to the
+//! room that defines the item; a glob import (`use crate::a::b::*`) is a use
+//! of the module it names. (A glob of an ancestor, `use super::*`, is not
+//! followed to the items it brings in.) Then:
 //! - a top-level module may use only modules of strictly lower layers (which
 //!   also rules out every cycle between them); a new module must be given a
 //!   layer here;
@@ -147,8 +150,8 @@ struct Written {
 }
 
 /// A path tree at `i` (`a::b`, `a::{b, c::d as e}`, `a::*`): every path
-/// it expands to, each with its name, appended to `prefix`; returns the
-/// position after the tree.
+/// it expands to, each with its name (`*` for a glob's module), appended
+/// to `prefix`; returns the position after the tree.
 fn path_tree(b: &[u8], mut i: usize, prefix: &[String], out: &mut Vec<(Vec<String>, String)>) -> usize {
     let skip_ws = |mut i: usize| {
         while i < b.len() && b[i].is_ascii_whitespace() {
@@ -178,6 +181,10 @@ fn path_tree(b: &[u8], mut i: usize, prefix: &[String], out: &mut Vec<(Vec<Strin
             }
         }
         if i < b.len() && b[i] == b'*' {
+            // A glob: a use of the module it names, known by the name `*`.
+            if !segs.is_empty() {
+                out.push((segs, "*".to_string()));
+            }
             return i + 1;
         }
         let s = i;
@@ -292,6 +299,62 @@ fn written_paths(code: &str) -> Vec<Written> {
     out
 }
 
+/// The names of the `pub` items (`pub(crate)`, `pub(super)` too) `code`
+/// defines: what a glob re-export of its module makes visible.
+fn pub_items(code: &str) -> BTreeSet<String> {
+    let b = code.as_bytes();
+    let mut out = BTreeSet::new();
+    // The next word after `i` (skipping spaces, `""` and `(…)`), and where it ends.
+    let word = |mut i: usize| {
+        loop {
+            while i < b.len() && (b[i].is_ascii_whitespace() || b[i] == b'"') {
+                i += 1;
+            }
+            if i < b.len() && b[i] == b'(' {
+                while i < b.len() && b[i] != b')' {
+                    i += 1;
+                }
+                i += 1;
+                continue;
+            }
+            break;
+        }
+        let s = i;
+        while i < b.len() && is_ident(b[i]) {
+            i += 1;
+        }
+        (&code[s..i], i)
+    };
+    let mut i = 0;
+    while i < b.len() {
+        if !(b[i..].starts_with(b"pub") && (i == 0 || !is_ident(b[i - 1])))
+            || b.get(i + 3).is_some_and(|&c| is_ident(c))
+        {
+            i += 1;
+            continue;
+        }
+        let (mut w, mut j) = word(i + 3);
+        loop {
+            let (next, k) = word(j);
+            match w {
+                "unsafe" | "async" | "extern" | "mut" => {}
+                "const" if matches!(next, "fn" | "unsafe" | "async" | "extern") => {}
+                "fn" | "struct" | "enum" | "trait" | "type" | "const" | "static" | "mod" | "union" => {
+                    let name = if next == "mut" { word(k).0 } else { next };
+                    if !name.is_empty() {
+                        out.insert(name.to_string());
+                    }
+                    break;
+                }
+                _ => break,
+            }
+            (w, j) = (next, k);
+        }
+        i = j.max(i + 3);
+    }
+    out
+}
+
 /// `segs` as a path from the crate root, written in module `at`; None for
 /// a path that leaves the crate (an extern crate's, or too many `super`s).
 fn resolve(at: &[String], segs: &[String], in_use: bool) -> Option<ModPath> {
@@ -326,6 +389,11 @@ struct Crate {
     modules: BTreeSet<ModPath>,
     /// Re-exports: in module `P`, the name `n` is the room `r` of `P`'s.
     reexports: BTreeMap<(ModPath, String), String>,
+    /// Glob re-exports (`pub use room::*`): the rooms of `P`'s whose items
+    /// `P` shows.
+    globs: BTreeMap<ModPath, BTreeSet<String>>,
+    /// The `pub` items each module's file defines.
+    items: BTreeMap<ModPath, BTreeSet<String>>,
 }
 
 impl Crate {
@@ -335,21 +403,27 @@ impl Crate {
         all.sort();
         let mut files_ = Vec::new();
         let mut modules = BTreeSet::new();
+        let mut items = BTreeMap::new();
         for f in all {
             let Some(m) = module_of(src, &f) else { continue };
             let code = strip_comments(&std::fs::read_to_string(&f).unwrap());
             for k in 0..=m.len() {
                 modules.insert(m[..k].to_vec());
             }
+            items.insert(m.clone(), pub_items(&code));
             files_.push((f, m, written_paths(&code)));
         }
         let mut reexports = BTreeMap::new();
+        let mut globs: BTreeMap<ModPath, BTreeSet<String>> = BTreeMap::new();
         for (_, m, paths) in &files_ {
             for w in paths.iter().filter(|w| w.in_use && w.inline.is_empty()) {
                 let Some(t) = resolve(m, &w.segs, true) else {
                     continue;
                 };
-                if t.len() > m.len() + 1 && t.starts_with(m) && modules.contains(&t[..m.len() + 1]) {
+                let below = t.len() > m.len() && t.starts_with(m) && modules.contains(&t[..m.len() + 1]);
+                if below && w.name == "*" {
+                    globs.entry(m.clone()).or_default().insert(t[m.len()].clone());
+                } else if below && t.len() > m.len() + 1 {
                     reexports.insert((m.clone(), w.name.clone()), t[m.len()].clone());
                 }
             }
@@ -358,18 +432,28 @@ impl Crate {
             files: files_,
             modules,
             reexports,
+            globs,
+            items,
         }
     }
 
     /// The room of module `p` that `name` (a path segment after `p`) is in:
-    /// a room's own name, or an item `p` re-exports from a room.
+    /// a room's own name, or an item `p` re-exports from a room, by name
+    /// or by a glob.
     fn room(&self, p: &[String], name: &str) -> Option<String> {
         let mut q = p.to_vec();
         q.push(name.to_string());
         if self.modules.contains(&q) {
             return Some(name.to_string());
         }
-        self.reexports.get(&(p.to_vec(), name.to_string())).cloned()
+        if let Some(r) = self.reexports.get(&(p.to_vec(), name.to_string())) {
+            return Some(r.clone());
+        }
+        self.globs.get(p)?.iter().find_map(|r| {
+            let mut q = p.to_vec();
+            q.push(r.clone());
+            self.items.get(&q)?.contains(name).then(|| r.clone())
+        })
     }
 
     /// Every use of one room by another: (the module whose rooms they are,
@@ -551,12 +635,13 @@ fn synthetic(name: &str, files: &[(&str, &str)]) -> PathBuf {
 }
 
 /// The circle check has power at every depth: a circle made through a
-/// re-export and a test module's `super::super::`, and one between two
-/// folders' files through `crate::` paths, are each reported; without
+/// re-export and a test module's `super::super::`, one between two
+/// folders' files through `crate::` paths, and one through globs (a glob
+/// import, and an item a glob re-export shows) are each reported; without
 /// their back edges there is none.
 #[test]
 fn circles_are_caught_at_every_depth() {
-    let lib = ("lib.rs", "mod a;\nmod b;\n");
+    let lib = ("lib.rs", "mod a;\nmod b;\nmod c;\n");
     let a = [
         ("a/mod.rs", "mod x;\nmod y;\npub use y::Thing;\n"),
         ("a/x.rs", "use super::Thing;\npub fn f() -> Thing { Thing }\n"),
@@ -567,6 +652,11 @@ fn circles_are_caught_at_every_depth() {
         ("b/p/deep.rs", "pub fn g() { crate::b::q::leaf::h() }\n"),
         ("b/q/mod.rs", "pub mod leaf;\n"),
     ];
+    let c = [
+        ("c/mod.rs", "mod s;\nmod t;\npub use s::*;\n"),
+        ("c/t.rs", "use super::S;\npub fn t() -> S { S }\n"),
+    ];
+    let s_back = ("c/s.rs", "use super::t::*;\npub struct S;\n");
     let y_back = (
         "a/y.rs",
         "pub struct Thing;\n#[cfg(test)]\nmod tests {\n    use super::super::x::f;\n}\n",
@@ -578,15 +668,20 @@ fn circles_are_caught_at_every_depth() {
     let mut files: Vec<(&str, &str)> = vec![lib];
     files.extend(a);
     files.extend(b);
-    files.extend([y_back, leaf_back]);
+    files.extend(c);
+    files.extend([y_back, leaf_back, s_back]);
     let wrong = circles(&synthetic("layering_circles", &files));
-    assert_eq!(wrong.len(), 2, "{wrong:?}");
+    assert_eq!(wrong.len(), 3, "{wrong:?}");
     assert!(
         wrong[0].starts_with("a: x -> y (a/x.rs), y -> x (a/y.rs)"),
         "{wrong:?}"
     );
     assert!(
         wrong[1].starts_with("b: p -> q (b/p/deep.rs), q -> p (b/q/leaf.rs)"),
+        "{wrong:?}"
+    );
+    assert!(
+        wrong[2].starts_with("c: s -> t (c/s.rs), t -> s (c/t.rs)"),
         "{wrong:?}"
     );
     // The same crate without the back edges (the comment does not count).
@@ -598,7 +693,8 @@ fn circles_are_caught_at_every_depth() {
     let mut files: Vec<(&str, &str)> = vec![lib];
     files.extend(a);
     files.extend(b);
-    files.extend([y, leaf]);
+    files.extend(c);
+    files.extend([y, leaf, ("c/s.rs", "pub struct S;\n")]);
     assert_eq!(
         circles(&synthetic("layering_no_circles", &files)),
         Vec::<String>::new()
@@ -623,8 +719,15 @@ fn the_parser_sees_groups_paths_and_not_comments() {
             p("crate::c::d", "d"),
             p("crate::c::e", "f"),
             p("crate::g::h", "h"),
+            p("super::j", "*"),
         ]
     );
+    // The items a glob re-export shows.
+    let items = pub_items(&strip_comments(
+        "pub struct A;\npub(crate) fn b() {}\npub const fn c() {}\npub const D: u8 = 1;\npub static mut E: u8 = 0;\npub unsafe extern \"C\" fn f() {}\nfn private() {}\npub use x::Y;\npub(super) mod g;\nlet public = 1;\n",
+    ));
+    let want: BTreeSet<String> = ["A", "b", "c", "D", "E", "f", "g"].map(String::from).into();
+    assert_eq!(items, want);
     // Test modules count, and `super::` inside them starts from them.
     let code = strip_comments("use crate::kept;\n#[cfg(test)]\nmod tests {\n    use super::super::up;\n    fn f() { if x { crate::nested::y(); } }\n}\nuse crate::after;\n");
     let w = written_paths(&code);

@@ -1,9 +1,9 @@
 //! Scenes: the typed TOML description, validation with file/key/line errors,
 //! and the built render scene (Embree geometry plus everything shading needs):
 //! `model` is the scene a render sees, `sun` the sky's sun disk and its sampling, `emitter` the
-//! sampling of emitting objects and the spot light, `build` turns a description into it,
+//! sampling of emitting objects and the spot light, `builder` turns a description into it,
 //! `import` reads glTF and Mitsuba scenes into descriptions.
-pub mod build;
+pub mod builder;
 pub mod desc;
 pub mod emitter;
 pub mod envmap;
@@ -18,7 +18,9 @@ pub mod texture;
 #[cfg(test)]
 mod set_tests;
 
-pub use build::{build_scene_text, load_scene, load_scene_source, load_scene_str, BuildOptions};
+/// The builder's second name, the path `crate::render` spells `MAX_PIXELS` by.
+pub use builder as build;
+pub use builder::{build_scene_text, load_scene, load_scene_source, load_scene_str, BuildOptions};
 pub use import::{ImportOptions, SceneText};
 pub use model::{
     Environment, GeomRecord, IntegratorKind, Light, LightSample, Material, RenderScene, Shape, Solid,

@@ -1,5 +1,5 @@
 //! The typed scene description, as written in TOML (docs/scene-format.md).
-//! Every table denies unknown keys; semantic checks live in `scene::build`.
+//! Every table denies unknown keys; semantic checks live in `scene::builder`.
 //!
 //! Here the scene, its camera, film, integrator, environment, medium and
 //! warp; `objects`, `lights` and `materials` hold the rest.
