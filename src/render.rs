@@ -218,7 +218,7 @@ impl RenderSettings {
     /// # Errors
     /// A zero size or more than `scene::MAX_PIXELS` pixels.
     pub fn with_resolution(mut self, width: u32, height: u32) -> Result<Self> {
-        if width == 0 || height == 0 || (width as u64) * (height as u64) > crate::scene::build::MAX_PIXELS {
+        if width == 0 || height == 0 || (width as u64) * (height as u64) > crate::scene::MAX_PIXELS {
             return Err(Error::Invalid(format!(
                 "resolution {width}x{height} is out of range"
             )));

@@ -18,8 +18,6 @@ pub mod texture;
 #[cfg(test)]
 mod set_tests;
 
-/// The builder's second name, the path `crate::render` spells `MAX_PIXELS` by.
-pub use builder as build;
 pub use builder::{build_scene_text, load_scene, load_scene_source, load_scene_str, BuildOptions};
 pub use import::{ImportOptions, SceneText};
 pub use model::{
