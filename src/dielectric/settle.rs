@@ -347,7 +347,7 @@ fn look_ahead_near(
 }
 
 /// Step 2 (the module's doc): the list `list` of the ray `child` spawned at
-/// a true hit whose neighbourhood [`look_ahead`] kept in `coincident`: each
+/// a true hit whose neighbourhood `look_ahead` kept in `coincident`: each
 /// solid kept gets its membership at the child's origin from point-in-solid.
 /// Nothing to do for most hits, and nothing for a child that continues its
 /// parent's line (`tnear > 0`): its query starts at the hit and crosses every

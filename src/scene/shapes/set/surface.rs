@@ -5,7 +5,7 @@ use super::primitive::{Primitive, Quadric};
 use crate::embree::PacketRays;
 
 /// The surface points of a packet's hits on the set's quadrics and rects,
-/// in arrays ([`AnalyticSet::surface_points`]): what
+/// in arrays (`AnalyticSet::surface_points`): what
 /// `RenderScene::surface_point` makes of each, but the texture coordinates.
 pub struct SurfaceLanes<const N: usize> {
     /// The hit point moved onto the surface (f64).
