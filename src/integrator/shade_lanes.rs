@@ -694,6 +694,8 @@ impl ShadeLanes {
 mod conductor;
 mod ggx;
 mod kernel;
+#[cfg(test)]
+mod lane_check;
 mod lane_math;
 mod rough;
 

@@ -276,12 +276,8 @@ impl<S: pulp::Simd> RoughLanes<S> {
         // The lobe must leave on its own side of the shading frame…
         valid = simd.and_m32s(valid, simd.not_m32s(simd.xor_m32s(crosses, transmission)));
 
-        // …and of the geometric surface (`Micro::sample`), the direction
-        // normalised as `normalize_or_zero`.
-        let v = self.frame.to_world(simd, wi);
-        let rcp = simd.div_f32s(one, simd.sqrt_f32s(dot(simd, v, v)));
-        let ok = simd.and_m32s(finite(simd, rcp), simd.greater_than_f32s(rcp, zero));
-        let wi = select(simd, ok, scale(simd, v, rcp), [zero, zero, zero]);
+        // …and of the geometric surface (`Micro::sample`).
+        let wi = self.frame.to_world_unit(simd, wi);
         let above = simd.greater_than_f32s(dot(simd, wi, self.side), zero);
         valid = simd.and_m32s(valid, simd.xor_m32s(above, transmission));
 
