@@ -115,7 +115,6 @@ pub(super) struct ReflectionSample<S: pulp::Simd> {
     /// The solid-angle density of `wi` (a delta lobe: as the model reports it).
     pub pdf: S::f32s,
     /// The lanes whose lobe is a delta (`MicroSample::is_delta`), valid or not.
-    #[cfg_attr(not(test), allow(dead_code))]
     pub delta: S::m32s,
     pub valid: S::m32s,
 }

@@ -1,5 +1,5 @@
 //! What the lane models' tests share ([`super::conductor`],
-//! [`super::rough`]): random hits as `Bsdf::at`
+//! [`super::plastic`], [`super::rough`]): random hits as `Bsdf::at`
 //! orients them, and the comparison of a model's lanes with the scalar
 //! `Micro` lane by lane, with its thresholds.
 use super::ggx::ReflectionSample;

@@ -80,11 +80,11 @@ pub(super) enum Variant {
 /// Fresnel at a facet whose cosine with the direction is `c` (sign: the
 /// side it arrives from), `eta` = index of the −z side over the +z side's.
 /// As `bsdf::fresnel::dielectric`, with the transmittance beside.
-struct Fresnel<S: pulp::Simd> {
+pub(super) struct Fresnel<S: pulp::Simd> {
     /// Reflectance (1 under total internal reflection).
-    r: S::f32s,
+    pub r: S::f32s,
     /// Transmittance 1 − r, from its own closed form.
-    t: S::f32s,
+    pub t: S::f32s,
     /// The transmitted cosine, of the sign opposite to `c`.
     cos_t: S::f32s,
     /// The index beyond the facet over the incident side's, and its inverse.
@@ -98,7 +98,7 @@ struct Fresnel<S: pulp::Simd> {
 /// near the critical angle 1 − sin²θt cancels, and the transmittance,
 /// which goes as cos θt there, would lose its digits.
 #[inline(always)]
-fn fresnel<S: pulp::Simd>(
+pub(super) fn fresnel<S: pulp::Simd>(
     simd: S,
     c: S::f32s,
     eta: S::f32s,
