@@ -78,6 +78,20 @@ impl Default for PlasticParams {
     }
 }
 
+/// What a plastic's `f`, `pdf` and `sample` are made of, for code that
+/// evaluates the same model elsewhere (the path tracer's vector lanes).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlasticTerms {
+    /// int_ior / ext_ior.
+    pub eta: f32,
+    /// The base albedo after internal scattering (ρ').
+    pub base: Vec3,
+    /// The factor on the coating's reflection.
+    pub specular: Vec3,
+    /// Mitsuba's lobe weight s (see the module documentation).
+    pub specular_sampling_weight: f32,
+}
+
 /// The checked parameters both plastics share.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Coating {
@@ -157,6 +171,15 @@ impl Coating {
         self.diffuse / (Vec3::ONE - trapped)
     }
 
+    fn terms(&self, fdr_int: f32) -> PlasticTerms {
+        PlasticTerms {
+            eta: self.eta,
+            base: self.base(fdr_int),
+            specular: self.specular,
+            specular_sampling_weight: self.specular_sampling_weight,
+        }
+    }
+
     /// The probability of the coating lobe when it reflects `r` of the
     /// light arriving along wo.
     fn prob_specular(&self, r: f32) -> f32 {
@@ -198,6 +221,11 @@ impl Plastic {
 
     fn fresnel(&self, cos: f32) -> f32 {
         fresnel::dielectric(cos, self.coating.eta).r
+    }
+
+    /// The terms of its lobes.
+    pub fn terms(&self) -> PlasticTerms {
+        self.coating.terms(self.fdr_int)
     }
 
     /// The diffuse lobe (the delta lobe has no `f`), without the cosine.
@@ -350,6 +378,12 @@ impl RoughPlastic {
         let i = (x as usize).min(TABLE_SIZE - 2);
         let t = &self.external_transmittance;
         t[i] + (t[i + 1] - t[i]) * (x - i as f32)
+    }
+
+    /// The terms of its lobes (with [`RoughPlastic::distribution`] and
+    /// [`RoughPlastic::transmittance`]).
+    pub fn terms(&self) -> PlasticTerms {
+        self.coating.terms(self.internal_reflectance)
     }
 
     /// The coating's internal diffuse reflectance (Mitsuba's tabulated value).

@@ -4,11 +4,11 @@
 //! [`ShadeLanes::prepare`] draws any other light's sample per lane), black,
 //! a mirror, a smooth interface or the smooth boundary of a nested solid
 //! (its index pair from the nested rule), rough glass of a GGX distribution
-//! ([`rough`]), a smooth or GGX metal ([`conductor`]), or a miss (weighed
-//! against next-event estimation's sampling of a sun or a map); the
-//! wavefront gives the others (plastics, Beckmann roughness, coincident
-//! solid surfaces) to the single-ray step ([`ShadeLanes::prepare`] says
-//! which).
+//! ([`rough`]), a smooth or GGX metal ([`conductor`]), a smooth or GGX
+//! plastic ([`plastic`]), or a miss (weighed against next-event
+//! estimation's sampling of a sun or a map); the wavefront gives the others
+//! (Beckmann roughness, coincident solid surfaces) to the single-ray step
+//! ([`ShadeLanes::prepare`] says which).
 //!
 //! The paths are the wavefront's columns ([`PathColumns`]): each lane goes
 //! through three phases, as `PathState::advance` does for one path in turn:
@@ -36,7 +36,7 @@ use super::columns::{self, PacketPaths, MAX};
 use super::light::PendingShadow;
 use super::path::survives;
 use super::Tracer;
-use crate::bsdf::RoughDielectric;
+use crate::bsdf::{RoughDielectric, RoughPlastic};
 use crate::counters::Counters;
 use crate::dielectric::{self, Coincident, InteriorList};
 use crate::ray::{front_facing, spawn_transmitted, Hit, Ray};
@@ -45,6 +45,8 @@ use crate::scene::{Light, Material, RenderScene, SurfacePoint};
 use conductor::ConductorParams;
 use glam::Vec3A as V3;
 use kernel::Kernel;
+use plastic::PlasticLaneParams;
+use std::sync::Arc;
 
 /// What [`ShadeLanes::prepare`] left for a lane.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -98,9 +100,10 @@ pub(super) struct ShadeLanes {
     eta_scale: [f32; STAGE],
     /// Per lane: 1 for a Lambertian hit, 0 for a smooth interface, 2 for
     /// rough glass, 3 for a rough metal, 4 for a smooth metal, 5 for a
-    /// mirror; −1 past the staged lanes.
+    /// mirror, 6 for a smooth plastic, 7 for a rough plastic; −1 past the
+    /// staged lanes.
     diffuse: [f32; STAGE],
-    /// Lambertian and rough lanes that drew a light sample.
+    /// Lambertian, rough and plastic lanes that drew a light sample.
     nee: [f32; STAGE],
     /// Interface lanes past the critical angle (no random number drawn).
     tir: [f32; STAGE],
@@ -109,21 +112,31 @@ pub(super) struct ShadeLanes {
     side: [[f32; STAGE]; 3],
     /// The shading normal on the incident side.
     n: [[f32; STAGE]; 3],
+    /// The reflectance of a Lambertian lane or a mirror; a plastic lane's
+    /// base albedo after internal scattering.
     albedo: [[f32; STAGE]; 3],
     n1: [f32; STAGE],
     n2: [f32; STAGE],
     /// The step's random numbers: the light's two (`u[0]`, `u[1]`) and the
     /// bounce's two (`u[2]`, `u[3]`) at a Lambertian lane, the lobe's
     /// (`u[0]`) at a smooth interface, the light's two and the lobe's and
-    /// facet's three (`u[2..5]`) at rough glass.
+    /// direction's three (`u[2..5]`) at rough glass, metals and plastics.
     u: [[f32; STAGE]; 5],
-    /// Rough glass and metal lanes' roughnesses along the frame's two
-    /// tangents.
+    /// Rough glass, metal and plastic lanes' roughnesses along the frame's
+    /// two tangents (a plastic's only in `alpha[0]`: it is isotropic).
     alpha: [[f32; STAGE]; 2],
-    /// Metal lanes' complex index η + iκ and reflectance factor.
+    /// Metal lanes' complex index η + iκ and reflectance factor; a plastic
+    /// lane's coating index ratio in `eta[0]` and reflectance factor.
     eta: [[f32; STAGE]; 3],
     kappa: [[f32; STAGE]; 3],
     spec: [[f32; STAGE]; 3],
+    /// Plastic lanes' lobe weight s (`PlasticTerms`).
+    lobe_weight: [f32; STAGE],
+    /// Rough plastic lanes' coating: its place in `coatings`.
+    coat: [u32; STAGE],
+    /// The rough plastics met since [`ShadeLanes::start`], whose
+    /// transmittance tables the kernel reads.
+    coatings: Vec<Arc<RoughPlastic>>,
     /// A light sample drawn in [`ShadeLanes::prepare`] (any light but the
     /// kernel's rectangle): its direction, distance, radiance and density;
     /// `ls_delta` 1 for a point or directional light (no MIS).
@@ -145,6 +158,9 @@ pub(super) struct ShadeLanes {
     contrib: [[f32; STAGE]; 3],
     /// Interface lanes the kernel transmitted (1) or reflected (0).
     transmit: [f32; STAGE],
+    /// Lanes whose sample is a delta reflection (a smooth plastic's
+    /// coating): the path's next vertex is weighed as after a mirror.
+    delta: [f32; STAGE],
     /// What a transmission does at an interface lane besides the kernel's
     /// ray: [`NEW_LIST`], [`MATCHED`] (0 for most, whose other entries below
     /// are then stale).
@@ -192,6 +208,9 @@ impl Default for ShadeLanes {
             eta: three,
             kappa: three,
             spec: three,
+            lobe_weight: one,
+            coat: [0; STAGE],
+            coatings: Vec::new(),
             ls_wi: three,
             ls_dist: one,
             ls_li: three,
@@ -205,6 +224,7 @@ impl Default for ShadeLanes {
             shadow_tfar: one,
             contrib: three,
             transmit: one,
+            delta: one,
             moves: [0; STAGE],
             after: std::array::from_fn(|_| None),
             matched: [None; STAGE],
@@ -253,6 +273,8 @@ impl ShadeLanes {
             _ => None,
         };
         self.lined = false;
+        // (The stage is empty: no lane refers to them.)
+        self.coatings.clear();
     }
 
     /// Phase 1 for lane `i` of `paths`, whose segment along its ray was
@@ -318,6 +340,12 @@ impl ShadeLanes {
             // Smooth metals and GGX ones.
             m @ (Material::Conductor { .. } | Material::RoughConductor { .. })
                 if ConductorParams::of(m).is_some() =>
+            {
+                None
+            }
+            // Smooth plastics and GGX ones.
+            m @ (Material::Plastic { .. } | Material::RoughPlastic { .. })
+                if PlasticLaneParams::of(m).is_some() =>
             {
                 None
             }
@@ -388,14 +416,7 @@ impl ShadeLanes {
                     _ => None,
                 };
                 if let Some(distribution) = rough {
-                    // `Micro`'s order: the light's numbers, then the lobe's
-                    // and the facet's.
-                    st.nee_draws += 1;
-                    let nee = self.draw_light(j, scene, sp.p, rng);
-                    self.nee[j] = if nee { 1.0 } else { 0.0 };
-                    for k in 2..5 {
-                        self.u[k][j] = rng.uniform();
-                    }
+                    self.draw_micro(j, scene, sp.p, rng, true, st);
                     self.alpha[0][j] = distribution.alpha_u();
                     self.alpha[1][j] = distribution.alpha_v();
                     self.moves[j] = match boundary.into_transmitted() {
@@ -449,22 +470,37 @@ impl ShadeLanes {
                     st.ended_absorbed += 1;
                     return Prepared::Ended;
                 };
-                // `Micro`'s order: a rough metal's light numbers, then the
-                // lobe's (drawn, unused) and the facet's.
-                let nee = !c.smooth && {
-                    st.nee_draws += 1;
-                    self.draw_light(j, scene, sp.p, rng)
-                };
-                self.nee[j] = if nee { 1.0 } else { 0.0 };
-                for k in 2..5 {
-                    self.u[k][j] = rng.uniform();
-                }
+                // A smooth metal has no light sample (only a delta lobe);
+                // its lobe's number is drawn and not used.
+                self.draw_micro(j, scene, sp.p, rng, !c.smooth, st);
                 set3(&mut self.eta, j, c.eta);
                 set3(&mut self.kappa, j, c.k);
                 set3(&mut self.spec, j, c.specular_reflectance);
                 self.alpha[0][j] = c.alpha_u;
                 self.alpha[1][j] = c.alpha_v;
                 self.diffuse[j] = if c.smooth { 4.0 } else { 3.0 };
+            }
+            (m @ (Material::Plastic { .. } | Material::RoughPlastic { .. }), _) => {
+                let Some(c) = PlasticLaneParams::of(m).filter(|c| front || c.two_sided) else {
+                    // Black from behind (one-sided).
+                    st.ended_absorbed += 1;
+                    return Prepared::Ended;
+                };
+                // Even a smooth plastic's light sample: its diffuse lobe has a density.
+                self.draw_micro(j, scene, sp.p, rng, true, st);
+                let t = c.terms;
+                self.eta[0][j] = t.eta;
+                set3(&mut self.albedo, j, t.base.into());
+                set3(&mut self.spec, j, t.specular.into());
+                self.lobe_weight[j] = t.specular_sampling_weight;
+                self.alpha[0][j] = c.alpha;
+                self.diffuse[j] = match c.rough {
+                    Some(r) => {
+                        self.coat[j] = self.coating(r);
+                        7.0
+                    }
+                    None => 6.0,
+                };
             }
             _ => {
                 // Black, or a one-sided diffuse surface seen from behind.
@@ -489,6 +525,43 @@ impl ShadeLanes {
         set3(&mut self.beta, j, beta);
         self.eta_scale[j] = eta_scale;
         self.count += 1;
+    }
+
+    /// `Micro`'s draws for lane `j` at `p`, in its order: next-event
+    /// estimation's (where `nee`: the model has a lobe with a density),
+    /// then the sample's three (the lobe's, then the direction's two).
+    #[inline(always)]
+    fn draw_micro(
+        &mut self,
+        j: usize,
+        scene: &RenderScene,
+        p: V3,
+        rng: &mut Rng,
+        nee: bool,
+        st: &mut Counters,
+    ) {
+        let drew = nee && {
+            st.nee_draws += 1;
+            self.draw_light(j, scene, p, rng)
+        };
+        self.nee[j] = if drew { 1.0 } else { 0.0 };
+        for k in 2..5 {
+            self.u[k][j] = rng.uniform();
+        }
+    }
+
+    /// The place of the rough plastic `p` in the coatings the kernel reads
+    /// (added when first met).
+    #[inline(always)]
+    fn coating(&mut self, p: &Arc<RoughPlastic>) -> u32 {
+        let i = match self.coatings.iter().position(|q| Arc::ptr_eq(p, q)) {
+            Some(i) => i,
+            None => {
+                self.coatings.push(Arc::clone(p));
+                self.coatings.len() - 1
+            }
+        };
+        i as u32
     }
 
     /// Next-event estimation's draw for lane `i` at `p`, as `next_event`
@@ -562,6 +635,17 @@ impl ShadeLanes {
         conductor::Variant::Right
     }
 
+    /// Plastics' model in the kernel: the right one, or the render tests'
+    /// known-wrong one.
+    #[inline(always)]
+    fn plastic_variant(&self) -> plastic::Variant {
+        #[cfg(test)]
+        if self.variant == crate::scene::model::BsdfVariant::WrongPlasticFresnel {
+            return plastic::Variant::HalfFresnel;
+        }
+        plastic::Variant::Right
+    }
+
     /// The render tests' known-wrong nested boundary: a solid's index pair
     /// against the ambient medium, as if no other solid held the path
     /// (air → water at a glass-water boundary).
@@ -625,10 +709,11 @@ impl ShadeLanes {
         columns::set3(&mut paths.beta, i, get3(&self.beta, j));
         paths.eta_scale[i] = self.eta_scale[j];
         let kind = self.diffuse[j];
-        // Lambertian, rough glass and rough metal lanes: a light sample
-        // each, and a bounce drawn from a density.
-        let scatter = kind == 1.0 || kind == 2.0 || kind == 3.0;
-        if scatter && self.shadow[j] != 0.0 {
+        // Lambertian, rough glass, rough metal and plastic lanes: a light
+        // sample each, and (but a smooth plastic's coating reflection) a
+        // bounce drawn from a density.
+        let lit = kind == 1.0 || kind == 2.0 || kind == 3.0 || kind == 6.0 || kind == 7.0;
+        if lit && self.shadow[j] != 0.0 {
             st.shadow_rays += 1;
             let contrib = get3(&self.contrib, j);
             if self.shadow[j] == 2.0 {
@@ -645,7 +730,7 @@ impl ShadeLanes {
             return (shadow, false);
         }
         paths.s[i].tnear = 0.0;
-        if scatter {
+        if lit && self.delta[j] == 0.0 {
             paths.s[i].prev_pdf = self.prev_pdf[j];
             paths.s[i].specular = false;
             paths.s[i].only_specular = false;
@@ -686,7 +771,10 @@ impl ShadeLanes {
 mod conductor;
 mod ggx;
 mod kernel;
+#[cfg(test)]
+mod lane_check;
 mod lane_math;
+mod plastic;
 mod rough;
 
 #[cfg(test)]

@@ -272,3 +272,39 @@ fn vector_shading_of_metals_gives_the_scalar_paths() {
         "Fresnel without absorption passes: {dielectric}"
     );
 }
+
+/// Plastics in the kernel: tests/data/plastic_spheres.toml's smooth and GGX
+/// rough plastic spheres under its rectangle (which the kernel samples
+/// itself), and again with a point light beside it (each lane's light
+/// sample drawn before the kernel).
+#[test]
+fn vector_shading_of_plastics_gives_the_scalar_paths() {
+    let path = Path::new("tests/data/plastic_spheres.toml");
+    let text = std::fs::read_to_string(path).expect("scene");
+    let point = "\n[[lights]]\ntype = \"point\"\nposition = [-1.0, 2.5, 2.0]\nintensity = [3.0, 3.0, 3.0]\n";
+    for (name, text) in [("rectangle", text.clone()), ("rectangle and point", text + point)] {
+        let load = crate::scene::load_scene_str;
+        let mut s = load(
+            "plastic_spheres.toml",
+            &text,
+            Path::new("tests/data"),
+            &BuildOptions::default(),
+        )
+        .expect("scene");
+        let scalar = pixels(&s, Shading::Scalar);
+        let right = differing(&scalar, &pixels(&s, Shading::Vector));
+        let eight = differing(&scalar, &pixels_in(&s, Shading::Vector, PacketWidth::Eight));
+        s.bsdf_variant = BsdfVariant::WrongPlasticFresnel;
+        let half = differing(&scalar, &pixels(&s, Shading::Vector));
+        assert_eq!(differing(&scalar, &pixels(&s, Shading::Scalar)), 0.0, "{name}");
+        eprintln!(
+            "plastics, {name}: pixels differing from scalar shading: vector {right:.4} (packets of 8 \
+             {eight:.4}), half the coating's Fresnel reflectance {half:.4}"
+        );
+        assert!(right <= LIMIT && eight <= LIMIT, "{name}: {right}, {eight}");
+        assert!(
+            half > LIMIT,
+            "{name}: half the coating's Fresnel reflectance passes: {half}"
+        );
+    }
+}

@@ -54,6 +54,9 @@ pub(crate) enum BsdfVariant {
     /// Metals in vector shading take the Fresnel reflectance of a
     /// dielectric of their index (κ = 0).
     WrongMetalFresnel,
+    /// Plastics in vector shading: the coating reflects half its Fresnel
+    /// reflectance (and transmits 1 − F/2).
+    WrongPlasticFresnel,
 }
 
 /// Surface response.

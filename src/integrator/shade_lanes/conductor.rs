@@ -23,7 +23,7 @@
 //! n̂² − sin²θ's root, squared) each from whichever of their two forms
 //! adds, and the numerators a² + b² + cos²θ − 2a cosθ as sums of squares.
 
-use super::ggx::{self, finite, neg, Frame, Ggx};
+use super::ggx::{self, finite, neg, Frame, Ggx, ReflectionSample};
 use crate::bsdf::{Conductor, RoughConductor};
 use crate::scene::Material;
 use crate::simd3::{add, dot, scale, select, sub, Vec3s};
@@ -95,23 +95,6 @@ pub(super) struct ConductorLanes<S: pulp::Simd> {
     ggx: Ggx<S>,
     /// Smooth lanes (a delta reflection); the others are rough.
     smooth: S::m32s,
-}
-
-/// A direction drawn by [`ConductorLanes::sample`], per lane. Only the
-/// lanes of `valid` hold one (`Micro::sample` returned `Some`); the others
-/// have weight and pdf 0 and a meaningless direction.
-pub(super) struct ConductorSample<S: pulp::Simd> {
-    /// The direction, world space, unit.
-    pub wi: Vec3s<S>,
-    /// f·|cos θi| / pdf per RGB channel (a smooth lane: its reflectance).
-    pub weight: Vec3s<S>,
-    /// The solid-angle density of `wi`; 1 at a smooth lane, as `Micro`
-    /// reports a delta's (the path tracer does not use it there).
-    pub pdf: S::f32s,
-    /// The smooth lanes (`MicroSample::is_delta`), valid or not.
-    #[cfg_attr(not(test), allow(dead_code))]
-    pub delta: S::m32s,
-    pub valid: S::m32s,
 }
 
 /// The model, or one of the known-wrong variants that show the tests'
@@ -260,7 +243,7 @@ impl<S: pulp::Simd> ConductorLanes<S> {
     /// normal with the Fresnel reflectance as weight.
     #[cfg(test)]
     #[inline(always)]
-    pub fn sample(&self, simd: S, u1: S::f32s, u2: S::f32s) -> ConductorSample<S> {
+    pub fn sample(&self, simd: S, u1: S::f32s, u2: S::f32s) -> ReflectionSample<S> {
         self.sample_variant(simd, u1, u2, Variant::Right)
     }
 
@@ -271,7 +254,7 @@ impl<S: pulp::Simd> ConductorLanes<S> {
         u1: S::f32s,
         u2: S::f32s,
         variant: Variant,
-    ) -> ConductorSample<S> {
+    ) -> ReflectionSample<S> {
         let zero = simd.splat_f32s(0.0);
         let one = simd.splat_f32s(1.0);
         let wo = self.wo;
@@ -310,31 +293,14 @@ impl<S: pulp::Simd> ConductorLanes<S> {
             simd.mul_f32s(fr[1], g),
             simd.mul_f32s(fr[2], g),
         ];
-        let mut valid = simd.and_m32s(up, simd.or_m32s(smooth, rough_ok));
-        valid = simd.and_m32s(
-            valid,
-            simd.and_m32s(
-                finite(simd, weight[0]),
-                simd.and_m32s(finite(simd, weight[1]), finite(simd, weight[2])),
-            ),
-        );
-
-        // Above the geometric surface (`Micro::sample`), the direction
-        // normalised as `normalize_or_zero`.
-        let v = self.frame.to_world(simd, wi);
-        let rcp = simd.div_f32s(one, simd.sqrt_f32s(dot(simd, v, v)));
-        let ok = simd.and_m32s(finite(simd, rcp), simd.greater_than_f32s(rcp, zero));
-        let wi = select(simd, ok, scale(simd, v, rcp), [zero, zero, zero]);
-        valid = simd.and_m32s(valid, simd.greater_than_f32s(dot(simd, wi, self.side), zero));
-
-        let keep = |x: S::f32s| simd.select_f32s(valid, x, zero);
-        ConductorSample {
+        ReflectionSample {
             wi,
-            weight: [keep(weight[0]), keep(weight[1]), keep(weight[2])],
-            pdf: keep(pdf),
+            weight,
+            pdf,
             delta: smooth,
-            valid,
+            valid: simd.and_m32s(up, simd.or_m32s(smooth, rough_ok)),
         }
+        .in_world(simd, self.frame, self.side)
     }
 
     /// `Micro::eval`: f(wo, wi)·|cos θi| per RGB channel and the density of

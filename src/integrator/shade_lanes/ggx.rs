@@ -30,6 +30,15 @@ pub(super) fn finite<S: pulp::Simd>(simd: S, x: S::f32s) -> S::m32s {
     simd.less_than_f32s(simd.abs_f32s(x), simd.splat_f32s(f32::INFINITY))
 }
 
+/// Every component of `v` is finite.
+#[inline(always)]
+fn finite3<S: pulp::Simd>(simd: S, v: Vec3s<S>) -> S::m32s {
+    simd.and_m32s(
+        finite(simd, v[0]),
+        simd.and_m32s(finite(simd, v[1]), finite(simd, v[2])),
+    )
+}
+
 /// `Frame::from_normal` per lane: the tangents of `sampling::basis` and
 /// the normal.
 #[derive(Clone, Copy)]
@@ -79,6 +88,57 @@ impl<S: pulp::Simd> Frame<S> {
             add(simd, scale(simd, self.s, v[0]), scale(simd, self.t, v[1])),
             scale(simd, self.n, v[2]),
         )
+    }
+
+    /// Local `v` in world coordinates and normalised as `Micro::sample`
+    /// does (`normalize_or_zero`: 0 where the length is 0 or not finite).
+    #[inline(always)]
+    pub fn to_world_unit(self, simd: S, v: Vec3s<S>) -> Vec3s<S> {
+        let zero = simd.splat_f32s(0.0);
+        let v = self.to_world(simd, v);
+        let rcp = simd.div_f32s(simd.splat_f32s(1.0), simd.sqrt_f32s(dot(simd, v, v)));
+        let ok = simd.and_m32s(finite(simd, rcp), simd.greater_than_f32s(rcp, zero));
+        select(simd, ok, scale(simd, v, rcp), [zero, zero, zero])
+    }
+}
+
+/// A reflected direction drawn by a model of per-channel weights (metals,
+/// plastics), per lane. Only the lanes of `valid` hold one
+/// (`Micro::sample` returned `Some`); the others have weight and pdf 0 and
+/// a meaningless direction.
+pub(super) struct ReflectionSample<S: pulp::Simd> {
+    /// The direction, world space, unit.
+    pub wi: Vec3s<S>,
+    /// f·cos θi / pdf per RGB channel (a delta lobe: its reflectance over
+    /// its probability).
+    pub weight: Vec3s<S>,
+    /// The solid-angle density of `wi` (a delta lobe: as the model reports it).
+    pub pdf: S::f32s,
+    /// The lanes whose lobe is a delta (`MicroSample::is_delta`), valid or not.
+    pub delta: S::m32s,
+    pub valid: S::m32s,
+}
+
+impl<S: pulp::Simd> ReflectionSample<S> {
+    /// `Micro::sample`'s end: the local direction `wi` in the world, unit,
+    /// kept where `valid`, the weight finite and the direction above the
+    /// geometric surface (`side`, on the incident side).
+    #[inline(always)]
+    pub fn in_world(self, simd: S, frame: Frame<S>, side: Vec3s<S>) -> Self {
+        let zero = simd.splat_f32s(0.0);
+        let wi = frame.to_world_unit(simd, self.wi);
+        let valid = simd.and_m32s(
+            simd.and_m32s(self.valid, finite3(simd, self.weight)),
+            simd.greater_than_f32s(dot(simd, wi, side), zero),
+        );
+        let keep = |x: S::f32s| simd.select_f32s(valid, x, zero);
+        ReflectionSample {
+            wi,
+            weight: [keep(self.weight[0]), keep(self.weight[1]), keep(self.weight[2])],
+            pdf: keep(self.pdf),
+            delta: self.delta,
+            valid,
+        }
     }
 }
 

@@ -4,11 +4,41 @@
 use super::conductor::ConductorLanes;
 use super::ggx::Frame;
 use super::lane_math::{normalize, reflect, refract, sincos_turns};
+use super::plastic::{PlasticLanes, WIDEST};
 use super::rough::RoughLanes;
 use super::ShadeLanes;
+use crate::bsdf::RoughPlastic;
 use crate::ray::OFFSET_ULPS;
-use crate::simd3::{add, dot, mul, scale, select, splat, sub};
+use crate::simd3::{add, dot, mul, scale, select, splat, sub, Vec3s};
 use std::f32::consts::FRAC_1_PI;
+
+/// Next-event estimation's answers so far, per lane: where the connection
+/// counts, f·cos per channel and the BSDF's density.
+struct Connection<S: pulp::Simd> {
+    ok: S::m32s,
+    fc: Vec3s<S>,
+    pdf: S::f32s,
+}
+
+impl<S: pulp::Simd> Connection<S> {
+    /// The lanes `of` take a model's f·|cos| per channel and density at the
+    /// light's direction; the connection counts where f is positive in a
+    /// channel.
+    #[inline(always)]
+    fn take(&mut self, simd: S, of: S::m32s, (f, pdf): (Vec3s<S>, S::f32s)) {
+        let zero = simd.splat_f32s(0.0);
+        let lit = simd.or_m32s(
+            simd.or_m32s(
+                simd.greater_than_f32s(f[0], zero),
+                simd.greater_than_f32s(f[1], zero),
+            ),
+            simd.greater_than_f32s(f[2], zero),
+        );
+        self.ok = simd.or_m32s(simd.and_m32s(of, lit), simd.and_m32s(simd.not_m32s(of), self.ok));
+        self.fc = select(simd, of, f, self.fc);
+        self.pdf = simd.select_f32s(of, pdf, self.pdf);
+    }
+}
 
 /// Phase 2's vector code: the staged lanes of `s`, the first `lanes`.
 pub(super) struct Kernel<'a> {
@@ -28,6 +58,7 @@ impl pulp::WithSimd for Kernel<'_> {
         let (wrong_mis, wrong_fresnel, wrong_cosine, wrong_scale) = s.wrong();
         let rough_variant = s.rough_variant();
         let metal_variant = s.metal_variant();
+        let plastic_variant = s.plastic_variant();
         for j in 0..chunks {
             let r = j * w..(j + 1) * w;
             macro_rules! ld {
@@ -63,8 +94,11 @@ impl pulp::WithSimd for Kernel<'_> {
             let smooth_metal = simd.equal_f32s(kind, simd.splat_f32s(4.0));
             let metal = simd.or_m32s(rough_metal, smooth_metal);
             let mirror = simd.equal_f32s(kind, simd.splat_f32s(5.0));
+            let smooth_plastic = simd.equal_f32s(kind, simd.splat_f32s(6.0));
+            let rough_plastic = simd.equal_f32s(kind, simd.splat_f32s(7.0));
+            let plastic = simd.or_m32s(smooth_plastic, rough_plastic);
             // Lanes that sample a light.
-            let scatter = simd.or_m32s(simd.or_m32s(diffuse, rough), rough_metal);
+            let scatter = simd.or_m32s(simd.or_m32s(simd.or_m32s(diffuse, rough), rough_metal), plastic);
             // A chunk of one kind (a pixel's camera rays on one surface)
             // skips the other's arithmetic.
             macro_rules! any {
@@ -97,6 +131,7 @@ impl pulp::WithSimd for Kernel<'_> {
             let mut below_v = zero;
             let mut prev_pdf_v = zero;
             let mut transmit_v = zero;
+            let mut delta_v = zero;
             let mut eta_scale = ld!(s.eta_scale);
             // Rough glass lanes' model (its frame and the index pair).
             let rough_model = any!(rough).then(|| {
@@ -127,6 +162,33 @@ impl pulp::WithSimd for Kernel<'_> {
                 )
             });
             let albedo = ld3!(s.albedo);
+            // Plastic lanes' model (their frame, coating and base); a rough
+            // lane's coating for its transmittance table.
+            let mut coats: [Option<&RoughPlastic>; WIDEST] = [None; WIDEST];
+            if any!(rough_plastic) {
+                for (l, c) in coats[..w].iter_mut().enumerate() {
+                    let i = j * w + l;
+                    if s.diffuse[i] == 7.0 {
+                        *c = Some(&s.coatings[s.coat[i] as usize]);
+                    }
+                }
+            }
+            let plastic_model = any!(plastic).then(|| {
+                PlasticLanes::new(
+                    simd,
+                    d,
+                    n,
+                    side,
+                    ld!(s.eta[0]),
+                    albedo,
+                    ld3!(s.spec),
+                    ld!(s.lobe_weight),
+                    ld!(s.alpha[0]),
+                    smooth_plastic,
+                    &coats[..w],
+                    plastic_variant,
+                )
+            });
             if any!(scatter) {
                 // The light's direction, distance, radiance and density, and
                 // where the sample holds anything (point and directional
@@ -174,10 +236,12 @@ impl pulp::WithSimd for Kernel<'_> {
                 // Lambertian lane's: above both normals, cos/π.
                 let cos = dot(simd, n, wi);
                 let toward = simd.greater_than_f32s(dot(simd, side, wi), zero);
-                let mut ok = simd.and_m32s(simd.greater_than_f32s(cos, zero), toward);
                 let f = scale(simd, albedo, simd.splat_f32s(FRAC_1_PI));
-                let mut fc = if wrong_cosine { f } else { scale(simd, f, cos) };
-                let mut bsdf_pdf = simd.mul_f32s(cos, simd.splat_f32s(FRAC_1_PI));
+                let mut c = Connection::<S> {
+                    ok: simd.and_m32s(simd.greater_than_f32s(cos, zero), toward),
+                    fc: if wrong_cosine { f } else { scale(simd, f, cos) },
+                    pdf: simd.mul_f32s(cos, simd.splat_f32s(FRAC_1_PI)),
+                };
                 if let Some(m) = &rough_model {
                     // Rough glass: its f·|cos| (grey) and density, where nonzero.
                     let (fr, pr) = m.eval_variant(simd, wi, rough_variant);
@@ -188,30 +252,22 @@ impl pulp::WithSimd for Kernel<'_> {
                     } else {
                         fr
                     };
-                    ok = simd.or_m32s(
-                        simd.and_m32s(rough, simd.greater_than_f32s(fr, zero)),
-                        simd.and_m32s(simd.not_m32s(rough), ok),
-                    );
-                    fc = select(simd, rough, [fr, fr, fr], fc);
-                    bsdf_pdf = simd.select_f32s(rough, pr, bsdf_pdf);
+                    c.take(simd, rough, ([fr, fr, fr], pr));
                 }
                 if let Some(m) = &metal_model {
                     // A rough metal: its f·|cos| per channel and density.
-                    let (fm, pm) = m.eval_variant(simd, wi, metal_variant);
-                    let lit = simd.or_m32s(
-                        simd.or_m32s(
-                            simd.greater_than_f32s(fm[0], zero),
-                            simd.greater_than_f32s(fm[1], zero),
-                        ),
-                        simd.greater_than_f32s(fm[2], zero),
-                    );
-                    ok = simd.or_m32s(
-                        simd.and_m32s(rough_metal, lit),
-                        simd.and_m32s(simd.not_m32s(rough_metal), ok),
-                    );
-                    fc = select(simd, rough_metal, fm, fc);
-                    bsdf_pdf = simd.select_f32s(rough_metal, pm, bsdf_pdf);
+                    c.take(simd, rough_metal, m.eval_variant(simd, wi, metal_variant));
                 }
+                if let Some(m) = &plastic_model {
+                    // A plastic's diffuse lobe and rough coating (a smooth
+                    // coating's delta lobe has no density to meet).
+                    c.take(simd, plastic, m.eval(simd, wi));
+                }
+                let Connection {
+                    ok,
+                    fc,
+                    pdf: mut bsdf_pdf,
+                } = c;
                 let seen = simd.and_m32s(valid, ok);
                 let seen = simd.and_m32s(
                     seen,
@@ -306,6 +362,17 @@ impl pulp::WithSimd for Kernel<'_> {
                 next_org = select(simd, metal, above, next_org);
                 next_beta = select(simd, metal, mul(simd, beta, smp.weight), next_beta);
             }
+            if let Some(m) = &plastic_model {
+                // Plastic lanes: the coating's reflection or the base's
+                // diffuse bounce; no sample ends the path.
+                let smp = m.sample(simd, ld!(s.u[2]), ld!(s.u[3]), ld!(s.u[4]));
+                below_v = simd.select_f32s(simd.and_m32s(plastic, simd.not_m32s(smp.valid)), one, below_v);
+                prev_pdf_v = simd.select_f32s(plastic, smp.pdf, prev_pdf_v);
+                delta_v = simd.select_f32s(simd.and_m32s(plastic, smp.delta), one, delta_v);
+                next_dir = select(simd, plastic, smp.wi, next_dir);
+                next_org = select(simd, plastic, above, next_org);
+                next_beta = select(simd, plastic, mul(simd, beta, smp.weight), next_beta);
+            }
             if any!(iface) {
                 // Interface lanes: Fresnel's choice between the mirror and the
                 // refracted direction, each about the shading normal unless that
@@ -378,6 +445,7 @@ impl pulp::WithSimd for Kernel<'_> {
             st!(s.below, below_v);
             st!(s.prev_pdf, prev_pdf_v);
             st!(s.transmit, transmit_v);
+            st!(s.delta, delta_v);
             st!(s.eta_scale, eta_scale);
             st3!(s.dir, next_dir);
             st3!(s.org, next_org);

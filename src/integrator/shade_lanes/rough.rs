@@ -80,11 +80,11 @@ pub(super) enum Variant {
 /// Fresnel at a facet whose cosine with the direction is `c` (sign: the
 /// side it arrives from), `eta` = index of the −z side over the +z side's.
 /// As `bsdf::fresnel::dielectric`, with the transmittance beside.
-struct Fresnel<S: pulp::Simd> {
+pub(super) struct Fresnel<S: pulp::Simd> {
     /// Reflectance (1 under total internal reflection).
-    r: S::f32s,
+    pub r: S::f32s,
     /// Transmittance 1 − r, from its own closed form.
-    t: S::f32s,
+    pub t: S::f32s,
     /// The transmitted cosine, of the sign opposite to `c`.
     cos_t: S::f32s,
     /// The index beyond the facet over the incident side's, and its inverse.
@@ -98,7 +98,7 @@ struct Fresnel<S: pulp::Simd> {
 /// near the critical angle 1 − sin²θt cancels, and the transmittance,
 /// which goes as cos θt there, would lose its digits.
 #[inline(always)]
-fn fresnel<S: pulp::Simd>(
+pub(super) fn fresnel<S: pulp::Simd>(
     simd: S,
     c: S::f32s,
     eta: S::f32s,
@@ -276,12 +276,8 @@ impl<S: pulp::Simd> RoughLanes<S> {
         // The lobe must leave on its own side of the shading frame…
         valid = simd.and_m32s(valid, simd.not_m32s(simd.xor_m32s(crosses, transmission)));
 
-        // …and of the geometric surface (`Micro::sample`), the direction
-        // normalised as `normalize_or_zero`.
-        let v = self.frame.to_world(simd, wi);
-        let rcp = simd.div_f32s(one, simd.sqrt_f32s(dot(simd, v, v)));
-        let ok = simd.and_m32s(finite(simd, rcp), simd.greater_than_f32s(rcp, zero));
-        let wi = select(simd, ok, scale(simd, v, rcp), [zero, zero, zero]);
+        // …and of the geometric surface (`Micro::sample`).
+        let wi = self.frame.to_world_unit(simd, wi);
         let above = simd.greater_than_f32s(dot(simd, wi, self.side), zero);
         valid = simd.and_m32s(valid, simd.xor_m32s(above, transmission));
 

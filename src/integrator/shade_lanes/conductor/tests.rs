@@ -1,11 +1,14 @@
 //! The lanes against the scalar `Micro` of a `Conductor` or a GGX
 //! `RoughConductor`, lane by lane at every vector level, and known-wrong
 //! variants failing the same thresholds.
+use super::super::lane_check::{
+    at_every_level, eval_dirs, load, load3, load_mask, micro_numbers, parity, random_hit, LaneCase,
+    LaneModel, LaneVectors, Run, Scalar,
+};
 use super::*;
 use crate::bsdf::{metals::METALS, MicrofacetDistribution, MicrofacetKind};
-use crate::integrator::scatter::{Micro, MicroModel, MicroSample};
-use crate::ray::front_facing;
-use crate::sampling::{uniform_sphere, Rng};
+use crate::integrator::scatter::{Micro, MicroModel};
+use crate::sampling::Rng;
 use crate::vector_levels as levels;
 use glam::{Vec3, Vec3A as V3};
 
@@ -28,16 +31,6 @@ struct Case {
     at: [V3; 2],
 }
 
-/// What the lanes gave for a case.
-struct Lane {
-    wi: V3,
-    weight: V3,
-    pdf: f32,
-    delta: bool,
-    valid: bool,
-    eval: [(V3, f32); 2],
-}
-
 fn micro(c: &Case) -> Micro<'static> {
     let (eta, k, spec) = (Vec3::from(c.eta), Vec3::from(c.k), Vec3::from(c.spec));
     let model = if c.smooth {
@@ -47,10 +40,6 @@ fn micro(c: &Case) -> Micro<'static> {
         MicroModel::RoughConductor(RoughConductor::try_new(dist, eta, k, spec).unwrap())
     };
     Micro::new(model, c.n, c.d, c.side, None)
-}
-
-fn random_dir(rng: &mut Rng) -> V3 {
-    uniform_sphere(rng.uniform(), rng.uniform())
 }
 
 /// `count` random hits as `Bsdf::at` orients them (a one-sided metal's
@@ -65,19 +54,9 @@ fn cases(count: usize, seed: u64) -> Vec<Case> {
     let mut rng = Rng::new(seed);
     let mut out = Vec::with_capacity(count);
     while out.len() < count {
-        let ng = random_dir(&mut rng);
-        let d = random_dir(&mut rng);
-        if ng.dot(d) == 0.0 {
+        let Some((d, n, side)) = random_hit(&mut rng) else {
             continue;
-        }
-        let front = front_facing(ng, d);
-        let side = if front { ng } else { -ng };
-        let ns = if rng.uniform() < 0.5 {
-            ng
-        } else {
-            (ng + 0.4 * random_dir(&mut rng)).normalize()
         };
-        let n = if front { ns } else { -ns };
         let mut u3 = || V3::new(rng.uniform(), rng.uniform(), rng.uniform());
         let (eta, k, spec) = if out.len() % 2 == 0 {
             let m = &METALS[out.len() / 2 % METALS.len()];
@@ -107,234 +86,61 @@ fn cases(count: usize, seed: u64) -> Vec<Case> {
             alpha_v,
             smooth,
             seed,
-            at: [random_dir(&mut rng), random_dir(&mut rng)],
+            at: [V3::ZERO; 2],
         };
-        if let Some(s) = micro(&c).sample(&mut Rng::new(seed)) {
-            c.at[0] = s.wi;
-        }
+        let at = eval_dirs(&mut rng, &micro(&c), seed);
+        c.at = at;
         out.push(c);
     }
     out
 }
 
-/// The scalar model's answers: the sample and (f·|cos|, pdf) at `at`.
-fn scalar(c: &Case) -> (Option<MicroSample>, [(V3, f32); 2]) {
-    let m = micro(c);
-    let s = m.sample(&mut Rng::new(c.seed));
-    (s, c.at.map(|w| m.eval(w)))
-}
+/// Metals through the lanes under a variant.
+struct Metals(Variant);
 
-/// The level's number of f32 lanes.
-struct Width;
-
-impl pulp::WithSimd for Width {
-    type Output = usize;
+impl LaneModel for Metals {
+    type Case = Case;
 
     #[inline(always)]
-    fn with_simd<S: pulp::Simd>(self, _: S) -> usize {
-        S::F32_LANES
-    }
-}
-
-/// Every case through the lanes under `variant`, at the level's width.
-struct Run<'a>(&'a [Case], Variant);
-
-impl pulp::WithSimd for Run<'_> {
-    type Output = Vec<Lane>;
-
-    #[inline(always)]
-    fn with_simd<S: pulp::Simd>(self, simd: S) -> Vec<Lane> {
-        let Run(cases, variant) = self;
-        let mut out = Vec::with_capacity(cases.len());
-        for c in cases.chunks(S::F32_LANES) {
-            let k = c.len();
-            macro_rules! ld {
-                ($f:expr) => {{
-                    let v: Vec<f32> = c.iter().map($f).collect();
-                    simd.partial_load_f32s(&v)
-                }};
-            }
-            macro_rules! ld3 {
-                ($f:expr) => {
-                    [ld!(|x| $f(x).x), ld!(|x| $f(x).y), ld!(|x| $f(x).z)]
-                };
-            }
-            macro_rules! st {
-                ($v:expr) => {{
-                    let mut a = vec![0.0f32; k];
-                    simd.partial_store_f32s(&mut a, $v);
-                    a
-                }};
-            }
-            macro_rules! st3 {
-                ($v:expr) => {{
-                    let (x, y, z) = (st!($v[0]), st!($v[1]), st!($v[2]));
-                    (0..k)
-                        .map(|i| V3::new(x[i], y[i], z[i]))
-                        .collect::<Vec<_>>()
-                }};
-            }
-            macro_rules! bits {
-                ($m:expr) => {
-                    st!(simd.select_f32s($m, simd.splat_f32s(1.0), simd.splat_f32s(0.0)))
-                };
-            }
-            // The caller's mask of smooth lanes, from a per-lane flag.
-            let smooth =
-                simd.greater_than_f32s(ld!(|x| if x.smooth { 1.0 } else { 0.0 }), simd.splat_f32s(0.5));
-            let lanes = ConductorLanes::new(
-                simd,
-                ld3!(|x: &Case| x.d),
-                ld3!(|x: &Case| x.n),
-                ld3!(|x: &Case| x.side),
-                ld3!(|x: &Case| x.eta),
-                ld3!(|x: &Case| x.k),
-                ld3!(|x: &Case| x.spec),
-                // A smooth lane's roughness is not used: 1, as `ConductorParams`.
-                ld!(|x| if x.smooth { 1.0 } else { x.alpha_u }),
-                ld!(|x| if x.smooth { 1.0 } else { x.alpha_v }),
-                smooth,
-            );
-            // `Micro::sample`'s order: the lobe's number (unused), then the facet's two.
-            let us: Vec<[f32; 3]> = c
-                .iter()
-                .map(|x| {
-                    let mut r = Rng::new(x.seed);
-                    [r.uniform(), r.uniform(), r.uniform()]
-                })
-                .collect();
-            let u = |j: usize| {
-                let v: Vec<f32> = us.iter().map(|u| u[j]).collect();
-                simd.partial_load_f32s(&v)
-            };
-            let s = if variant == Variant::Right {
-                lanes.sample(simd, u(1), u(2))
+    fn vectors<S: pulp::Simd>(&self, simd: S, c: &[Case]) -> LaneVectors<S> {
+        let variant = self.0;
+        let ld = |f: fn(&Case) -> f32| load(simd, c.iter().map(f));
+        let ld3 = |f: fn(&Case) -> V3| load3(simd, c.iter().map(f));
+        let lanes = ConductorLanes::new(
+            simd,
+            ld3(|x| x.d),
+            ld3(|x| x.n),
+            ld3(|x| x.side),
+            ld3(|x| x.eta),
+            ld3(|x| x.k),
+            ld3(|x| x.spec),
+            // A smooth lane's roughness is not used: 1, as `ConductorParams`.
+            ld(|x| if x.smooth { 1.0 } else { x.alpha_u }),
+            ld(|x| if x.smooth { 1.0 } else { x.alpha_v }),
+            load_mask(simd, c.iter().map(|x| x.smooth)),
+        );
+        // `Micro::sample`'s order: the lobe's number (unused), then the facet's two.
+        let [_, u1, u2] = micro_numbers(simd, c.iter().map(|x| x.seed));
+        let s = if variant == Variant::Right {
+            lanes.sample(simd, u1, u2)
+        } else {
+            lanes.sample_variant(simd, u1, u2, variant)
+        };
+        let eval = [0, 1].map(|j| {
+            let at = load3(simd, c.iter().map(|x| x.at[j]));
+            if variant == Variant::Right {
+                lanes.eval(simd, at)
             } else {
-                lanes.sample_variant(simd, u(1), u(2), variant)
-            };
-            let (wi, weight, pdf) = (st3!(s.wi), st3!(s.weight), st!(s.pdf));
-            let (delta, valid) = (bits!(s.delta), bits!(s.valid));
-            let mut ev = Vec::new();
-            for j in 0..2 {
-                let at = ld3!(|x: &Case| x.at[j]);
-                let (f, p) = if variant == Variant::Right {
-                    lanes.eval(simd, at)
-                } else {
-                    lanes.eval_variant(simd, at, variant)
-                };
-                ev.push((st3!(f), st!(p)));
+                lanes.eval_variant(simd, at, variant)
             }
-            for i in 0..k {
-                out.push(Lane {
-                    wi: wi[i],
-                    weight: weight[i],
-                    pdf: pdf[i],
-                    delta: delta[i] == 1.0,
-                    valid: valid[i] == 1.0,
-                    eval: [(ev[0].0[i], ev[0].1[i]), (ev[1].0[i], ev[1].1[i])],
-                });
-            }
-        }
-        out
+        });
+        LaneVectors::reflection(s, eval)
     }
 }
 
-/// How far the lanes are from the scalar model.
-#[derive(Debug, Default)]
-struct Parity {
-    cases: usize,
-    /// Samples both give (smooth ones of them).
-    compared: usize,
-    smooth: usize,
-    /// Samples where one gives none or they disagree on the delta flag.
-    disagree: usize,
-    /// The largest angle between the two directions, radians.
-    angle: f64,
-    /// The largest relative differences of weight (any channel) and pdf.
-    weight: f64,
-    pdf: f64,
-    /// Evaluations where one is zero and the other not.
-    eval_disagree: usize,
-    eval_compared: usize,
-    /// The largest relative differences of f·|cos| (any channel) and pdf.
-    eval_f: f64,
-    eval_pdf: f64,
-    /// Of the compared values, how many are beyond the tolerances.
-    beyond: usize,
-    /// Coverage: hits whose shading normal leans past the incident ray
-    /// (wo.z < 0), samples the scalar model gives none for.
-    leaning: usize,
-    none: usize,
-}
-
-/// Directions within 1e-4 rad, values within 1e-3 relative.
-const ANGLE: f64 = 1e-4;
-const REL: f64 = 1e-3;
-
-fn rel(a: f32, b: f32) -> f64 {
-    let (a, b) = (a as f64, b as f64);
-    (a - b).abs() / b.abs().max(f64::MIN_POSITIVE)
-}
-
-fn rel3(a: V3, b: V3) -> f64 {
-    (0..3).map(|i| rel(a[i], b[i])).fold(0.0, f64::max)
-}
-
-fn parity(cases: &[Case], lanes: &[Lane]) -> Parity {
-    let mut p = Parity {
-        cases: cases.len(),
-        ..Parity::default()
-    };
-    for (c, l) in cases.iter().zip(lanes) {
-        let (s, e) = scalar(c);
-        p.leaning += usize::from(micro(c).wo.z < 0.0);
-        p.none += usize::from(s.is_none());
-        match s {
-            Some(s) if l.valid && l.delta == s.is_delta => {
-                p.compared += 1;
-                p.smooth += usize::from(s.is_delta);
-                let angle = (l.wi.as_dvec3() - s.wi.as_dvec3()).length();
-                let (w, pdf) = (rel3(l.weight, s.weight), rel(l.pdf, s.pdf));
-                p.angle = p.angle.max(angle);
-                p.weight = p.weight.max(w);
-                p.pdf = p.pdf.max(pdf);
-                if angle > ANGLE || w > REL || pdf > REL {
-                    p.beyond += 1;
-                }
-            }
-            None if !l.valid => {}
-            _ => p.disagree += 1,
-        }
-        for (&(sf, sp), &(lf, lp)) in e.iter().zip(&l.eval) {
-            let nonzero = |f: V3| f.max_element() > 0.0;
-            if nonzero(sf) != nonzero(lf) || (sp > 0.0) != (lp > 0.0) {
-                p.eval_disagree += 1;
-                continue;
-            }
-            if !nonzero(sf) && sp == 0.0 {
-                continue;
-            }
-            p.eval_compared += 1;
-            let (f, pdf) = (rel3(lf, sf), rel(lp, sp));
-            p.eval_f = p.eval_f.max(f);
-            p.eval_pdf = p.eval_pdf.max(pdf);
-            if f > REL || pdf > REL {
-                p.beyond += 1;
-            }
-        }
-    }
-    p
-}
-
-impl Parity {
-    /// At most 0.2 % of the samples disagree on validity or lobe and of
-    /// the evaluations on zero; at most 0.2 % of the compared values are
-    /// beyond the tolerances.
-    fn passes(&self) -> bool {
-        let samples = self.disagree * 500 <= self.cases;
-        let evals = self.eval_disagree * 500 <= 2 * self.cases;
-        let values = self.beyond * 500 <= self.compared + self.eval_compared;
-        samples && evals && values
+impl LaneCase for Case {
+    fn scalar(&self) -> Scalar {
+        Scalar::of(&micro(self), self.seed, self.at)
     }
 }
 
@@ -343,25 +149,18 @@ fn metal_lanes_agree_with_the_scalar_model_and_wrong_ones_do_not() {
     // CONDUCTOR_CASES=131072 for a longer run.
     let count = std::env::var("CONDUCTOR_CASES").map_or(8192, |v| v.parse().unwrap());
     let cases = cases(count, 23);
-    let mut arches = levels();
-    arches.push(pulp::Arch::new());
-    for arch in arches {
-        let width = arch.dispatch(Width);
-        let got = parity(&cases, &arch.dispatch(Run(&cases, Variant::Right)));
-        eprintln!("{width} lanes: {got:?}");
-        assert!(got.passes(), "{width} lanes: {got:?}");
-        // Enough of each kind was compared.
-        assert!(got.compared > cases.len() / 2, "{got:?}");
-        assert!(got.smooth > cases.len() / 8, "{got:?}");
-        assert!(got.eval_compared > cases.len() / 2, "{got:?}");
-        let some = cases.len() / 100;
-        assert!(got.leaning > some / 4 && got.none > some, "{got:?}");
-        for wrong in [Variant::NoAbsorption, Variant::OneG1] {
-            let bad = parity(&cases, &arch.dispatch(Run(&cases, wrong)));
-            eprintln!("{width} lanes, {wrong:?}: {bad:?}");
-            assert!(!bad.passes(), "{width} lanes, {wrong:?}: {bad:?}");
-        }
-    }
+    let n = cases.len();
+    at_every_level(
+        Variant::Right,
+        &[Variant::NoAbsorption, Variant::OneG1],
+        |arch, v| {
+            let lanes = arch.dispatch(Run(&cases, Metals(v)));
+            // (The lobe flag: a delta reflection.)
+            (parity(&cases, &lanes, |x| x.is_delta), ())
+        },
+        // Samples (smooth ones among them) and evaluations.
+        |got, ()| got.covers(n / 2, n / 8, n / 2),
+    );
 }
 
 /// The lanes' Fresnel term against `fresnel::conductor_channel` (f64) over
