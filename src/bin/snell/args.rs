@@ -122,10 +122,11 @@ pub struct RenderArgs {
     #[arg(long, value_enum, default_value = "auto")]
     pub packet_width: PacketWidthArg,
     /// How the path tracer shades a packet's paths: `vector` (side by side
-    /// in vector registers, f32, where every material is Lambertian, black
-    /// or a smooth interface and the only light a rectangle; one by one
-    /// otherwise; the analytic shapes' packet queries in f32 where no
-    /// solids overlap) or `scalar` (one by one, Fresnel and Snell in f64,
+    /// in vector registers, f32, at the hits the kernel models: diffuse,
+    /// black, mirrors, smooth and GGX-rough glass and nested solids' boundaries,
+    /// smooth and GGX metals and plastics, under every kind of light; the
+    /// other hits one by one; the analytic shapes' packet queries in f32
+    /// where no solids overlap) or `scalar` (one by one, Fresnel and Snell in f64,
     /// the analytic shapes' queries in f64 as single rays make them). The
     /// images agree up to rounding.
     #[arg(long, value_enum, default_value = "vector")]
